@@ -1,0 +1,411 @@
+"""The raw-capture contract: one netCDF4 file per DAQ run (DESIGN.md, "The capture contract").
+
+This is the only module that reads or writes captures. Channels are stored as the DAQ records
+them, packed 16-bit integers (``scale_factor``/``add_offset``, CF conventions) chunked along
+``time``; every reader streams them in chunks so memory never grows with capture length.
+A simulated capture also carries a ``/truth`` group (true parameters and noiseless states) that
+analyses never read; only tests and the scorecard's parameter-recovery section do.
+
+Every failure raises :class:`CaptureError` whose message is one line that starts with the file.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterator, Mapping, Sequence
+
+import netCDF4
+import numpy as np
+
+#: int16 code reserved for missing samples (NaN); the ADC range maps onto ±INT16_FULL.
+FILL = np.int16(-32768)
+INT16_FULL = 32767
+CONVENTIONS = "CF-1.8"
+#: relative tolerance on fs against the folding equation and on the time axis
+FS_RTOL = 1e-6
+
+
+class CaptureError(ValueError):
+    """A capture that breaks the contract; the message is one line naming the file."""
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """One DAQ channel: its CF units and the ADC full-scale range it is packed into."""
+
+    name: str
+    units: str
+    long_name: str
+    lo: float
+    hi: float
+    dim: str = "time"
+
+    @property
+    def scale_factor(self) -> float:
+        return (self.hi - self.lo) / (2 * INT16_FULL)
+
+    @property
+    def add_offset(self) -> float:
+        return 0.5 * (self.hi + self.lo)
+
+    def pack(self, values: np.ndarray) -> tuple[np.ndarray, int]:
+        """Quantise to int16 as a 16-bit ADC does; returns codes and the count clipped."""
+        codes = np.rint((np.asarray(values, dtype=np.float64) - self.add_offset) / self.scale_factor)
+        nan = np.isnan(codes)
+        clipped = int(np.count_nonzero(np.abs(codes[~nan]) > INT16_FULL))
+        codes = np.clip(np.where(nan, 0, codes), -INT16_FULL, INT16_FULL).astype(np.int16)
+        codes[nan] = FILL
+        return codes, clipped
+
+
+#: Units and meaning of every channel the bench can record (DESIGN.md). Ranges are the
+#: instrument's; the manifest may override them.
+CHANNEL_UNITS: dict[str, tuple[str, str]] = {
+    "U": ("V", "drive voltage at the actuator (1:100 divider undone)"),
+    "I": ("A", "drive current from the current probe"),
+    "Ur": ("V", "ripple voltage after the high-pass filter"),
+    "Ir": ("A", "ripple current after the high-pass filter"),
+    "x_laser": ("m", "position from the laser vibrometer"),
+    "F": ("N", "force between stack and base"),
+    "T_top": ("degC", "surface temperature, top IR thermometer"),
+    "T_mid": ("degC", "surface temperature, middle IR thermometer"),
+    "T_bot": ("degC", "surface temperature, bottom IR thermometer"),
+    "x_ref": ("m", "reference position of the real-time controller"),
+    "x_hpo_rt": ("m", "real-time hybrid position observer estimate"),
+    "u_cmd": ("V", "voltage command of the real-time controller"),
+    "i_cmd": ("A", "current command of the current-drive amplifier"),
+    "x_disp": ("m", "position from the displacement sensor"),
+}
+SLOW_CHANNELS = frozenset({"T_top", "T_mid", "T_bot"})
+
+
+def channel_spec(name: str, lo: float, hi: float) -> ChannelSpec:
+    units, long_name = CHANNEL_UNITS[name]
+    return ChannelSpec(name, units, long_name, lo, hi, "time_slow" if name in SLOW_CHANNELS else "time")
+
+
+def folded_fs(fr: float, ns: int, nf: int) -> float:
+    """Sampling frequency that folds ripple fr onto fs/ns after nf folds (Eq 3.4, Eq 3.5)."""
+    if nf % 2 == 0:
+        return 2 * ns * fr / (nf * ns + 2)
+    return 2 * ns * fr / ((nf + 1) * ns - 2)
+
+
+def _fail(path: os.PathLike | str, problem: str) -> CaptureError:
+    return CaptureError(f"{path}: {problem}")
+
+
+class CaptureWriter:
+    """Write a capture sequentially in chunks; the file appears only when complete.
+
+    Data go to ``<path>.part`` and are renamed over ``path`` on a clean exit of the ``with``
+    block, so an interrupted run never leaves a file that looks complete.
+    """
+
+    def __init__(
+        self,
+        path: os.PathLike | str,
+        attrs: Mapping[str, object],
+        channels: Sequence[ChannelSpec],
+        n_samples: int,
+        n_slow: int = 0,
+        fs_slow: float | None = None,
+        chunk_len: int = 1 << 16,
+        zlib: bool = True,
+        complevel: int = 1,
+        truth: Sequence[str] = (),
+        truth_decimation: int = 1,
+    ):
+        self.path = Path(path)
+        self.tmp = self.path.with_name(self.path.name + ".part")
+        self.channels = {c.name: c for c in channels}
+        self.n_samples = int(n_samples)
+        self.n_slow = int(n_slow)
+        self.clipped = dict.fromkeys(self.channels, 0)
+        self._pos = {"time": 0, "time_slow": 0, "time_truth": 0}
+        self.truth = tuple(truth)
+        self.truth_decimation = int(truth_decimation)
+        self._attrs = dict(attrs)
+        self._rate = {"time": float(attrs["fs"]), "time_slow": fs_slow}
+        self._chunk_len = chunk_len
+        self._zlib = zlib
+        self._complevel = complevel
+        self._nc: netCDF4.Dataset | None = None
+
+    def __enter__(self) -> "CaptureWriter":
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        nc.setncatts({k: _attr(v) for k, v in self._attrs.items()})
+        nc.Conventions = CONVENTIONS
+        nc.createDimension("time", self.n_samples)
+        self._time_var(nc, "time", self.n_samples)
+        if self.n_slow:
+            nc.createDimension("time_slow", self.n_slow)
+            self._time_var(nc, "time_slow", self.n_slow)
+        for spec in self.channels.values():
+            n = self.n_samples if spec.dim == "time" else self.n_slow
+            v = nc.createVariable(
+                spec.name, "i2", (spec.dim,), zlib=self._zlib, complevel=self._complevel,
+                shuffle=True, chunksizes=(max(1, min(self._chunk_len, n)),), fill_value=FILL,
+            )
+            v.set_auto_maskandscale(False)
+            v.setncatts({
+                "units": spec.units, "long_name": spec.long_name,
+                "scale_factor": spec.scale_factor, "add_offset": spec.add_offset,
+                "valid_min": np.int16(-INT16_FULL), "valid_max": np.int16(INT16_FULL),
+            })
+        if self.truth:
+            g = nc.createGroup("truth")
+            g.decimation = self.truth_decimation
+            n_truth = -(-self.n_samples // self.truth_decimation)
+            g.createDimension("time_truth", n_truth)
+            for name in self.truth:
+                g.createVariable(name, "f4", ("time_truth",), zlib=self._zlib, complevel=self._complevel,
+                                 shuffle=True, chunksizes=(max(1, min(self._chunk_len, n_truth)),))
+        self._nc = nc
+        return self
+
+    def _time_var(self, nc: netCDF4.Dataset, dim: str, n: int) -> None:
+        v = nc.createVariable(dim, "f8", (dim,), zlib=True, complevel=1, shuffle=True,
+                              chunksizes=(max(1, min(self._chunk_len, n)),))
+        v.units = "s"
+        v.standard_name = "time"
+        v.sampling_rate = float(self._rate[dim])
+
+    def write(self, data: Mapping[str, np.ndarray], dim: str = "time") -> None:
+        """Append the next chunk of every channel on ``dim`` (all of equal length)."""
+        assert self._nc is not None, "use CaptureWriter inside a with block"
+        lengths = {len(v) for v in data.values()}
+        if len(lengths) != 1:
+            raise ValueError(f"{self.path}: chunk channels differ in length {sorted(lengths)}")
+        n = lengths.pop()
+        start = self._pos[dim]
+        self._pos[dim] = start + n
+        if dim == "time_truth":
+            for name, values in data.items():
+                self._nc["truth"][name][start:start + n] = values
+            return
+        self._nc[dim][start:start + n] = (start + np.arange(n)) / self._rate[dim]
+        for name, values in data.items():
+            codes, clipped = self.channels[name].pack(values)
+            self.clipped[name] += clipped
+            self._nc[name][start:start + n] = codes
+
+    def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
+        """The twin's true parameters, as attributes of /truth (states go through ``write``)."""
+        assert self._nc is not None and self.truth, "declare truth states to write /truth"
+        self._nc["truth"].setncatts({k: _attr(v) for k, v in attrs.items()})
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        nc, self._nc = self._nc, None
+        if nc is not None:
+            if exc_type is None:
+                nc.clipped_samples = int(sum(self.clipped.values()))
+            nc.close()
+        if exc_type is not None:
+            self.tmp.unlink(missing_ok=True)
+            return
+        expected = {"time": self.n_samples, "time_slow": self.n_slow,
+                    "time_truth": -(-self.n_samples // self.truth_decimation) if self.truth else 0}
+        short = {d: p for d, p in self._pos.items() if p != expected[d]}
+        if short:
+            self.tmp.unlink(missing_ok=True)
+            raise ValueError(f"{self.path}: writer stopped early at {short} samples")
+        os.replace(self.tmp, self.path)
+
+
+def _attr(value: object) -> object:
+    """netCDF attributes cannot hold None or bool; store them as text."""
+    if value is None or isinstance(value, bool):
+        return str(value)
+    return value
+
+
+@dataclass
+class ChunkStats:
+    """Quality counts accumulated while a capture is streamed (reported in provenance)."""
+
+    nan: dict[str, int] = field(default_factory=dict)
+    clipped: dict[str, int] = field(default_factory=dict)
+
+    def add(self, name: str, codes: np.ndarray) -> None:
+        self.nan[name] = self.nan.get(name, 0) + int(np.count_nonzero(codes == FILL))
+        self.clipped[name] = self.clipped.get(name, 0) + int(np.count_nonzero(np.abs(codes) == INT16_FULL))
+
+
+class Capture:
+    """A validated capture, open for streaming reads. Use as a context manager."""
+
+    def __init__(self, path: os.PathLike | str, nc: netCDF4.Dataset):
+        self.path = Path(path)
+        self._nc = nc
+        self.attrs: dict[str, object] = {k: nc.getncattr(k) for k in nc.ncattrs()}
+        self.fs = float(self.attrs["fs"])
+        self.n = len(nc.dimensions["time"])
+        self.n_slow = len(nc.dimensions["time_slow"]) if "time_slow" in nc.dimensions else 0
+        self.channels = [v for v in nc.variables if v in CHANNEL_UNITS]
+        self.stats = ChunkStats()
+
+    # -- context management -------------------------------------------------------------
+    def close(self) -> None:
+        self._nc.close()
+
+    def __enter__(self) -> "Capture":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def duration(self) -> float:
+        return self.n / self.fs
+
+    @property
+    def has_truth(self) -> bool:
+        return "truth" in self._nc.groups
+
+    def _decode(self, name: str, codes: np.ndarray) -> np.ndarray:
+        var = self._nc[name]
+        self.stats.add(name, codes)
+        values = codes.astype(np.float64) * float(var.scale_factor) + float(var.add_offset)
+        values[codes == FILL] = np.nan
+        return values
+
+    def read(self, names: Sequence[str], start: int = 0, stop: int | None = None,
+             dim: str = "time") -> dict[str, np.ndarray]:
+        """Channels ``names`` over samples [start, stop) as float64 in SI units (NaN where missing)."""
+        self._require(names)
+        out = {}
+        for name in names:
+            var = self._nc[name]
+            var.set_auto_maskandscale(False)
+            out[name] = self._decode(name, np.asarray(var[start:stop]))
+        return out
+
+    def iter_chunks(self, names: Sequence[str], chunk_len: int = 1 << 18,
+                    dim: str = "time") -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """Stream ``names`` in chunks: yields (first sample index, {name: float64 array}).
+
+        The time axis is checked chunk by chunk, so a gap anywhere in the file is caught
+        without ever holding more than one chunk in memory.
+        """
+        n = self.n if dim == "time" else self.n_slow
+        rate = self.fs if dim == "time" else float(self._nc["time_slow"].sampling_rate)
+        tvar = self._nc[dim]
+        for start in range(0, n, chunk_len):
+            stop = min(n, start + chunk_len)
+            t = np.asarray(tvar[start:stop], dtype=np.float64)
+            expected = np.arange(start, stop) / rate
+            if not np.allclose(t, expected, rtol=0, atol=0.25 / rate):
+                k = start + int(np.argmax(~np.isclose(t, expected, rtol=0, atol=0.25 / rate)))
+                raise _fail(self.path, f"time axis breaks at sample {k} (t = {t[k - start]:.6g} s, "
+                                       f"expected {k / rate:.6g} s at fs = {rate:g} Hz)")
+            yield start, self.read(names, start, stop, dim)
+
+    def read_truth(self) -> tuple[dict[str, object], dict[str, np.ndarray]]:
+        """The twin's ground truth (parameters, states); only tests and the scorecard call this."""
+        if not self.has_truth:
+            raise _fail(self.path, "has no /truth group (not a simulated capture)")
+        g = self._nc.groups["truth"]
+        return ({k: g.getncattr(k) for k in g.ncattrs()},
+                {k: np.asarray(v[:]) for k, v in g.variables.items()})
+
+    def _require(self, names: Sequence[str]) -> None:
+        missing = [n for n in names if n not in self._nc.variables]
+        if missing:
+            raise _fail(self.path, f"missing channel(s) {', '.join(missing)}")
+
+
+def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Capture:
+    """Open and validate a capture's structure (Design: "Validation on open").
+
+    Checks that it is a readable netCDF4 file with a non-empty ``time`` dimension, that the
+    required channels exist with their contract units and int16 packing, that the time axis
+    starts at 0 and ends at (n−1)/fs, and that fs agrees with the folding equation when the
+    ripple sampling attributes are present. Sample-level counts (NaN, clipping, gaps in the
+    middle of the time axis) are gathered while streaming; see :func:`scan_capture`.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise _fail(path, "no such capture")
+    try:
+        nc = netCDF4.Dataset(path, "r")
+    except OSError as err:
+        raise _fail(path, f"not a readable netCDF4 capture ({err.strerror or err})") from None
+    try:
+        _check_structure(path, nc, require)
+    except CaptureError:
+        nc.close()
+        raise
+    except Exception as err:  # a truncated file can fail on any access, not only on open
+        nc.close()
+        raise _fail(path, f"unreadable capture ({type(err).__name__}: {err})") from None
+    return Capture(path, nc)
+
+
+def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) -> None:
+    if "time" not in nc.dimensions:
+        raise _fail(path, "no 'time' dimension")
+    n = len(nc.dimensions["time"])
+    if n == 0:
+        raise _fail(path, "empty capture (time has 0 samples)")
+    if "fs" not in nc.ncattrs():
+        raise _fail(path, "missing global attribute 'fs'")
+    fs = float(nc.getncattr("fs"))
+    if not fs > 0:
+        raise _fail(path, f"fs = {fs} must be positive")
+    missing = [c for c in require if c not in nc.variables]
+    if missing:
+        raise _fail(path, f"missing channel(s) {', '.join(missing)} needed by this analysis")
+    for name in nc.variables:
+        if name not in CHANNEL_UNITS:
+            continue
+        var = nc[name]
+        units = getattr(var, "units", None)
+        if units != CHANNEL_UNITS[name][0]:
+            raise _fail(path, f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}")
+        if var.dtype != np.int16 or "scale_factor" not in var.ncattrs():
+            raise _fail(path, f"channel {name} is not packed int16 with scale_factor/add_offset")
+    t = nc["time"]
+    t0, t1 = float(t[0]), float(t[n - 1])
+    if abs(t0) > 0.25 / fs or abs(t1 - (n - 1) / fs) > 0.25 / fs + FS_RTOL * t1:
+        raise _fail(path, f"time axis runs {t0:.6g}..{t1:.6g} s, not 0..{(n - 1) / fs:.6g} s "
+                          f"for {n} samples at fs = {fs:g} Hz (gap or wrong fs)")
+    attrs = set(nc.ncattrs())
+    if {"fr_nominal", "ns", "nf"} <= attrs:
+        fr, ns, nf = float(nc.fr_nominal), int(nc.ns), int(nc.nf)
+        expected = folded_fs(fr, ns, nf)
+        if not math.isclose(fs, expected, rel_tol=FS_RTOL):
+            raise _fail(path, f"fs = {fs:g} Hz violates the folding equation (Eq 3.4/3.5): "
+                              f"fr = {fr:g} Hz, ns = {ns}, nf = {nf} need fs = {expected:g} Hz")
+
+
+@dataclass(frozen=True)
+class ScanReport:
+    """Sample-level quality of a whole capture, as recorded in provenance and the report."""
+
+    path: str
+    n_samples: int
+    fs: float
+    duration_s: float
+    channels: tuple[str, ...]
+    nan: dict[str, int]
+    clipped: dict[str, int]
+
+
+def scan_capture(path: os.PathLike | str, require: Sequence[str] = (),
+                 chunk_len: int = 1 << 18) -> ScanReport:
+    """Stream a whole capture once: validates the time axis and counts NaN and clipped samples."""
+    with open_capture(path, require) as cap:
+        fast = [c for c in cap.channels if c not in SLOW_CHANNELS]
+        slow = [c for c in cap.channels if c in SLOW_CHANNELS]
+        for _ in cap.iter_chunks(fast, chunk_len):
+            pass
+        if slow and cap.n_slow:
+            for _ in cap.iter_chunks(slow, chunk_len, dim="time_slow"):
+                pass
+        return ScanReport(str(path), cap.n, cap.fs, cap.duration, tuple(cap.channels),
+                          dict(cap.stats.nan), dict(cap.stats.clipped))

@@ -1,0 +1,56 @@
+"""The digital twin of the test bench (DESIGN.md, "The digital twin").
+
+:func:`simulate_experiment` is the one entry point the workflow uses: it resolves a dataset's
+manifest and an experiment of the catalogue into the twin's parameters, the DAQ plan and the
+drive, and writes that experiment's capture.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping
+
+from ..manifest import ManifestError, expand_protocols, load_dataset
+from .bench import Bench, Controller, DaqPlan, simulate_capture
+from .drive import Drive, drive_from_protocol
+from .params import TwinParams
+
+__all__ = ["Bench", "Controller", "DaqPlan", "Drive", "TwinParams", "daq_plan",
+           "simulate_capture", "simulate_experiment"]
+
+
+def daq_plan(manifest: Mapping) -> DaqPlan:
+    daq = manifest["daq"]
+    ripple = daq.get("ripple", {})
+    return DaqPlan(
+        fs=float(daq["fs"]),
+        channels=tuple(daq["channels"]),
+        ranges={k: (float(v[0]), float(v[1])) for k, v in daq["ranges"].items()},
+        fr_nominal=ripple.get("fr_nominal"), ns=ripple.get("ns"), nf=ripple.get("nf"),
+    )
+
+
+def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
+                        output: str | Path | None = None) -> Path:
+    """Make raw/<dataset>/<experiment>.nc with the twin, as configured."""
+    manifest = load_dataset(raw_dir, dataset)
+    where = Path(raw_dir) / dataset / "dataset.yaml"
+    if manifest["source"] != "simulated":
+        raise ManifestError(f"{where}: source is {manifest['source']}; the twin never writes measured captures")
+    if manifest["model"] != "stack":
+        raise ManifestError(f"{where}: model {manifest['model']!r} has no twin yet")
+    catalogue = expand_protocols(manifest["protocols"], config["campaign"])
+    if experiment not in catalogue:
+        raise ManifestError(f"{where}: unknown experiment {experiment!r} for campaign {config['campaign']}")
+    exp = catalogue[experiment]
+    if exp.control != "open_loop":
+        raise ManifestError(f"{where}: experiment {experiment} needs the real-time controller")
+    params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
+    cap = config["capture"]
+    attrs = {"dataset": dataset, "protocol": exp.chapter, "campaign": config["campaign"],
+             "description": manifest["description"].strip()}
+    return simulate_capture(
+        output or Path(raw_dir) / dataset / f"{experiment}.nc", params, daq_plan(manifest),
+        drive_from_protocol(exp.protocol), attrs, manifest.get("seed", 0), experiment,
+        load_stiffness=exp.load_stiffness, chunk_len=cap["chunk_len"],
+        truth_decimation=cap["truth_decimation"], zlib=cap["zlib"], complevel=cap["complevel"])

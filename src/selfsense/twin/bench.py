@@ -1,0 +1,180 @@
+"""The bench: drive → stack physics → instruments → DAQ capture, generated chunk by chunk.
+
+`simulate_capture` writes one experiment's capture through :mod:`selfsense.capture`. Memory
+stays flat in the capture's length: each chunk is generated, written and dropped.
+
+Real-time control hook: pass a ``controller`` (see :class:`Controller`) and the bench runs in
+blocks of ``controller.block_len`` samples; before each block the controller chooses the drive
+voltage from what it has observed so far, after it the controller sees the block's measured
+channels and returns the signals it logs (``x_ref``, ``x_hpo_rt``, ``u_cmd``), which go into
+the capture as the bench's real-time logs.
+"""
+
+from __future__ import annotations
+
+import zlib as _zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping, Protocol
+
+import numpy as np
+
+from .. import __version__
+from ..capture import CaptureWriter, channel_spec, SLOW_CHANNELS
+from . import kernel
+from .drive import Drive
+from .instruments import HighPass, RippleSource, SlowProcess, effective_resistance
+from .params import TwinParams
+
+#: noiseless states kept in /truth (every `truth_decimation`-th sample)
+TRUTH_STATES = ("x", "q", "U_P", "U_H", "T", "C_P", "R_e", "I_offset", "U_drive")
+
+
+@dataclass(frozen=True)
+class DaqPlan:
+    """What the DAQ records and how: rates, channels and their ADC ranges."""
+
+    fs: float
+    channels: tuple[str, ...]
+    ranges: Mapping[str, tuple[float, float]]
+    fr_nominal: float | None = None
+    ns: int | None = None
+    nf: int | None = None
+    n_periods: int | None = None
+
+
+class Controller(Protocol):
+    """The real-time controller interface the closed-loop experiments plug in."""
+
+    block_len: int
+    logs: tuple[str, ...]
+
+    def command(self, t: np.ndarray) -> np.ndarray:
+        """Drive voltage for the block starting at t[0] (from what was observed before it)."""
+
+    def observe(self, t: np.ndarray, measured: Mapping[str, np.ndarray]) -> Mapping[str, np.ndarray]:
+        """See one block of measured channels; return the block's real-time logs."""
+
+
+def experiment_seed(seed: int, experiment: str) -> np.random.SeedSequence:
+    """A seed per (dataset seed, experiment): captures differ across experiments, repeat exactly."""
+    return np.random.SeedSequence([int(seed), _zlib.crc32(experiment.encode())])
+
+
+class Bench:
+    """One run of the bench: owns the twin's state, the instruments' state and the RNG."""
+
+    def __init__(self, params: TwinParams, daq: DaqPlan, seed: np.random.SeedSequence,
+                 load_stiffness: float = 0.0, T_amb: float | None = None):
+        self.p = params
+        self.daq = daq
+        rng = np.random.default_rng(seed)
+        self.noise_rng = np.random.default_rng(rng.integers(2**63))
+        self.kc = kernel.kernel_constants(params, daq.fs, load_stiffness)
+        self.T_amb = params.thermal.T_amb if T_amb is None else T_amb
+        self.state = kernel.initial_state(self.kc, self.T_amb)
+        self.load_stiffness = load_stiffness
+        ins = params.instruments
+        self.ripple = RippleSource(params.ripple, daq.fs, rng)
+        self.hp_u = HighPass(params.ripple.highpass_hz, daq.fs)
+        self.hp_i = HighPass(params.ripple.highpass_hz, daq.fs)
+        self.offset_drift = SlowProcess(rng, ins.I_offset_drift, 0.05)
+        self.laser_drift = SlowProcess(rng, ins.laser_drift, 0.005)
+
+    def step(self, t: np.ndarray, U: np.ndarray, F_ext: np.ndarray | None = None):
+        """Advance over the samples at times t with drive U; returns (measured, truth) dicts."""
+        ins, n = self.p.instruments, len(t)
+        F_ext = np.zeros(n) if F_ext is None else F_ext
+        out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
+        x, v, a, q, U_P, U_H, T, I, C_P = out.T
+        u_r, i_r, ur_seen, ir_seen = self.ripple(t, C_P, self.hp_u)
+        I0 = ins.I_offset + self.offset_drift(t)
+        gauss = self.noise_rng.standard_normal
+        measured = {
+            "U": U + u_r + ins.U_noise * gauss(n),
+            "I": I + i_r + I0 + ins.I_noise * gauss(n),
+            "Ur": ur_seen + self.hp_u.leak(U) + ins.ripple_noise_U * gauss(n),
+            "Ir": ir_seen + self.hp_i.leak(I) + ins.ripple_noise_I * gauss(n),
+            "x_laser": x + self.laser_drift(t) + ins.laser_noise * gauss(n),
+            "F": (ins.F_preload + (self.p.stack.k_spring + self.load_stiffness) * x
+                  + self.p.stack.m * a + ins.F_noise * gauss(n)),
+        }
+        truth = {"x": x, "q": q, "U_P": U_P, "U_H": U_H, "T": T, "C_P": C_P,
+                 "R_e": effective_resistance(C_P, self.p.ripple), "I_offset": I0, "U_drive": U}
+        return measured, truth
+
+    def temperatures(self, T: np.ndarray) -> dict[str, np.ndarray]:
+        """The three IR thermometers: each sees its share of the rise above ambient, plus noise."""
+        ins = self.p.instruments
+        rise = T - self.T_amb
+        return {name: self.T_amb + share * rise + ins.T_noise * self.noise_rng.standard_normal(len(T))
+                for name, share in zip(("T_top", "T_mid", "T_bot"), ins.T_gradient)}
+
+
+def simulate_capture(
+    path: Path | str,
+    params: TwinParams,
+    daq: DaqPlan,
+    drive: Drive,
+    attrs: Mapping[str, object],
+    seed: int,
+    experiment: str,
+    load_stiffness: float = 0.0,
+    controller: Controller | None = None,
+    chunk_len: int = 1 << 16,
+    truth_decimation: int = 12,
+    zlib: bool = True,
+    complevel: int = 1,
+) -> Path:
+    """Run one experiment on the twin and write its capture (atomically)."""
+    fs = daq.fs
+    n = int(round(drive.duration * fs))
+    fast = [c for c in daq.channels if c not in SLOW_CHANNELS]
+    slow = [c for c in daq.channels if c in SLOW_CHANNELS]
+    slow_every = int(round(fs / params.instruments.T_rate)) if slow else 0
+    n_slow = -(-n // slow_every) if slow else 0
+    if controller is not None:
+        fast += [c for c in controller.logs if c not in fast]
+        chunk_len = controller.block_len * max(1, chunk_len // controller.block_len)
+    specs = [channel_spec(c, *daq.ranges[c]) for c in fast + slow]
+    bench = Bench(params, daq, experiment_seed(seed, experiment), load_stiffness)
+    k_over_alpha = params.stack.k / params.stack.alpha
+    all_attrs = dict(attrs) | {
+        "experiment": experiment, "seed": int(seed), "fs": fs, "software_version": __version__,
+        "source": "simulated", "drive_quantity": drive.quantity,
+    }
+    for key in ("fr_nominal", "ns", "nf", "n_periods"):
+        if getattr(daq, key) is not None:
+            all_attrs[key] = getattr(daq, key)
+    path = Path(path)
+    with CaptureWriter(path, all_attrs, specs, n, n_slow, params.instruments.T_rate,
+                       chunk_len=chunk_len, zlib=zlib, complevel=complevel,
+                       truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
+        w.write_truth_attrs(params.truth_attrs())
+        for start in range(0, n, chunk_len):
+            t = (start + np.arange(min(chunk_len, n - start))) / fs
+            reference = drive(t)
+            if controller is None:
+                U = reference * k_over_alpha if drive.quantity == "position" else reference
+                measured, truth = bench.step(t, U)
+            else:
+                measured, truth, logs = _closed_loop_chunk(bench, controller, t)
+                measured |= logs
+            w.write({c: measured[c] for c in fast})
+            keep = (start + np.arange(len(t))) % truth_decimation == 0
+            w.write({k: v[keep] for k, v in truth.items()}, dim="time_truth")
+            if slow:
+                pick = (start + np.arange(len(t))) % slow_every == 0
+                w.write(bench.temperatures(truth["T"][pick]), dim="time_slow")
+    return path
+
+
+def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
+    parts: list[tuple[dict, dict, Mapping]] = []
+    b = controller.block_len
+    for s in range(0, len(t), b):
+        tb = t[s:s + b]
+        measured, truth = bench.step(tb, controller.command(tb))
+        parts.append((measured, truth, controller.observe(tb, measured)))
+    return tuple({k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3))
+

@@ -1,0 +1,80 @@
+"""The bench's instruments: ripple source and its high-pass filters, probes, sensors, noise.
+
+Everything is evaluated at the DAQ's sample instants. The 100 kHz ripple in particular is
+computed as cos(φ(t_k)) at t_k = k/fs, so it aliases onto fs/ns exactly as on the bench; it is
+never simulated at a higher rate and decimated.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import bilinear, butter, freqs, lfilter, lfilter_zi
+
+from .params import RippleParams
+
+
+class SlowProcess:
+    """A smooth random signal of given peak and bandwidth: a sum of slow sinusoids.
+
+    It is a function of absolute time, so chunked generation needs no state.
+    """
+
+    def __init__(self, rng: np.random.Generator, peak: float, bandwidth: float, terms: int = 6):
+        self.freqs = bandwidth * rng.uniform(0.05, 1.0, terms)
+        self.phases = rng.uniform(0, 2 * np.pi, terms)
+        self.amps = rng.uniform(0.5, 1.0, terms)
+        self.amps *= peak / self.amps.sum() if terms else 0.0
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        return np.sin(2 * np.pi * t[:, None] * self.freqs + self.phases) @ self.amps
+
+
+class HighPass:
+    """The 2nd-order Sallen-Key (Butterworth) high-pass on a ripple channel.
+
+    The ripple tone passes through the analogue response at its instantaneous frequency; the
+    low-frequency drive that leaks in is filtered by the bilinear discretisation, accurate far
+    below fs/2 where the drive lives. Filter state carries across chunks.
+    """
+
+    def __init__(self, cutoff_hz: float, fs: float):
+        self.b_analog, self.a_analog = butter(2, 2 * np.pi * cutoff_hz, btype="high", analog=True)
+        self.b, self.a = bilinear(self.b_analog, self.a_analog, fs)
+        self.zi = None
+
+    def response(self, f_hz: np.ndarray) -> np.ndarray:
+        return freqs(self.b_analog, self.a_analog, 2 * np.pi * np.asarray(f_hz))[1]
+
+    def leak(self, x: np.ndarray) -> np.ndarray:
+        if self.zi is None:
+            self.zi = lfilter_zi(self.b, self.a) * 0.0
+        y, self.zi = lfilter(self.b, self.a, x, zi=self.zi)
+        return y
+
+
+def effective_resistance(C_e: np.ndarray, rp: RippleParams) -> np.ndarray:
+    """R_e of the series R–C at the ripple (Fig 3.14): falls as C_e rises, φ = phase_deg at C_ref."""
+    R_ref = 1.0 / (2 * np.pi * rp.f_nominal * rp.C_ref * np.tan(np.radians(rp.phase_deg)))
+    return R_ref + rp.R_slope * (C_e - rp.C_ref)
+
+
+class RippleSource:
+    """The boost converter's ripple with a slowly wandering frequency; phase carries across chunks."""
+
+    def __init__(self, rp: RippleParams, fs: float, rng: np.random.Generator):
+        self.rp = rp
+        self.fs = fs
+        self.wander = SlowProcess(rng, rp.wander, rp.wander_bandwidth)
+        self.phase = rng.uniform(0, 2 * np.pi)
+
+    def __call__(self, t: np.ndarray, C_e: np.ndarray, highpass: HighPass):
+        """Ripple voltage and current at the actuator, and as seen after the high-pass filters."""
+        f_r = self.rp.f_nominal + self.wander(t)
+        phi = self.phase + 2 * np.pi * np.cumsum(f_r) / self.fs - 2 * np.pi * f_r / self.fs
+        self.phase = float((phi[-1] + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi)) if len(t) else self.phase
+        w = 2 * np.pi * f_r
+        admittance = 1.0 / (effective_resistance(C_e, self.rp) + 1.0 / (1j * w * C_e))
+        u = self.rp.amplitude * np.exp(1j * phi)
+        i = u * admittance
+        h = highpass.response(f_r)
+        return u.real, i.real, (u * h).real, (i * h).real

@@ -1,0 +1,233 @@
+"""Per-sample electromechanical and thermal kernel of the twin (numba, with a reference).
+
+Model (thesis Eq 1.4–1.6, 1.11–1.12, 4.6, 7.2), one voltage-source sample at a time:
+
+    U = U_P + U_H(q) + Σ U_c            voltage balance (Eq 1.6) with creep elements U_c
+    q = (C_P0 + κ_T ΔT) U_P + ½ ΔC_U U_P² + α x     charge (Eq 4.6; ∂q/∂U_P = C_P, Eq 4.4)
+    m ẍ + b ẋ + k x = α U_P + F          mechanics (Eq 1.4), bilinear (Tustin) discretisation
+    ρcv dT/dt = (U_H + Σ U_c)·I − k_T A (T − T_amb)    thermal (Eq 7.2), exact discretisation
+
+U_H is the Maxwell resistive-capacitive operator on q (Eq 1.11–1.12): rate independent, so the
+voltage balance is solved for U_P at each sample. The mechanics is discretised with Tustin's
+method because its direct feed-through puts this sample's force into this sample's position:
+the charge balance then contains x_n implicitly and the electromechanical coupling carries no
+one-sample delay. (A zero-order hold delays it one sample, and when Maxwell elements leave
+saturation after a reversal, dU_H/dq is large enough to make that delayed loop oscillate.) The fast kernel does it by safeguarded Newton
+on the piecewise-smooth monotone balance; the reference (`run_reference`) by Brent's method,
+so the two agree only if both solve the same model.
+
+State vector layout: [s1, s2, T, q, U_P] (s = Tustin state of the mechanics) + q_b (Maxwell element anchors) + U_c (creep voltages);
+U_P is kept only as the next sample's starting guess.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from scipy.optimize import brentq
+from scipy.signal import cont2discrete
+
+from .params import TwinParams
+
+#: output columns of the kernel, in order
+OUTPUTS = ("x", "v", "a", "q", "U_P", "U_H", "T", "I", "C_P")
+N_OUT = len(OUTPUTS)
+
+
+@dataclass(frozen=True)
+class KernelConstants:
+    """Everything the per-sample loop needs, as flat arrays (numba-friendly)."""
+
+    scalars: np.ndarray  # see _SCALARS
+    C_h: np.ndarray  # Maxwell element capacitances [F]
+    v_h: np.ndarray  # Maxwell break-away voltages [V]
+    creep_decay: np.ndarray  # exp(-h/τ_j)
+    creep_R: np.ndarray  # R_j = τ_j / C_j
+
+    @property
+    def n_state(self) -> int:
+        return _HEAD + len(self.C_h) + len(self.creep_R)
+
+
+_HEAD = 5
+_SCALARS = ("alpha", "C_P0", "dC_U", "kappa_T", "T_ref", "fs",
+            "a11", "a12", "a21", "a22", "b1", "b2", "m", "b", "k_tot",
+            "th_decay", "th_gain", "c11", "c12", "c21", "c22", "d1", "d2")
+
+
+def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> KernelConstants:
+    s, th = p.stack, p.thermal
+    h = 1.0 / fs
+    k_tot = s.k + load_stiffness
+    A = np.array([[0.0, 1.0], [-k_tot / s.m, -s.b / s.m]])
+    B = np.array([[0.0], [1.0 / s.m]])
+    Ad, Bd, Cd, Dd, _ = cont2discrete((A, B, np.eye(2), np.zeros((2, 1))), h, method="bilinear")
+    th_decay = np.exp(-h / th.tau)
+    scalars = dict(alpha=s.alpha, C_P0=s.C_P0, dC_U=s.dC_U, kappa_T=s.kappa_T, T_ref=s.T_ref,
+                   fs=fs, a11=Ad[0, 0], a12=Ad[0, 1], a21=Ad[1, 0], a22=Ad[1, 1],
+                   b1=Bd[0, 0], b2=Bd[1, 0], m=s.m, b=s.b, k_tot=k_tot,
+                   th_decay=th_decay, th_gain=th.gamma * (1.0 - th_decay),
+                   c11=Cd[0, 0], c12=Cd[0, 1], c21=Cd[1, 0], c22=Cd[1, 1], d1=Dd[0, 0], d2=Dd[1, 0])
+    C_h, v_h = p.hysteresis.arrays()
+    C_c, tau_c = np.asarray(p.creep.C, float), np.asarray(p.creep.tau, float)
+    return KernelConstants(np.array([scalars[k] for k in _SCALARS]), C_h, v_h,
+                           np.exp(-h / tau_c), tau_c / C_c)
+
+
+def initial_state(kc: KernelConstants, T0: float) -> np.ndarray:
+    state = np.zeros(kc.n_state)
+    state[2] = T0
+    return state
+
+
+@numba.njit(cache=True)
+def _maxwell(q, q_b, C_h, v_h):
+    """U_H(q) and its slope for the current anchors (Eq 1.11–1.12), without updating them."""
+    u = 0.0
+    slope = 0.0
+    for i in range(q_b.size):
+        e = (q - q_b[i]) / C_h[i]
+        if e > v_h[i]:
+            u += v_h[i]
+        elif e < -v_h[i]:
+            u -= v_h[i]
+        else:
+            u += e
+            slope += 1.0 / C_h[i]
+    return u, slope
+
+
+@numba.njit(cache=True)
+def _charge(u_p, x_free, F, dT, sc):
+    """q(U_P) with x_n = x_free + d1·(α U_P + F) substituted (Eq 4.6); returns q and dq/dU_P."""
+    c0 = sc[1] + sc[3] * dT
+    alpha, d1 = sc[0], sc[21]
+    q = c0 * u_p + 0.5 * sc[2] * u_p * u_p + alpha * (x_free + d1 * (alpha * u_p + F))
+    return q, c0 + sc[2] * u_p + alpha * alpha * d1
+
+
+@numba.njit(cache=True)
+def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
+    """Advance the bench over len(U) samples, writing OUTPUTS into out[:, :] and updating state."""
+    nh = C_h.size
+    nc = creep_R.size
+    q_b = state[5:5 + nh]
+    U_c = state[5 + nh:5 + nh + nc]
+    s1, s2, T, q_prev, u_p = state[0], state[1], state[2], state[3], state[4]
+    alpha, fs = sc[0], sc[5]
+    vmax = 0.0
+    for i in range(nh):
+        vmax += v_h[i]
+    for n in range(U.size):
+        uc_sum = 0.0
+        for j in range(nc):
+            uc_sum += U_c[j]
+        dT = T - sc[4]
+        target = U[n] - uc_sum
+        x_free = sc[17] * s1 + sc[18] * s2
+        # f(u) = u + U_H(q(u)) - target is monotone with |U_H| <= vmax: Newton inside a
+        # bracket that bisection takes over whenever a step would leave it (kinks of U_H).
+        lo = target - vmax - 1.0
+        hi = target + vmax + 1.0
+        for _ in range(200):
+            q, dq = _charge(u_p, x_free, F[n], dT, sc)
+            uh, slope = _maxwell(q, q_b, C_h, v_h)
+            f = u_p + uh - target
+            if abs(f) < 1e-13 * (1.0 + abs(target)):
+                break
+            if f > 0.0:
+                hi = u_p
+            else:
+                lo = u_p
+            u_p -= f / (1.0 + slope * dq)
+            if u_p <= lo or u_p >= hi:
+                u_p = 0.5 * (lo + hi)
+        q, _ = _charge(u_p, x_free, F[n], dT, sc)
+        c_p = sc[1] + sc[3] * dT + sc[2] * u_p
+        force = alpha * u_p + F[n]
+        x = x_free + sc[21] * force
+        v = sc[19] * s1 + sc[20] * s2 + sc[22] * force
+        for i in range(nh):
+            e = (q - q_b[i]) / C_h[i]
+            if e > v_h[i]:
+                q_b[i] = q - v_h[i] * C_h[i]
+            elif e < -v_h[i]:
+                q_b[i] = q + v_h[i] * C_h[i]
+        uh, _ = _maxwell(q, q_b, C_h, v_h)
+        current = (q - q_prev) * fs
+        acc = (force - sc[13] * v - sc[14] * x) / sc[12]
+        out[n, 0] = x
+        out[n, 1] = v
+        out[n, 2] = acc
+        out[n, 3] = q
+        out[n, 4] = u_p
+        out[n, 5] = uh + uc_sum
+        out[n, 6] = T
+        out[n, 7] = current
+        out[n, 8] = c_p
+        # Creep and heat respond to this sample's current over the next sample (ZOH).
+        for j in range(nc):
+            U_c[j] = U_c[j] * creep_decay[j] + current * creep_R[j] * (1.0 - creep_decay[j])
+        power = (uh + uc_sum) * current
+        T = T_amb[n] + (T - T_amb[n]) * sc[15] + power * sc[16]
+        s1, s2 = sc[6] * s1 + sc[7] * s2 + sc[10] * force, sc[8] * s1 + sc[9] * s2 + sc[11] * force
+        q_prev = q
+    state[0], state[1], state[2], state[3], state[4] = s1, s2, T, q_prev, u_p
+
+
+def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.ndarray:
+    """Plain-Python reference of :func:`run_kernel`: Brent's method for the voltage balance."""
+    sc = dict(zip(_SCALARS, kc.scalars))
+    nh, nc = len(kc.C_h), len(kc.creep_R)
+    q_b = state[_HEAD:_HEAD + nh]
+    U_c = state[_HEAD + nh:_HEAD + nh + nc]
+    s1, s2, T, q_prev, u_p = state[:5]
+    out = np.empty((len(U), N_OUT))
+    vmax = kc.v_h.sum()
+
+    def charge(u_p, dT, x):
+        c0 = sc["C_P0"] + sc["kappa_T"] * dT
+        return c0 * u_p + 0.5 * sc["dC_U"] * u_p ** 2 + sc["alpha"] * x
+
+    def u_h(q):
+        return float(np.sum(np.clip((q - q_b) / kc.C_h, -kc.v_h, kc.v_h)))
+
+    for n in range(len(U)):
+        uc_sum = float(U_c.sum())
+        dT = T - sc["T_ref"]
+        target = U[n] - uc_sum
+        x_free = sc["c11"] * s1 + sc["c12"] * s2
+
+        def position(u):
+            return x_free + sc["d1"] * (sc["alpha"] * u + F[n])
+
+        u_p = brentq(lambda u: u + u_h(charge(u, dT, position(u))) - target,
+                     target - vmax - 1.0, target + vmax + 1.0, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+        x = position(u_p)
+        q = charge(u_p, dT, x)
+        q_b[:] = np.clip(q_b, q - kc.v_h * kc.C_h, q + kc.v_h * kc.C_h)
+        uh = u_h(q)
+        current = (q - q_prev) * sc["fs"]
+        force = sc["alpha"] * u_p + F[n]
+        v = sc["c21"] * s1 + sc["c22"] * s2 + sc["d2"] * force
+        acc = (force - sc["b"] * v - sc["k_tot"] * x) / sc["m"]
+        c_p = sc["C_P0"] + sc["kappa_T"] * dT + sc["dC_U"] * u_p
+        out[n] = (x, v, acc, q, u_p, uh + uc_sum, T, current, c_p)
+        U_c[:] = U_c * kc.creep_decay + current * kc.creep_R * (1.0 - kc.creep_decay)
+        T = T_amb[n] + (T - T_amb[n]) * sc["th_decay"] + (uh + uc_sum) * current * sc["th_gain"]
+        s1, s2 = (sc["a11"] * s1 + sc["a12"] * s2 + sc["b1"] * force,
+                  sc["a21"] * s1 + sc["a22"] * s2 + sc["b2"] * force)
+        q_prev = q
+    state[:5] = s1, s2, T, q_prev, u_p
+    return out
+
+
+def run(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.ndarray:
+    """Fast path: the numba kernel over one chunk; returns an (n, N_OUT) array."""
+    out = np.empty((len(U), N_OUT))
+    run_kernel(np.ascontiguousarray(U, float), np.ascontiguousarray(F, float),
+               np.ascontiguousarray(T_amb, float), kc.scalars, kc.C_h, kc.v_h,
+               kc.creep_decay, kc.creep_R, state, out)
+    return out

@@ -1,0 +1,170 @@
+"""Physical parameters of the bench's digital twin, read from a dataset manifest.
+
+Every number here is a physical or instrument parameter (thesis Tables 2.1, 4.2, 5.3, 7.1 and
+the instruments' data sheets); none is an analysis setting. Units are SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Any, Mapping
+
+import numpy as np
+
+
+def _build(cls, values: Mapping[str, Any], where: str):
+    names = {f.name for f in fields(cls)}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {', '.join(unknown)}")
+    return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items()})
+
+
+@dataclass(frozen=True)
+class StackParams:
+    """Electromechanical model of the stack on its bench (Eq 4.2, Eq 4.4–4.6)."""
+
+    k: float  # total stiffness k_P + k_spring [N/m]
+    alpha: float  # force–voltage factor [N/V]
+    C_P0: float  # clamped capacitance at U_P = 0 and T_ref [F]
+    dC_x: float  # capacitance change with position ΔCx [F/m]
+    kappa_T: float  # capacitance change with temperature [F/K]
+    T_ref: float  # reference temperature of C_P0 [°C]
+    f_bench: float  # bench natural frequency, sets the moving mass [Hz]
+    zeta: float  # damping ratio of the bench mode
+    k_spring: float = 0.0  # preload spring, part of k [N/m]
+
+    @property
+    def m(self) -> float:
+        return self.k / (2 * np.pi * self.f_bench) ** 2
+
+    @property
+    def b(self) -> float:
+        return 2 * self.zeta * np.sqrt(self.k * self.m)
+
+    @property
+    def dC_U(self) -> float:
+        """ΔC_U = ΔCx·α/k (Eq 4.5)."""
+        return self.dC_x * self.alpha / self.k
+
+
+@dataclass(frozen=True)
+class HysteresisParams:
+    """Maxwell resistive-capacitive operator on charge (Eq 1.11–1.12).
+
+    Element i has break-away voltage v_i = v_total/n and capacitance C_i = q_sat_i/v_i, with
+    the saturation charges q_sat_i spaced geometrically so the loop rounds off smoothly.
+    """
+
+    elements: int
+    v_total: float  # Σ v_i: half the height of a saturated U_H loop [V]
+    q_sat_min: float  # [C]
+    q_sat_max: float  # [C]
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        v = np.full(self.elements, self.v_total / self.elements)
+        q_sat = np.geomspace(self.q_sat_min, self.q_sat_max, self.elements)
+        return q_sat / v, v
+
+
+@dataclass(frozen=True)
+class CreepParams:
+    """Slow relaxation (Voigt) elements in series with U_H; they make creep (Eq 1.13 idea)."""
+
+    C: tuple[float, ...]  # [F]
+    tau: tuple[float, ...]  # [s]
+
+
+@dataclass(frozen=True)
+class RippleParams:
+    """Boost-converter ripple and the actuator's series R–C at the ripple frequency."""
+
+    amplitude: float  # ripple voltage amplitude [V]
+    f_nominal: float  # [Hz]
+    wander: float  # peak slow wander of the ripple frequency [Hz]
+    wander_bandwidth: float  # how fast it wanders [Hz]
+    phase_deg: float  # current lead at C_ref: sets R_e = 1/(ω C tan φ) at C_ref [deg]
+    R_slope: float  # dR_e/dC_e: R_e falls as C_e rises (Fig 3.14) [Ω/F]
+    C_ref: float  # [F]
+    highpass_hz: float  # Sallen-Key cut-off on both ripple channels (18 kHz)
+
+
+@dataclass(frozen=True)
+class ThermalParams:
+    """Lumped thermal model ρcv dT/dt = U_H·I − k_T A (T − T_amb) (Eq 7.2–7.7)."""
+
+    rho: float  # [kg/m³]
+    c: float  # [J/(kg K)]
+    volume: float  # [m³]
+    area: float  # [m²]
+    k_T: float  # [W/(m² K)]
+    T_amb: float  # [°C]
+
+    @property
+    def tau(self) -> float:
+        return self.rho * self.c * self.volume / (self.k_T * self.area)
+
+    @property
+    def gamma(self) -> float:
+        return 1.0 / (self.k_T * self.area)
+
+
+@dataclass(frozen=True)
+class InstrumentParams:
+    """Noise, offsets and ranges of the DAQ chain; ranges are the ADC full scale per channel."""
+
+    U_noise: float  # [V rms]
+    I_offset: float  # current-probe offset I_0 [A]
+    I_offset_drift: float  # peak slow drift of I_0 [A]
+    I_noise: float  # [A rms]
+    ripple_noise_U: float  # [V rms]
+    ripple_noise_I: float  # [A rms]
+    laser_noise: float  # [m rms]
+    laser_drift: float  # peak slow drift [m]
+    F_noise: float  # [N rms]
+    F_preload: float  # [N]
+    T_noise: float  # [K rms]
+    T_rate: float  # IR thermometer sample rate [Hz]
+    T_gradient: tuple[float, float, float]  # share of the rise seen at top, mid, bottom
+    ranges: Mapping[str, tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class TwinParams:
+    stack: StackParams
+    hysteresis: HysteresisParams
+    creep: CreepParams
+    ripple: RippleParams
+    thermal: ThermalParams
+    instruments: InstrumentParams
+
+    @classmethod
+    def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> "TwinParams":
+        parts = {f.name: f.type for f in fields(cls)}
+        missing = sorted(set(parts) - set(twin))
+        if missing:
+            raise ValueError(f"{where}: missing key(s) {', '.join(missing)}")
+        kinds = {"stack": StackParams, "hysteresis": HysteresisParams, "creep": CreepParams,
+                 "ripple": RippleParams, "thermal": ThermalParams, "instruments": InstrumentParams}
+        built = {}
+        for name, kind in kinds.items():
+            values = dict(twin[name])
+            if name == "instruments":
+                values["ranges"] = {k: tuple(v) for k, v in values.get("ranges", {}).items()}
+            built[name] = _build(kind, values, f"{where}.{name}")
+        return cls(**built)
+
+    def truth_attrs(self) -> dict[str, float]:
+        """Flat {section_key: value} of every scalar parameter, for the capture's /truth group."""
+        out: dict[str, float] = {}
+        for part in fields(self):
+            obj = getattr(self, part.name)
+            for key, value in asdict(obj).items():
+                if isinstance(value, (int, float)):
+                    out[f"{part.name}_{key}"] = float(value)
+                elif isinstance(value, tuple) and all(isinstance(v, (int, float)) for v in value):
+                    out[f"{part.name}_{key}"] = np.asarray(value, dtype=float)
+        s = self.stack
+        out |= {"stack_m": s.m, "stack_b": s.b, "stack_dC_U": s.dC_U,
+                "thermal_tau": self.thermal.tau, "thermal_gamma": self.thermal.gamma}
+        return out
