@@ -77,12 +77,26 @@ def check_dataset_name(name: str, source: str | Path) -> None:
                             "(no path separators or '..')")
 
 
-def load_config(path: str | Path) -> dict:
-    config = load_yaml(path)
-    validate_document(config, "config.schema.yaml", path)
+def validate_config(config: Mapping[str, Any], source: str | Path) -> None:
+    validate_document(config, "config.schema.yaml", source)
     for name in config["datasets"]:
-        check_dataset_name(name, path)
+        check_dataset_name(name, source)
+
+
+def load_config(path: str | Path) -> dict:
+    """config.yaml validated, with the schema's defaults filled in (as the workflow sees it)."""
+    config = load_yaml(path)
+    validate_config(config, path)
+    _fill_defaults(config, load_yaml(SCHEMAS / "config.schema.yaml"))
     return config
+
+
+def _fill_defaults(doc: dict, schema: Mapping[str, Any]) -> None:
+    for key, sub in schema.get("properties", {}).items():
+        if key not in doc and "default" in sub:
+            doc[key] = sub["default"] if not isinstance(sub["default"], dict) else dict(sub["default"])
+        if isinstance(doc.get(key), dict) and sub.get("type") == "object":
+            _fill_defaults(doc[key], sub)
 
 
 def load_dataset(raw_dir: str | Path, name: str) -> dict:

@@ -1,0 +1,20 @@
+# selfsense: Islam 2013 (piezo stack self-sensing) and Ronkanen 2002 (bender current control).
+# `snakemake --cores 2` makes every capture and result; see README.md.
+from snakemake.utils import min_version
+
+min_version("9.0")
+
+
+configfile: "config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/acquire.smk"
+include: "workflow/rules/ripple.smk"
+
+
+rule all:
+    input:
+        acquire_outputs(),
+        ripple_outputs(),
+    default_target: True

@@ -1,0 +1,123 @@
+"""Outputs that appear atomically, with a provenance sidecar (DESIGN.md, "Conventions").
+
+Every table is a CSV plus ``<name>.csv.json`` holding the sha256 of its inputs, the config
+subset it used, the code version (git describe, dirty flag), package versions and seed. Files
+are written to a temporary name in the same folder and renamed, so an interrupted rule never
+leaves a file that looks complete. Nothing time-dependent goes into a table, so rebuilding from
+the same captures gives byte-identical tables.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import subprocess
+import sys
+import tempfile
+from contextlib import contextmanager
+from functools import lru_cache
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Iterable, Iterator, Mapping
+
+import pandas as pd
+
+PACKAGES = ("selfsense", "numpy", "scipy", "pandas", "xarray", "netCDF4", "statsmodels",
+            "numba", "control", "matplotlib", "snakemake")
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+
+
+def sha256(path: str | os.PathLike, block: int = 1 << 20) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while chunk := fh.read(block):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+@lru_cache(maxsize=1)
+def code_version() -> dict[str, Any]:
+    root = Path(__file__).resolve().parents[2]
+    try:
+        describe = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=root,
+                                  capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        describe = ""
+    return {"git_describe": describe or "unknown", "dirty": describe.endswith("-dirty"),
+            "python": sys.version.split()[0],
+            "packages": {p: _version(p) for p in PACKAGES}}
+
+
+def _version(package: str) -> str:
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def provenance(inputs: Iterable[str | os.PathLike], config: Mapping[str, Any] | None = None,
+               seed: int | None = None, **extra: Any) -> dict[str, Any]:
+    config = dict(config or {})
+    return {
+        "inputs": {str(p): sha256(p) for p in inputs},
+        "config": config,
+        "config_sha256": hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest(),
+        "code": code_version(),
+        "seed": seed,
+        **extra,
+    }
+
+
+def write_json(obj: Any, path: str | os.PathLike) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n")
+
+
+def _jsonable(value: Any) -> Any:
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    return str(value)
+
+
+def write_table(table: pd.DataFrame, path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (),
+                config: Mapping[str, Any] | None = None, seed: int | None = None, **extra: Any) -> None:
+    """CSV (tidy, units in headers, fixed float format) plus its JSON provenance sidecar."""
+    with atomic_path(path) as tmp:
+        table.to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
+    write_json(provenance(inputs, config, seed, **extra), f"{path}.json")
+
+
+def save_figure(fig, path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (),
+                config: Mapping[str, Any] | None = None, **extra: Any) -> None:
+    """PNG at ``path`` and a PDF beside it, each atomically, plus the provenance sidecar."""
+    path = Path(path)
+    for target in (path, path.with_suffix(".pdf")):
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, format=target.suffix[1:], dpi=150, bbox_inches="tight",
+                        metadata={"CreationDate": None} if target.suffix == ".pdf" else {"Software": None})
+    write_json(provenance(inputs, config, **extra), f"{path}.json")
+
+
+def script_logging(log_path: str | os.PathLike | None) -> logging.Logger:
+    """Log a rule's script to its ``log:`` file (or stderr when run alone)."""
+    logger = logging.getLogger("selfsense")
+    logger.setLevel(logging.INFO)
+    handler = logging.FileHandler(log_path, mode="w") if log_path else logging.StreamHandler()
+    handler.setFormatter(logging.Formatter("%(levelname)s %(message)s"))
+    logger.handlers[:] = [handler]
+    return logger

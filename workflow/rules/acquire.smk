@@ -1,0 +1,69 @@
+# Stage "acquire": raw captures. Simulated datasets get them from the twin; measured ones are
+# given and never written (this rule is constrained to simulated datasets only).
+
+
+def acquire_outputs():
+    return [f"results/{d}/qc/captures.csv" for d in DATASETS]
+
+
+if SIMULATED:
+
+    rule simulate:
+        """Run one experiment of the catalogue on the digital twin."""
+        input:
+            manifest=RAW / "{dataset}" / "dataset.yaml",
+            protocols=lambda w: protocol_files(w.dataset),
+        output:
+            capture=RAW / "{dataset}" / "{experiment}.nc",
+        params:
+            campaign=config["campaign"],
+            capture=config["capture"],
+        wildcard_constraints:
+            dataset="|".join(SIMULATED),
+        log:
+            "logs/{dataset}/simulate/{experiment}.log",
+        benchmark:
+            "benchmarks/out/{dataset}/simulate/{experiment}.tsv"
+        threads: 1
+        resources:
+            mem_mb=config["resources"].get("simulate_mem_mb", 1000),
+            runtime=60,
+        script:
+            "../scripts/simulate.py"
+
+
+rule check_capture:
+    """Validate one capture and count its NaN and clipped samples (streamed once)."""
+    input:
+        capture=RAW / "{dataset}" / "{experiment}.nc",
+    output:
+        report="results/{dataset}/qc/{experiment}.json",
+    log:
+        "logs/{dataset}/check_capture/{experiment}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/check_capture/{experiment}.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=10,
+    script:
+        "../scripts/check_capture.py"
+
+
+rule capture_summary:
+    """One table of every capture of a dataset: duration, channels, NaN and clipped counts."""
+    input:
+        reports=lambda w: [f"results/{w.dataset}/qc/{e}.json" for e in EXPERIMENTS[w.dataset]],
+    output:
+        table=report("results/{dataset}/qc/captures.csv", caption="../report/captures.rst",
+                     category="{dataset}", subcategory="Captures"),
+    log:
+        "logs/{dataset}/capture_summary.log",
+    benchmark:
+        "benchmarks/out/{dataset}/capture_summary.tsv"
+    threads: 1
+    resources:
+        mem_mb=200,
+        runtime=5,
+    script:
+        "../scripts/capture_summary.py"

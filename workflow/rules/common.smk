@@ -1,0 +1,48 @@
+# Config and manifest validation in one place, and the lookups every rule file uses.
+from pathlib import Path
+
+from snakemake.utils import validate
+
+from selfsense.manifest import expand_protocols, load_dataset, validate_config
+
+# One-line errors first (file and key), then Snakemake's validate to fill the schema defaults.
+validate_config(config, workflow.configfiles[-1] if workflow.configfiles else "config")
+validate(config, "../schemas/config.schema.yaml")
+
+RAW = Path(config["raw_dir"])
+DATASETS = {name: load_dataset(RAW, name) for name in config["datasets"]}
+SIMULATED = [n for n, m in DATASETS.items() if m["source"] == "simulated"]
+
+
+def _experiments(name):
+    manifest = DATASETS[name]
+    catalogue = expand_protocols(manifest["protocols"], config["campaign"])
+    if manifest["source"] == "measured" and "experiments" in manifest:
+        missing = [e for e in manifest["experiments"] if not (RAW / name / f"{e}.nc").exists()]
+        if missing:
+            raise ValueError(f"{RAW / name / 'dataset.yaml'}: experiment {missing[0]} is listed "
+                             f"without a capture {RAW / name / (missing[0] + '.nc')}")
+        return {e: catalogue.get(e) for e in manifest["experiments"]}
+    # closed-loop runs need the real-time controller (Chapter 6), open-loop ones run now
+    return {e: x for e, x in catalogue.items() if x.control == "open_loop"}
+
+
+EXPERIMENTS = {name: _experiments(name) for name in DATASETS}
+
+
+wildcard_constraints:
+    dataset=r"[A-Za-z0-9][A-Za-z0-9_-]*",
+    experiment=r"[A-Za-z0-9_]+",
+
+
+def captures(dataset, prefix=""):
+    """Capture paths of a dataset, optionally only experiments whose name starts with prefix."""
+    return [str(RAW / dataset / f"{e}.nc") for e in EXPERIMENTS[dataset] if e.startswith(prefix)]
+
+
+def protocol_files(dataset):
+    return [f"workflow/protocols/{p}.yaml" for p in DATASETS[dataset]["protocols"]]
+
+
+def has_channels(dataset, *channels):
+    return set(channels) <= set(DATASETS[dataset]["daq"]["channels"])

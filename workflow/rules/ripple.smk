@@ -1,0 +1,2 @@
+def ripple_outputs():
+    return []

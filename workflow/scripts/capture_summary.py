@@ -1,0 +1,39 @@
+"""Rule `capture_summary`: one row per capture of a dataset from its QC reports.
+
+Alone: python workflow/scripts/capture_summary.py out.csv results/pi_p885/qc/*.json
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.provenance import script_logging, write_table
+
+
+def summary(reports):
+    rows = []
+    for path in reports:
+        r = json.loads(Path(path).read_text())
+        rows.append({"experiment": Path(r["path"]).stem, "duration [s]": r["duration_s"],
+                     "fs [Hz]": r["fs"], "samples": r["n_samples"], "channels": " ".join(r["channels"]),
+                     "NaN samples": sum(r["nan"].values()), "clipped samples": sum(r["clipped"].values())})
+    columns = ["experiment", "duration [s]", "fs [Hz]", "samples", "channels", "NaN samples", "clipped samples"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def main(reports, table, log=None):
+    logger = script_logging(log)
+    df = summary(reports)
+    write_table(df, table, inputs=reports)
+    logger.info("%d captures", len(df))
+
+
+if "snakemake" in globals():
+    main(list(snakemake.input.reports), snakemake.output.table, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("table")
+    cli.add_argument("reports", nargs="+")
+    main(**vars(cli.parse_args()))
