@@ -1,0 +1,22 @@
+"""The README's two commands are what CI and users run."""
+
+from .conftest import ROOT
+
+TEST_COMMAND = "python3.11 -m venv .venv && .venv/bin/pip install -q -c constraints.txt -e '.[test]' && .venv/bin/pytest"
+REPRODUCE_COMMAND = "python3.11 -m venv .venv && .venv/bin/pip install -q -c constraints.txt -e . && .venv/bin/snakemake --cores 2"
+
+
+def test_ci_runs_exactly_the_readme_test_command():
+    readme = (ROOT / "README.md").read_text()
+    assert TEST_COMMAND in readme and REPRODUCE_COMMAND in readme
+    assert (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1] == TEST_COMMAND
+
+
+def test_every_dependency_is_pinned():
+    pins = {line.split("==")[0].lower().replace("_", "-")
+            for line in (ROOT / "constraints.txt").read_text().splitlines() if "==" in line}
+    import tomllib
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    wanted = project["dependencies"] + project["optional-dependencies"]["test"]
+    missing = [d for d in wanted if d.lower().replace("_", "-") not in pins]
+    assert not missing, missing

@@ -1,0 +1,169 @@
+"""The digital twin: calibration against the thesis's observations, kernel vs reference, determinism.
+
+These test the twin (its physics and parameters), not the analysis: each band is the thesis's
+observation with the tolerance given by the foundation issue.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from selfsense.capture import open_capture
+from selfsense.ripple import SamplingPlan, extract_impedance
+from selfsense.twin import Drive, simulate_capture
+from selfsense.twin import kernel as K
+from selfsense.twin.bench import Bench, experiment_seed
+from selfsense.twin.drive import Segment
+
+from .conftest import raised_sine
+
+FS = 48000.0
+
+
+def run(params, U, load_stiffness=0.0):
+    kc = K.kernel_constants(params, FS, load_stiffness)
+    state = K.initial_state(kc, params.thermal.T_amb)
+    out = K.run(U, np.zeros_like(U), np.full_like(U, params.thermal.T_amb), kc, state)
+    return dict(zip(K.OUTPUTS, out.T))
+
+
+def test_stroke_at_100V_0p1Hz(stack_params):
+    _, U = raised_sine(0.1, 10.0)
+    x = run(stack_params, U)["x"]
+    assert 30e-6 <= x.max() - x.min() <= 36e-6
+
+
+def test_clamped_capacitance_falls_from_3p1_to_2p2_uF(stack_params):
+    _, U = raised_sine(0.1, 10.0)
+    C = run(stack_params, U)["C_P"]
+    assert C[0] == pytest.approx(3.13e-6, rel=0.02)
+    assert 2.0e-6 <= C.min() <= 2.4e-6
+
+
+def test_piezo_voltage_at_the_top_of_a_100V_stroke(stack_params):
+    _, U = raised_sine(0.1, 10.0)
+    assert 75.0 <= run(stack_params, U)["U_P"].max() <= 90.0
+
+
+def test_open_loop_feedforward_error_at_10Hz(stack_params):
+    t, U = raised_sine(10.0, 1.0, hi=30e-6)
+    x_ref = U
+    out = run(stack_params, x_ref * stack_params.stack.k / stack_params.stack.alpha)
+    steady = t >= 0.5
+    error = np.max(np.abs(out["x"][steady] - x_ref[steady])) / 30e-6
+    assert 0.09 <= error <= 0.17
+
+
+def test_creep_over_175s_at_100V(stack_params):
+    drive = Drive("voltage", (Segment(0.01, 50.0, 0.0, 100.0), Segment(175.0, 0.0, 0.0, 100.0)))
+    t = np.arange(int(175.01 * FS)) / FS
+    x = run(stack_params, drive(t))["x"]
+    creep = x[-1] - x[int(0.02 * FS)]
+    assert 0.3e-6 <= creep <= 1.5e-6
+
+
+def test_ripple_current_leads_voltage_by_60_to_70_degrees(stack_params, stack_daq):
+    bench = Bench(stack_params, stack_daq, experiment_seed(1, "phase"))
+    t, U = raised_sine(10.0, 0.2)
+    measured, _ = bench.step(t, U)
+    blocks = extract_impedance(measured["Ur"], measured["Ir"], SamplingPlan(1e5, 12, 4, 4))
+    phase = np.degrees(np.angle((blocks.B_I - 1j * blocks.A_I) / (blocks.B_V - 1j * blocks.A_V)))
+    assert 60.0 <= np.median(phase) <= 70.0
+
+
+def test_self_heating_at_100V_100Hz_comes_from_hysteresis_loss(stack_params):
+    t, U = raised_sine(100.0, 600.0)
+    out = run(stack_params, U)
+    rise = out["T"] - stack_params.thermal.T_amb
+    every = int(FS)  # one point per second
+    tt, dT = t[::every], rise[::every]
+    from scipy.optimize import curve_fit
+    (steady, tau), _ = curve_fit(lambda s, a, tau: a * (1 - np.exp(-s / tau)), tt, dT, p0=(40, 100))
+    assert 35.0 <= steady <= 65.0
+    assert 80.0 <= tau <= 120.0
+    # the heat is the hysteresis loss ∮U_H dq: zero hysteresis, no heating
+    cold = dataclasses.replace(stack_params, hysteresis=dataclasses.replace(stack_params.hysteresis, v_total=1e-9),
+                               creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)))
+    t2, U2 = raised_sine(100.0, 5.0)
+    assert run(cold, U2)["T"].max() - stack_params.thermal.T_amb < 0.01
+
+
+def test_numba_kernel_equals_the_reference(stack_params):
+    _, U = raised_sine(10.0, 0.1)
+    U = U + 3.0 * np.sin(2 * np.pi * 700 * np.arange(len(U)) / FS)  # excite the bench mode too
+    kc = K.kernel_constants(stack_params, FS)
+    F = np.zeros_like(U)
+    T = np.full_like(U, 23.0)
+    s1, s2 = K.initial_state(kc, 23.0), K.initial_state(kc, 23.0)
+    fast = K.run(U, F, T, kc, s1)
+    slow = K.run_reference(U, F, T, kc, s2)
+    scale = np.max(np.abs(slow), axis=0)
+    assert np.max(np.abs(fast - slow) / scale) < 1e-9
+    np.testing.assert_allclose(s1, s2, rtol=1e-9, atol=1e-15)
+
+
+def test_kernel_is_chunk_invariant(stack_params):
+    _, U = raised_sine(10.0, 0.05)
+    kc = K.kernel_constants(stack_params, FS)
+    whole = K.run(U, 0 * U, 0 * U + 23, kc, K.initial_state(kc, 23.0))
+    state = K.initial_state(kc, 23.0)
+    parts = [K.run(U[i:i + 333], 0 * U[i:i + 333], 0 * U[i:i + 333] + 23, kc, state)
+             for i in range(0, len(U), 333)]
+    np.testing.assert_array_equal(np.vstack(parts), whole)
+
+
+def _capture(tmp_path, name, params, daq, seed, chunk_len=4096):
+    drive = Drive("voltage", (Segment(0.1, 10.0, 0.0, 100.0),))
+    return simulate_capture(tmp_path / name, params, daq, drive, {}, seed, "det", chunk_len=chunk_len)
+
+
+def test_same_seed_gives_identical_capture_data(tmp_path, stack_params, stack_daq):
+    a = _capture(tmp_path, "a.nc", stack_params, stack_daq, 7)
+    b = _capture(tmp_path, "b.nc", stack_params, stack_daq, 7)
+    c = _capture(tmp_path, "c.nc", stack_params, stack_daq, 8)
+    chans = list(stack_daq.channels[:6])
+    with open_capture(a) as ca, open_capture(b) as cb, open_capture(c) as cc:
+        da, db, dc = ca.read(chans), cb.read(chans), cc.read(chans)
+    for ch in chans:
+        np.testing.assert_array_equal(da[ch], db[ch])
+        assert not np.array_equal(da[ch], dc[ch]), ch
+
+
+def test_capture_carries_truth_and_contract_attributes(tmp_path, stack_params, stack_daq):
+    path = _capture(tmp_path, "a.nc", stack_params, stack_daq, 7)
+    with open_capture(path, require=stack_daq.channels) as cap:
+        assert cap.attrs["ns"] == 12 and cap.attrs["nf"] == 4 and cap.attrs["source"] == "simulated"
+        params, states = cap.read_truth()
+        assert params["stack_k"] == stack_params.stack.k
+        assert len(states["x"]) == -(-cap.n // 12)
+        assert cap.n_slow == 1  # 0.1 s at 10 Hz
+
+
+class Hold:
+    """A trivial real-time controller: holds a voltage, logs what it saw."""
+
+    block_len = 12
+    logs = ("x_ref", "x_hpo_rt", "u_cmd")
+
+    def __init__(self):
+        self.seen = 0
+
+    def command(self, t):
+        return np.full(len(t), 40.0)
+
+    def observe(self, t, measured):
+        self.seen += len(t)
+        return {"x_ref": np.zeros(len(t)), "x_hpo_rt": measured["x_laser"], "u_cmd": np.full(len(t), 40.0)}
+
+
+def test_controller_hook_drives_the_bench_and_logs(tmp_path, stack_params, stack_daq):
+    ctl = Hold()
+    drive = Drive("position", (Segment(0.05, 0.0, 0.0, 0.0),))
+    path = simulate_capture(tmp_path / "cl.nc", stack_params, stack_daq, drive, {}, 1, "cl",
+                            controller=ctl, chunk_len=1000)
+    with open_capture(path, require=["x_hpo_rt", "u_cmd"]) as cap:
+        d = cap.read(["U", "u_cmd", "x_hpo_rt", "x_laser"])
+    assert ctl.seen == cap.n
+    assert np.median(d["U"]) == pytest.approx(40.0, abs=0.05)
+    np.testing.assert_allclose(d["x_hpo_rt"], d["x_laser"], atol=1e-8)
