@@ -46,3 +46,32 @@ def test_up_to_date_tree_has_nothing_to_do(smoke_run):
     dry = snakemake(smoke_run, "-n")
     assert dry.returncode == 0
     assert "Nothing to be done" in dry.stdout + dry.stderr
+
+
+def test_chapter_3_tables_equal_the_thesis(smoke_run):
+    t31 = pd.read_csv(smoke_run / "results/pi_p885/ch3/table_3_1.csv")
+    assert t31["fs [kHz]"].round(6).tolist() == [400, 80, 16, 1200, 48]
+    assert t31["fr_folded [kHz]"].round(6).tolist() == [100, 20, 4, 100, 4]
+    t32 = pd.read_csv(smoke_run / "results/pi_p885/ch3/table_3_2.csv")
+    assert t32["passband [kHz]"].round(2).tolist() == [4, 2, 1, 0.5, 0.33, 0.25]
+    assert t32["bandwidth [kHz]"].round(3).tolist() == [1.273, 0.637, 0.318, 0.159, 0.106, 0.080]
+
+
+def test_ce_tracks_the_twins_truth_within_1_percent_at_np_4(smoke_run):
+    recovery = pd.read_csv(smoke_run / "results/pi_p885/twin/ce_recovery.csv")
+    assert (recovery["np"] == 4).all() and len(recovery) == 3
+    assert (recovery["rms error [%]"] < 1.0).all()
+
+
+def test_chapter_3_figures_and_hysteresis(smoke_run):
+    for n in (2, 3, 4, 7, 9, 10, 11, 12, 13, 14):
+        for ext in ("png", "pdf"):
+            assert (smoke_run / f"figures/pi_p885/fig_3_{n}.{ext}").exists()
+    loops = pd.read_csv(smoke_run / "results/pi_p885/ch3/hysteresis.csv").set_index("loop")
+    # the thesis's central finding: C_e–x has far less hysteresis than C_e–U
+    assert loops.loc["C_e–x_laser", "width along vertical [% of range]"] < 3
+    assert loops.loc["C_e–U", "width along vertical [% of range]"] > 3 * loops.loc["C_e–x_laser", "width along vertical [% of range]"]
+
+
+def test_datasets_without_ripple_channels_skip_the_stage(smoke_run):
+    assert not (smoke_run / "results/tokin_nb40/ch3").exists()

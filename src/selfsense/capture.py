@@ -409,3 +409,61 @@ def scan_capture(path: os.PathLike | str, require: Sequence[str] = (),
                 pass
         return ScanReport(str(path), cap.n, cap.fs, cap.duration, tuple(cap.channels),
                           dict(cap.stats.nan), dict(cap.stats.clipped))
+
+
+class SeriesWriter:
+    """Derived series (e.g. ripple-block estimates) appended chunk by chunk to a netCDF file.
+
+    Analyses write their intermediate results with it so their memory stays flat; like
+    :class:`CaptureWriter`, the file appears only when complete.
+    """
+
+    def __init__(self, path: os.PathLike | str, variables: Mapping[str, str],
+                 attrs: Mapping[str, object] | None = None, dim: str = "block"):
+        self.path = Path(path)
+        self.tmp = self.path.with_name(self.path.name + ".part")
+        self.variables = dict(variables)  # name -> units
+        self.attrs = dict(attrs or {})
+        self.dim = dim
+        self.n = 0
+        self._nc: netCDF4.Dataset | None = None
+
+    def __enter__(self) -> "SeriesWriter":
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        nc.setncatts({k: _attr(v) for k, v in self.attrs.items()})
+        nc.createDimension(self.dim, None)
+        for name, units in self.variables.items():
+            nc.createVariable(name, "f8", (self.dim,), zlib=True, complevel=1, shuffle=True,
+                              chunksizes=(1 << 14,)).units = units
+        self._nc = nc
+        return self
+
+    def write(self, data: Mapping[str, np.ndarray]) -> None:
+        assert self._nc is not None, "use SeriesWriter inside a with block"
+        n = len(next(iter(data.values())))
+        for name in self.variables:
+            self._nc[name][self.n:self.n + n] = data[name]
+        self.n += n
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        nc, self._nc = self._nc, None
+        if nc is not None:
+            nc.close()
+        if exc_type is not None:
+            self.tmp.unlink(missing_ok=True)
+            return
+        os.replace(self.tmp, self.path)
+
+
+def read_series(path: os.PathLike | str, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+    """A derived series written by :class:`SeriesWriter`, whole (they are ns× smaller than captures)."""
+    try:
+        with netCDF4.Dataset(path) as nc:
+            names = list(nc.variables) if names is None else names
+            missing = [n for n in names if n not in nc.variables]
+            if missing:
+                raise _fail(path, f"missing series {', '.join(missing)}")
+            return {n: np.asarray(nc[n][:], dtype=np.float64) for n in names}
+    except OSError as err:
+        raise _fail(path, f"not a readable netCDF4 series ({err.strerror or err})") from None

@@ -254,21 +254,61 @@ def _moving_sum(x: np.ndarray, width: int) -> np.ndarray:
     return total
 
 
+class PeriodWindows:
+    """Streaming weighted sums over windows of ``np`` folded periods (hop: one period).
+
+    Each channel's samples are cut into folded periods ``[p ns, (p+1) ns)`` of the global sample
+    index, reduced per period with each weight row, and summed over the last ``np`` periods.
+    Leftover samples and the last ``np - 1`` per-period sums carry over, so chunking never
+    changes the result and memory stays bounded. The ripple extractor uses sin/cos weights
+    (Eq 3.6-3.7); window means of slow channels use a row of ones, so they line up exactly with
+    the impedance estimates.
+    """
+
+    def __init__(self, ns: int, n_periods: int, weights: np.ndarray, n_channels: int) -> None:
+        self.ns, self.n_periods = ns, n_periods
+        self._weights = np.atleast_2d(weights)
+        self._tail = np.empty((n_channels, 0))
+        self._period_sums = np.empty((n_channels * len(self._weights), 0))
+        self._periods_done = 0
+
+    def process(self, *chunks) -> tuple[np.ndarray, np.ndarray]:
+        """Consume equal-length 1-D chunks; return (last sample index, window sums) of the
+        windows completed, sums ordered channel-major then weight."""
+        x = np.asarray(chunks, dtype=np.float64)
+        if x.ndim != 2 or x.shape[0] != self._tail.shape[0]:
+            raise ValueError(f"expected {self._tail.shape[0]} equally long 1-D chunks, got shape {x.shape}")
+        ns = self.ns
+        # Prepending the leftover keeps every folded period aligned to global
+        # multiples of ns, which is what references the phase to sample 0.
+        x = np.concatenate((self._tail, x), axis=1)
+        n_new = x.shape[1] // ns
+        cut = n_new * ns
+        self._tail = x[:, cut:].copy()
+        periods = x[:, :cut].reshape(x.shape[0], n_new, ns)
+        # einsum reduces each period row with the same fixed-length kernel,
+        # so a period's sum does not depend on which chunk carried it.
+        new_sums = np.stack([np.einsum("ij,j->i", ch, w) for ch in periods for w in self._weights])
+        sums = np.concatenate((self._period_sums, new_sums.reshape(len(self._period_sums), n_new)), axis=1)
+        first_period = self._periods_done - self._period_sums.shape[1]
+        self._periods_done += n_new
+        keep = min(sums.shape[1], self.n_periods - 1)
+        self._period_sums = sums[:, sums.shape[1] - keep:].copy()
+        window = _moving_sum(sums, self.n_periods)
+        last_period = first_period + self.n_periods - 1 + np.arange(window.shape[1], dtype=np.int64)
+        return (last_period + 1) * ns - 1, window
+
+
 class RippleExtractor:
     """Streaming impedance extraction (Eq 3.6, 3.7, 3.12, 3.13).
 
     Feed the sampled ripple voltage and current in chunks of any size; each
-    call returns the windows of ``np`` folded periods completed by that
-    chunk.  Leftover samples and the last ``np - 1`` per-period sums carry
-    over, so chunking never changes the result and memory stays bounded.
+    call returns the windows of ``np`` folded periods completed by that chunk.
     """
 
     def __init__(self, plan: SamplingPlan) -> None:
         self.plan = plan
-        self._weights = _fold_weights(plan)
-        self._tail = (np.empty(0), np.empty(0))
-        self._period_sums = np.empty((4, 0))
-        self._periods_done = 0
+        self._windows = PeriodWindows(plan.ns, plan.n_periods, np.stack(_fold_weights(plan)), 2)
 
     def process(self, ur_chunk, ir_chunk) -> RippleBlocks:
         """Consume equal-length chunks of ripple voltage [V] and current [A]."""
@@ -278,34 +318,58 @@ class RippleExtractor:
             raise ValueError(
                 f"ur and ir chunks must be 1-D and equally long, got shapes {ur.shape} and {ir.shape}"
             )
-        ns, n_periods = self.plan.ns, self.plan.n_periods
-        # Prepending the leftover keeps every folded period aligned to global
-        # multiples of ns, which is what references the phase to sample 0.
-        u = np.concatenate((self._tail[0], ur))
-        i = np.concatenate((self._tail[1], ir))
-        n_new = u.size // ns
-        cut = n_new * ns
-        self._tail = (u[cut:].copy(), i[cut:].copy())
-
-        u_periods = u[:cut].reshape(n_new, ns)
-        i_periods = i[:cut].reshape(n_new, ns)
-        sin_w, cos_w = self._weights
-        # einsum reduces each period row with the same fixed-length kernel,
-        # so a period's sum does not depend on which chunk carried it.
-        new_sums = np.stack(
-            [np.einsum("ij,j->i", x, w) for x in (u_periods, i_periods) for w in (sin_w, cos_w)]
-        )
-        sums = np.concatenate((self._period_sums, new_sums), axis=1)
-        first_period = self._periods_done - self._period_sums.shape[1]
-        self._periods_done += n_new
-        self._period_sums = sums[:, sums.shape[1] - min(sums.shape[1], n_periods - 1) :].copy()
-
-        A_V, B_V, A_I, B_I = _moving_sum(sums, n_periods) / (2 * n_periods)
-        last_period = first_period + n_periods - 1 + np.arange(A_V.size, dtype=np.int64)
+        index, sums = self._windows.process(ur, ir)
+        A_V, B_V, A_I, B_I = sums / (2 * self.plan.n_periods)
         C_e, R_e = impedance_from_coefficients(A_V, B_V, A_I, B_I, self.plan.fr)
-        return RippleBlocks((last_period + 1) * ns - 1, C_e, R_e, A_V, B_V, A_I, B_I)
+        return RippleBlocks(index, C_e, R_e, A_V, B_V, A_I, B_I)
+
+
+class WindowMeans:
+    """Means of other channels over exactly the windows of a :class:`RippleExtractor`."""
+
+    def __init__(self, plan: SamplingPlan, n_channels: int) -> None:
+        self._windows = PeriodWindows(plan.ns, plan.n_periods, np.ones((1, plan.ns)), n_channels)
+        self._size = plan.block_len
+
+    def process(self, *chunks) -> tuple[np.ndarray, np.ndarray]:
+        index, sums = self._windows.process(*chunks)
+        return index, sums / self._size
 
 
 def extract_impedance(ur, ir, plan: SamplingPlan) -> RippleBlocks:
     """Impedance estimates for a whole capture (sample 0 is the phase reference)."""
     return RippleExtractor(plan).process(ur, ir)
+
+
+def impedance_series(chunks, plan: SamplingPlan, fs: float, companions=("U", "x_laser")):
+    """Stream a capture's chunks into C_e, R_e and window means of companion channels.
+
+    ``chunks`` yields (first sample index, {channel: array}) as
+    :meth:`selfsense.capture.Capture.iter_chunks` does, with ``Ur``, ``Ir`` and the companions.
+    If ``I`` is a companion, the uncorrected charge ``q = ∫ I dt`` is added too (its window
+    mean), carried across chunks. Yields one dict of equal-length arrays per chunk, keyed
+    ``time`` (centre of each window [s]), ``C_e``, ``R_e``, the Fourier coefficients and the
+    companions.
+    """
+    extractor = RippleExtractor(plan)
+    derived = ("q",) if "I" in companions else ()
+    means = WindowMeans(plan, len(companions) + len(derived))
+    charge = 0.0
+    for _, data in chunks:
+        blocks = extractor.process(data["Ur"], data["Ir"])
+        extra = []
+        if derived:
+            q = charge + np.cumsum(data["I"]) / fs
+            charge = float(q[-1]) if q.size else charge
+            extra.append(q)
+        _, avg = means.process(*(data[c] for c in companions), *extra)
+        out = {"time": (blocks.sample_index - (plan.block_len - 1) / 2) / fs,
+               "C_e": blocks.C_e, "R_e": blocks.R_e, "A_V": blocks.A_V, "B_V": blocks.B_V,
+               "A_I": blocks.A_I, "B_I": blocks.B_I}
+        out |= dict(zip(companions + derived, avg))
+        yield out
+
+
+#: units of the series :func:`impedance_series` yields (for writing them)
+SERIES_UNITS = {"time": "s", "C_e": "F", "R_e": "ohm", "A_V": "V", "B_V": "V", "A_I": "A", "B_I": "A",
+                "U": "V", "x_laser": "m", "I": "A", "q": "C"}

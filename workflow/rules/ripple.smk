@@ -1,2 +1,188 @@
+# Stage "ripple" (thesis Chapter 3): folded-sampling plan, C_e and R_e from the ripple channels.
+
+CH3_SERIES = {"10 Hz": "ch3_sine_10hz", "1 Hz": "ch3_sine_1hz", "0.1 Hz": "ch3_sine_0p1hz"}
+CH3_FIGURES = ["fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_3_12",
+               "fig_3_13", "fig_3_14"]
+
+
+def ripple_datasets():
+    """Datasets whose DAQ records the ripple channels (the others skip this stage)."""
+    return [d for d in DATASETS if has_channels(d, "Ur", "Ir", "U", "I", "x_laser") and "ripple" in DATASETS[d]["daq"]]
+
+
+def ch3_datasets():
+    return [d for d in ripple_datasets() if set(CH3_SERIES.values()) <= set(EXPERIMENTS[d])]
+
+
+def ch3_figure_names(dataset):
+    return CH3_FIGURES + (["fig_3_2", "fig_3_np_study"] if "twin" in DATASETS[dataset] else [])
+
+
 def ripple_outputs():
-    return []
+    out = []
+    for d in ripple_datasets():
+        out += [f"results/{d}/ch3/table_3_1.csv", f"results/{d}/ch3/table_3_2.csv"]
+    for d in ch3_datasets():
+        out += [f"results/{d}/ch3/hysteresis.csv"]
+        out += [f"figures/{d}/{name}.png" for name in ch3_figure_names(d)]
+        if "twin" in DATASETS[d]:
+            out += [f"results/{d}/twin/ce_recovery.csv", f"results/{d}/twin/ce_np_study.csv"]
+    return out
+
+
+rule extract_ripple:
+    """C_e and R_e per folded period (Eq 3.6–3.13) plus window means of U, x, I, q."""
+    input:
+        capture=RAW / "{dataset}" / "{experiment}.nc",
+        qc="results/{dataset}/qc/{experiment}.json",
+    output:
+        series="results/{dataset}/ripple/{experiment}.nc",
+    params:
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/extract_ripple/{experiment}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/extract_ripple/{experiment}.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/extract_ripple.py"
+
+
+rule ch3_tables:
+    """Tables 3.1 and 3.2 from the folding equations (Eq 3.4, 3.5, 3.8, 3.9)."""
+    input:
+        manifest=RAW / "{dataset}" / "dataset.yaml",
+    output:
+        table_31=report("results/{dataset}/ch3/table_3_1.csv", caption="../report/table_3_1.rst",
+                        category="{dataset}", subcategory="Chapter 3"),
+        table_32=report("results/{dataset}/ch3/table_3_2.csv", caption="../report/table_3_2.rst",
+                        category="{dataset}", subcategory="Chapter 3"),
+    params:
+        fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
+        ns=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["ns"],
+        fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
+    log:
+        "logs/{dataset}/ch3_tables.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch3_tables.tsv"
+    threads: 1
+    resources:
+        mem_mb=200,
+        runtime=5,
+    script:
+        "../scripts/ch3_tables.py"
+
+
+rule ch3_hysteresis:
+    """Loop widths C–U, C–x, R–C, x–U at 100 V, 10 Hz beside the thesis's percentages."""
+    input:
+        series="results/{dataset}/ripple/ch3_sine_10hz.nc",
+    output:
+        table=report("results/{dataset}/ch3/hysteresis.csv", caption="../report/hysteresis.rst",
+                     category="{dataset}", subcategory="Chapter 3"),
+    params:
+        skip_s=0.1,
+    log:
+        "logs/{dataset}/ch3_hysteresis.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch3_hysteresis.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    script:
+        "../scripts/ch3_hysteresis.py"
+
+
+rule ch3_figures:
+    """Figures 3.2–3.14 of the ripple impedance measurement."""
+    input:
+        capture=RAW / "{dataset}" / "ch3_sine_10hz.nc",
+        series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
+        manifest=RAW / "{dataset}" / "dataset.yaml",
+    output:
+        figures=[report(f"figures/{{dataset}}/{name}.png", caption=f"../report/{name}.rst",
+                        category="{dataset}", subcategory="Chapter 3") for name in CH3_FIGURES],
+    params:
+        labels=list(CH3_SERIES),
+        out_dir=lambda w: f"figures/{w.dataset}",
+        skip_s=0.1,
+    log:
+        "logs/{dataset}/ch3_figures.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch3_figures.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/ch3_figures.py"
+
+
+rule ch3_model_figure:
+    """Figure 3.2: ripple-driven velocity, free vs clamped (needs the stack's mechanics)."""
+    input:
+        manifest=RAW / "{dataset}" / "dataset.yaml",
+    output:
+        figure=report("figures/{dataset}/fig_3_2.png", caption="../report/fig_3_2.rst",
+                      category="{dataset}", subcategory="Chapter 3"),
+    log:
+        "logs/{dataset}/ch3_model_figure.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch3_model_figure.tsv"
+    threads: 1
+    resources:
+        mem_mb=300,
+        runtime=5,
+    script:
+        "../scripts/ch3_model_figure.py"
+
+
+rule ce_recovery:
+    """C_e from the ripple against the twin's true clamped capacitance (parameter recovery)."""
+    input:
+        captures=[RAW / "{dataset}" / f"{e}.nc" for e in CH3_SERIES.values()],
+        series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
+    output:
+        table=report("results/{dataset}/twin/ce_recovery.csv", caption="../report/ce_recovery.rst",
+                     category="{dataset}", subcategory="Twin validation"),
+    params:
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/ce_recovery.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ce_recovery.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/ce_recovery.py"
+
+
+rule ce_np_study:
+    """C_e error against np and ripple-frequency wander (why np = 4), on the twin."""
+    input:
+        manifest=RAW / "{dataset}" / "dataset.yaml",
+    output:
+        table=report("results/{dataset}/twin/ce_np_study.csv", caption="../report/ce_np_study.rst",
+                     category="{dataset}", subcategory="Twin validation"),
+        figure=report("figures/{dataset}/fig_3_np_study.png", caption="../report/fig_3_np_study.rst",
+                      category="{dataset}", subcategory="Twin validation"),
+    params:
+        nps=config["ripple"]["np_sweep"],
+        wanders=[0, 30, 100, 300],
+        drive_hz=100.0,
+    log:
+        "logs/{dataset}/ce_np_study.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ce_np_study.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/ce_np_study.py"

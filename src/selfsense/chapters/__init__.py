@@ -1,0 +1,1 @@
+"""Per-chapter assembly: stage results in, the chapter's tables and figures out."""

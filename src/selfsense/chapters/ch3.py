@@ -1,0 +1,103 @@
+"""Chapter 3: ripple impedance measurement — hysteresis table and Figures 3.2–3.14."""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+import pandas as pd
+from scipy import signal
+
+from .. import figures
+from ..metrics import direction, hysteresis_percent
+from ..ripple import SamplingPlan
+
+#: (horizontal, vertical, thesis's value [%], the thesis's words)
+LOOPS = (
+    ("U", "C_e", 10.0, "C–V hysteresis ≈ 10 % of the voltage (Fig 3.10)"),
+    ("x_laser", "C_e", 3.0, "C–x hysteresis minimal, < 3 % (Fig 3.11)"),
+    ("C_e", "R_e", 6.25, "R–C hysteresis 6.25 % (Fig 3.14)"),
+    ("U", "x_laser", float("nan"), "x–U hysteresis large (Fig 3.12)"),
+)
+LABEL = {"U": "U [V]", "C_e": "C_e [µF]", "R_e": "R_e [Ω]", "x_laser": "x [µm]"}
+SCALE = {"U": 1.0, "C_e": 1e6, "R_e": 1.0, "x_laser": 1e6}
+
+
+def steady(series: Mapping[str, np.ndarray], skip: float) -> dict[str, np.ndarray]:
+    """The series after its first ``skip`` seconds (the first cycle starts from the virgin state)."""
+    keep = series["time"] >= skip
+    return {k: np.asarray(v)[keep] for k, v in series.items()}
+
+
+def hysteresis_table(series: Mapping[str, np.ndarray]) -> pd.DataFrame:
+    """Loop widths of C–U, C–x, R–C and x–U at 100 V, 10 Hz, beside the thesis's values."""
+    rising = direction(series["U"])
+    rows = []
+    for h, v, published, words in LOOPS:
+        along_v, along_h = hysteresis_percent(series[h], series[v], rising)
+        rows.append({"loop": f"{v}–{h}", "thesis [%]": published, "thesis says": words,
+                     "width along horizontal [% of range]": along_h,
+                     "width along vertical [% of range]": along_v})
+    return pd.DataFrame(rows)
+
+
+def phase_deg(t: np.ndarray, u: np.ndarray, i: np.ndarray, f: float) -> float:
+    """Phase by which i leads u at frequency f, from least-squares sinusoid fits."""
+    basis = np.column_stack([np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t), np.ones_like(t)])
+    (ua, ub, _), (ia, ib, _) = (np.linalg.lstsq(basis, y, rcond=None)[0] for y in (u, i))
+    return float(np.degrees(np.angle((ia - 1j * ib) / (ua - 1j * ub))))
+
+
+def ripple_phase_deg(series: Mapping[str, np.ndarray]) -> float:
+    """Median phase by which the ripple current leads the ripple voltage (Fig 3.4)."""
+    current = series["B_I"] - 1j * series["A_I"]
+    voltage = series["B_V"] - 1j * series["A_V"]
+    return float(np.degrees(np.median(np.angle(current / voltage))))
+
+
+def figure_3_2(stack: Mapping[str, float], ripple_amplitude: float, fr: float):
+    """Ripple-driven velocity of the stack free (≈ 40 kHz) and clamped in the bench (2.5 kHz).
+
+    A model figure: the force α·U_r at fr through m ẍ + b ẋ + k x, for the two mounted masses.
+    """
+    k, alpha, zeta = stack["k"], stack["alpha"], stack["zeta"]
+    t = np.linspace(0, 3 / fr, 600)
+    traces = {}
+    for label, f_n in (("free (40 kHz)", 40e3), (f"clamped in the bench ({stack['f_bench'] / 1e3:g} kHz)",
+                                                 stack["f_bench"])):
+        m = k / (2 * np.pi * f_n) ** 2
+        velocity_per_force = signal.TransferFunction([1, 0], [m, 2 * zeta * np.sqrt(k * m), k])
+        _, h = signal.freqresp(velocity_per_force, [2 * np.pi * fr])
+        traces[label] = np.abs(h[0]) * alpha * ripple_amplitude * np.cos(2 * np.pi * fr * t + np.angle(h[0]))
+    return figures.velocity_response(t, traces, f"Velocity driven by a {ripple_amplitude * 1e3:g} mV, "
+                                                f"{fr / 1e3:g} kHz ripple (model)")
+
+
+def figure_3_3(t, u, i, f):
+    return figures.normalised_pair(t - t[0], u - u.mean(), i - i.mean(),
+                                   f"U and I at {f:g} Hz: current leads by {phase_deg(t, u, i, f):.1f}°")
+
+
+def figure_3_4(series, fr):
+    phase = ripple_phase_deg(series)
+    t = np.linspace(0, 2 / fr, 400)
+    return figures.normalised_pair(t, np.cos(2 * np.pi * fr * t), np.cos(2 * np.pi * fr * t + np.radians(phase)),
+                                   f"Ripple U_r and I_r at {fr / 1e3:g} kHz (from the Fourier phasors): "
+                                   f"current leads by {phase:.1f}°", t_unit="µs", scale=1e6)
+
+
+def figure_3_7(fr: float, ns: int):
+    return figures.folding(fr, [SamplingPlan(fr, ns, nf, 1) for nf in range(4)])
+
+
+def loop_figure(series_by_label: Mapping[str, Mapping[str, np.ndarray]], h: str, v: str, title: str):
+    labels = list(series_by_label)
+    return figures.loop([series_by_label[k][h] * SCALE[h] for k in labels],
+                        [series_by_label[k][v] * SCALE[v] for k in labels],
+                        LABEL[h], LABEL[v], title, labels=labels if len(labels) > 1 else None)
+
+
+def figure_3_9(series):
+    return figures.time_traces(series["time"], [(series["U"], LABEL["U"]), (series["x_laser"] * 1e6, LABEL["x_laser"]),
+                                                (series["C_e"] * 1e6, LABEL["C_e"]), (series["R_e"], LABEL["R_e"])],
+                               "Voltage, position, effective capacitance and resistance at 10 Hz")

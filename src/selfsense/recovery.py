@@ -1,0 +1,27 @@
+"""Parameter recovery: what the analysis identified against the twin's ground truth.
+
+Only this module and the tests read a capture's /truth group; the analyses never do.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+
+def truth_at(times: np.ndarray, truth_states: Mapping[str, np.ndarray], name: str, decimation: int,
+             fs: float) -> np.ndarray:
+    """A truth state (stored every ``decimation``-th sample) interpolated at ``times`` [s]."""
+    values = np.asarray(truth_states[name], dtype=float)
+    return np.interp(times, np.arange(len(values)) * decimation / fs, values)
+
+
+def ce_tracking(series: Mapping[str, np.ndarray], truth_states: Mapping[str, np.ndarray], decimation: int,
+                fs: float) -> dict[str, float]:
+    """How closely C_e follows the twin's true clamped capacitance (rms and max, % of C_P)."""
+    c_true = truth_at(series["time"], truth_states, "C_P", decimation, fs)
+    err = 100 * (np.asarray(series["C_e"]) / c_true - 1)
+    err = err[np.isfinite(err)]
+    return {"rms error [%]": float(np.sqrt(np.mean(err ** 2))), "max error [%]": float(np.max(np.abs(err))),
+            "mean error [%]": float(np.mean(err)), "windows": int(err.size)}

@@ -1,0 +1,41 @@
+"""Rule `ce_recovery`: C_e against the twin's true clamped capacitance, per capture.
+
+Alone: python workflow/scripts/ce_recovery.py out.csv --pairs raw/pi_p885/ch3_sine_10hz.nc=results/pi_p885/ripple/ch3_sine_10hz.nc
+"""
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.capture import open_capture, read_series
+from selfsense.provenance import script_logging, write_table
+from selfsense.recovery import ce_tracking
+
+
+def main(pairs, table, n_periods, log=None):
+    """pairs: {capture path: ripple series path}."""
+    logger = script_logging(log)
+    rows = []
+    for capture, series in pairs.items():
+        with open_capture(capture) as cap:
+            attrs, states = cap.read_truth()
+            fs = cap.fs
+        data = read_series(series, ["time", "C_e"])
+        rows.append({"experiment": Path(capture).stem, "np": n_periods}
+                    | ce_tracking(data, states, int(attrs["decimation"]), fs))
+    result = pd.DataFrame(rows)
+    write_table(result, table, inputs=[*pairs, *pairs.values()], config={"n_periods": n_periods})
+    logger.info("\n%s", result.to_string())
+
+
+if "snakemake" in globals():
+    main(dict(zip(snakemake.input.captures, snakemake.input.series)), snakemake.output.table,
+         snakemake.params.n_periods, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("table")
+    cli.add_argument("--pairs", nargs="+", required=True, help="capture=series")
+    cli.add_argument("--np", dest="n_periods", type=int, default=4)
+    args = cli.parse_args()
+    main(dict(p.split("=", 1) for p in args.pairs), args.table, args.n_periods)

@@ -1,0 +1,29 @@
+"""Rule `ch3_model_figure`: Figure 3.2, ripple-driven velocity free vs clamped (model).
+
+Alone: python workflow/scripts/ch3_model_figure.py raw/pi_p885/dataset.yaml fig_3_2.png
+"""
+
+import argparse
+from pathlib import Path
+
+from selfsense.chapters.ch3 import figure_3_2
+from selfsense.manifest import load_dataset
+from selfsense.provenance import save_figure, script_logging
+
+
+def main(manifest, figure, log=None):
+    logger = script_logging(log)
+    meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
+    twin = meta["twin"]
+    save_figure(figure_3_2(twin["stack"], twin["ripple"]["amplitude"], twin["ripple"]["f_nominal"]),
+                figure, inputs=[manifest])
+    logger.info("wrote %s", figure)
+
+
+if "snakemake" in globals():
+    main(snakemake.input.manifest, snakemake.output.figure, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("manifest")
+    cli.add_argument("figure")
+    main(**vars(cli.parse_args()))

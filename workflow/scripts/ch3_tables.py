@@ -1,0 +1,27 @@
+"""Rule `ch3_tables`: Tables 3.1 and 3.2 from the folding equations for this dataset's ripple.
+
+Alone: python workflow/scripts/ch3_tables.py 100000 12 48000 t31.csv t32.csv
+"""
+
+import argparse
+
+from selfsense.provenance import script_logging, write_table
+from selfsense.ripple import table_3_1, table_3_2
+
+
+def main(fr, ns, fs, table_31, table_32, log=None):
+    logger = script_logging(log)
+    config = {"fr": fr, "ns": ns, "fs": fs}
+    write_table(table_3_1(fr), table_31, config=config)
+    write_table(table_3_2(fs, fr, ns), table_32, config=config)
+    logger.info("Tables 3.1 and 3.2 for fr = %g Hz, ns = %d, fs = %g Hz", fr, ns, fs)
+
+
+if "snakemake" in globals():
+    p = snakemake.params
+    main(p.fr, p.ns, p.fs, snakemake.output.table_31, snakemake.output.table_32, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name, kind in (("fr", float), ("ns", int), ("fs", float), ("table_31", str), ("table_32", str)):
+        cli.add_argument(name, type=kind)
+    main(**vars(cli.parse_args()))

@@ -1,0 +1,35 @@
+"""Rule `extract_ripple`: C_e, R_e (Eq 3.6–3.13) and window means of U, x, I, q for one capture.
+
+Alone: python workflow/scripts/extract_ripple.py raw/pi_p885/ch3_sine_10hz.nc out.nc --np 4
+"""
+
+import argparse
+
+from selfsense.capture import SeriesWriter, open_capture
+from selfsense.provenance import script_logging
+from selfsense.ripple import SERIES_UNITS, SamplingPlan, impedance_series
+
+COMPANIONS = ("U", "x_laser", "I")
+
+
+def main(capture, series, n_periods, chunk_len=1 << 18, log=None):
+    logger = script_logging(log)
+    with open_capture(capture, require=("Ur", "Ir") + COMPANIONS) as cap:
+        a = cap.attrs
+        plan = SamplingPlan(float(a["fr_nominal"]), int(a["ns"]), int(a["nf"]), int(n_periods))
+        chunks = cap.iter_chunks(("Ur", "Ir") + COMPANIONS, chunk_len)
+        attrs = {"capture": str(capture), "np": plan.n_periods, "fr_nominal": plan.fr, "fs": cap.fs}
+        with SeriesWriter(series, SERIES_UNITS, attrs) as out:
+            for block in impedance_series(chunks, plan, cap.fs, COMPANIONS):
+                out.write(block)
+        logger.info("%s: %d ripple windows (np = %d), NaN %s", capture, out.n, plan.n_periods, cap.stats.nan)
+
+
+if "snakemake" in globals():
+    main(snakemake.input.capture, snakemake.output.series, snakemake.params.n_periods, log=snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("capture")
+    cli.add_argument("series")
+    cli.add_argument("--np", dest="n_periods", type=int, default=4)
+    main(**vars(cli.parse_args()))
