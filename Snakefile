@@ -11,10 +11,24 @@ configfile: "config.yaml"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/acquire.smk"
 include: "workflow/rules/ripple.smk"
+include: "workflow/rules/identify.smk"
+include: "workflow/rules/gamma.smk"
+include: "workflow/rules/observer.smk"
+include: "workflow/rules/control.smk"
+include: "workflow/rules/thermal.smk"
+include: "workflow/rules/powerloss.smk"
+include: "workflow/rules/report.smk"
 
 
 rule all:
     input:
         acquire_outputs(),
         ripple_outputs(),
+        identify_outputs(),
+        gamma_outputs(),
+        observer_outputs(),
+        control_outputs(),
+        thermal_outputs(),
+        powerloss_outputs(),
+        report_outputs(),
     default_target: True

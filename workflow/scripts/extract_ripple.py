@@ -5,9 +5,9 @@ Alone: python workflow/scripts/extract_ripple.py raw/pi_p885/ch3_sine_10hz.nc ou
 
 import argparse
 
-from selfsense.capture import SeriesWriter, open_capture
+from selfsense.capture import CaptureError, SeriesWriter, open_capture
 from selfsense.provenance import script_logging
-from selfsense.ripple import SERIES_UNITS, SamplingPlan, impedance_series
+from selfsense.ripple import SERIES_UNITS, impedance_series, plan_from_fs
 
 COMPANIONS = ("U", "x_laser", "I")
 
@@ -16,7 +16,10 @@ def main(capture, series, n_periods, chunk_len=1 << 18, log=None):
     logger = script_logging(log)
     with open_capture(capture, require=("Ur", "Ir") + COMPANIONS) as cap:
         a = cap.attrs
-        plan = SamplingPlan(float(a["fr_nominal"]), int(a["ns"]), int(a["nf"]), int(n_periods))
+        try:  # also refuses a folded ripple inside the mechanical bandwidth
+            plan = plan_from_fs(cap.fs, float(a["fr_nominal"]), int(a["ns"]), int(n_periods))
+        except ValueError as err:
+            raise CaptureError(f"{capture}: {err}") from None
         chunks = cap.iter_chunks(("Ur", "Ir") + COMPANIONS, chunk_len)
         attrs = {"capture": str(capture), "np": plan.n_periods, "fr_nominal": plan.fr, "fs": cap.fs}
         with SeriesWriter(series, SERIES_UNITS, attrs) as out:

@@ -1,0 +1,5 @@
+# Stage "observer": rules arrive with its issue.
+
+
+def observer_outputs():
+    return []

@@ -1,0 +1,5 @@
+# Stage "powerloss": rules arrive with its issue.
+
+
+def powerloss_outputs():
+    return []
