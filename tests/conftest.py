@@ -1,4 +1,6 @@
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -30,11 +32,25 @@ def raised_sine(f, duration, fs=48000.0, hi=100.0):
     return t, hi * 0.5 * (1 - np.cos(2 * np.pi * f * t))
 
 
-@pytest.fixture
-def repo_copy(tmp_path):
+IGNORE = shutil.ignore_patterns(".venv", ".git", ".snakemake", "results", "figures", "logs", "*.nc",
+                                "out", "__pycache__", ".hypothesis", ".pytest_cache", "report.html")
+
+
+def copy_repo(dest: Path) -> Path:
     """A copy of the repository's workflow files (no results, no captures) to run Snakemake in."""
-    dest = tmp_path / "repo"
-    ignore = shutil.ignore_patterns(".venv", ".git", ".snakemake", "results", "figures", "logs",
-                                    "*.nc", "out", "__pycache__", ".hypothesis", ".pytest_cache")
-    shutil.copytree(ROOT, dest, ignore=ignore)
+    shutil.copytree(ROOT, dest, ignore=IGNORE)
     return dest
+
+
+def snakemake(repo, *args, config="tests/config/smoke.yaml"):
+    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", config, *args],
+                          cwd=repo, capture_output=True, text=True, timeout=1800)
+
+
+@pytest.fixture(scope="session")
+def smoke_run(tmp_path_factory):
+    """The whole DAG on the smoke campaign, run once per test session in a scratch copy."""
+    repo = copy_repo(tmp_path_factory.mktemp("dag") / "repo")
+    run = snakemake(repo)
+    assert run.returncode == 0, run.stderr[-3000:]
+    return repo

@@ -1,32 +1,11 @@
 """End to end: the whole DAG on the smoke campaign, in a scratch copy of the repository."""
 
-import subprocess
-import sys
-
 import pandas as pd
 import pytest
 
+from .conftest import snakemake
+
 pytestmark = pytest.mark.slow
-
-
-def snakemake(repo, *args):
-    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2",
-                           "--configfile", "tests/config/smoke.yaml", *args],
-                          cwd=repo, capture_output=True, text=True, timeout=1800)
-
-
-@pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory):
-    from .conftest import ROOT
-    import shutil
-
-    repo = tmp_path_factory.mktemp("dag") / "repo"
-    shutil.copytree(ROOT, repo, ignore=shutil.ignore_patterns(
-        ".venv", ".git", ".snakemake", "results", "figures", "logs", "*.nc", "out", "__pycache__",
-        ".hypothesis", ".pytest_cache"))
-    run = snakemake(repo)
-    assert run.returncode == 0, run.stderr[-3000:]
-    return repo
 
 
 def test_every_capture_is_made_and_checked(smoke_run):
