@@ -54,3 +54,21 @@ def test_chapter_3_figures_and_hysteresis(smoke_run):
 
 def test_datasets_without_ripple_channels_skip_the_stage(smoke_run):
     assert not (smoke_run / "results/tokin_nb40/ch3").exists()
+
+
+def test_chapter_4_case_2_recovers_the_twin_within_5_percent(smoke_run):
+    rec = pd.read_csv(smoke_run / "results/pi_p885/twin/model_recovery.csv")
+    case2 = rec[rec["case"] == 2].set_index("parameter")
+    for key in ("k", "alpha", "C_P0", "dC_x"):
+        assert abs(case2.loc[key, "error [%]"]) < 5, key
+
+
+def test_chapter_4_tables(smoke_run):
+    t42 = pd.read_csv(smoke_run / "results/pi_p885/ch4/table_4_2.csv").set_index("parameter")
+    assert t42.loc["stiffness, k", "thesis case 1"] == 11.2
+    assert t42.loc["capacitance slope, ΔCx", "case 1 mean"] == 0
+    t43 = pd.read_csv(smoke_run / "results/pi_p885/ch4/table_4_3.csv").set_index("parameter")
+    assert t43.loc["k", "+20 % C_P0"] < t43.loc["k", "no change"]
+    assert len(pd.read_csv(smoke_run / "results/pi_p885/ch4/table_4_1.csv")) == 3
+    for n in range(2, 9):
+        assert (smoke_run / f"figures/pi_p885/fig_4_{n}.png").exists()

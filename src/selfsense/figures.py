@@ -99,3 +99,54 @@ def velocity_response(t, traces: dict[str, np.ndarray], title):
     ax.legend()
     ax.grid(alpha=0.3)
     return fig
+
+
+def model_vs_measured(xs, q_meas, q_model, i_meas, i_model, labels):
+    """Fig 4.6: (a) charge–position and (b) current–position, measured and modelled."""
+    fig, axes = _fig(1, 2)
+    for i, label in enumerate(labels):
+        line, = axes[0].plot(xs[i], q_meas[i], lw=0.6, label=f"{label} measured")
+        axes[0].plot(xs[i], q_model[i], "--", lw=1, color=line.get_color(), label=f"{label} model")
+        axes[1].plot(xs[i], np.asarray(i_meas[i]) * 1e3, lw=0.6, color=line.get_color())
+        axes[1].plot(xs[i], np.asarray(i_model[i]) * 1e3, "--", lw=1, color=line.get_color())
+    axes[0].set(xlabel="x [µm]", ylabel="q [µC]", title="(a) charge–position")
+    axes[1].set(xlabel="x [µm]", ylabel="I [mA]", title="(b) current–position")
+    axes[0].legend(fontsize=6)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    return fig
+
+
+def model_comparison(panels):
+    """Fig 4.7: traditional vs proposed charge–position fit and their errors, per frequency."""
+    fig, axes = _fig(2, max(1, len(panels)), squeeze=False)
+    for col, (f, p) in enumerate(panels.items()):
+        x = p["x"] * UM
+        axes[0, col].plot(x, p["q"] * 1e6, lw=0.6, label="measured")
+        axes[0, col].plot(x, p["traditional"] * 1e6, "--", label="traditional (ΔCx = 0)")
+        axes[1, col].plot(x, p["error traditional"] * 1e6, lw=0.6, label="traditional")
+        axes[0, col].plot(x, p["proposed"] * 1e6, ":", label="proposed (ΔCx < 0)")
+        axes[1, col].plot(x, p["error proposed"] * 1e6, lw=0.6, label="proposed")
+        axes[0, col].set(title=f"{f:g} Hz", ylabel="q [µC]")
+        axes[1, col].set(xlabel="x [µm]", ylabel="charge error [µC]")
+        for ax in axes[:, col]:
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7)
+    return fig
+
+
+def hysteresis_voltage(traces):
+    """Fig 4.8: U and U_H against charge for both models, per frequency."""
+    fig, axes = _fig(1, 2)
+    for f, tr in traces.items():
+        q = tr["q"] * 1e6
+        for ax, case in zip(axes, (1, 2)):
+            line, = ax.plot(q, tr["U"], lw=0.6, label=f"U, {f:g} Hz")
+            ax.plot(q, tr[f"U_H case {case}"], lw=0.8, color=line.get_color(), ls="--", label=f"U_H, {f:g} Hz")
+    axes[0].set(title="(a) traditional model (ΔCx = 0)")
+    axes[1].set(title="(b) proposed model (ΔCx < 0)")
+    for ax in axes:
+        ax.set(xlabel="q [µC]", ylabel="voltage [V]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    return fig

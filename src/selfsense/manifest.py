@@ -132,10 +132,11 @@ def expand_protocols(protocol_names: list[str], campaign: str) -> dict[str, Expe
         for name, entry in doc["experiments"].items():
             entry = dict(entry)
             smoke = entry.pop("smoke", {})
+            repeated = "sets" in entry  # names stay <name>_s<k> in every campaign
             if campaign == "smoke":
                 entry |= smoke
             sets = int(entry.pop("sets", 1))
-            names = [name] if sets == 1 else [f"{name}_s{k}" for k in range(1, sets + 1)]
+            names = [f"{name}_s{k}" for k in range(1, sets + 1)] if repeated else [name]
             for n in names:
                 experiments[n] = Experiment(
                     name=n, chapter=chapter,

@@ -25,3 +25,22 @@ def ce_tracking(series: Mapping[str, np.ndarray], truth_states: Mapping[str, np.
     err = err[np.isfinite(err)]
     return {"rms error [%]": float(np.sqrt(np.mean(err ** 2))), "max error [%]": float(np.max(np.abs(err))),
             "mean error [%]": float(np.mean(err)), "windows": int(err.size)}
+
+
+#: identified parameter (per-set table column) → twin truth attribute
+MODEL_TRUTH = {"k": "stack_k", "alpha": "stack_alpha", "C_P0": "stack_C_P0", "dC_x": "stack_dC_x", "b": "stack_b"}
+
+
+def model_recovery(per_set, truth_params: Mapping[str, float]):
+    """Identified model parameters (mean over sets, per case) against the twin's truth."""
+    import pandas as pd
+
+    rows = []
+    for case, sets in per_set.groupby("case"):
+        for key, attr in MODEL_TRUTH.items():
+            truth = float(truth_params[attr])
+            mean = float(sets[key].mean())
+            rows.append({"case": int(case), "parameter": key, "truth": truth, "identified mean": mean,
+                         "identified std": float(sets[key].std(ddof=1)) if len(sets) > 1 else float("nan"),
+                         "error [%]": 100 * (mean / truth - 1) if truth else float("nan")})
+    return pd.DataFrame(rows)

@@ -1,5 +1,112 @@
-# Stage "identify": rules arrive with its issue.
+# Stage "identify" (thesis Chapter 4): Case 1 / Case 2 model identification, Tables 4.1–4.3.
+
+CH4_FIGURES = ["fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_8"]
+CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
+
+
+def ch4_sets(dataset):
+    return [e for e in EXPERIMENTS[dataset] if e.startswith("ch4_sine_")]
+
+
+def identify_datasets():
+    """Datasets with the ripple channels, the Chapter 4 sets and the static stiffness test."""
+    return [d for d in ripple_datasets() if ch4_sets(d)
+            and {"ch4_static_free", "ch4_static_blocked"} <= set(EXPERIMENTS[d])]
 
 
 def identify_outputs():
-    return []
+    out = []
+    for d in identify_datasets():
+        out += [f"results/{d}/ch4/{t}.csv" for t in CH4_TABLES + ["static_stiffness"]]
+        out += [f"results/{d}/ch4/model.json"] + [f"figures/{d}/{f}.png" for f in CH4_FIGURES]
+        if "twin" in DATASETS[d]:
+            out.append(f"results/{d}/twin/model_recovery.csv")
+    return out
+
+
+rule static_stiffness:
+    """k from the blocked force over the free stroke at U_max (Eq 4.16)."""
+    input:
+        free=RAW / "{dataset}" / "ch4_static_free.nc",
+        blocked=RAW / "{dataset}" / "ch4_static_blocked.nc",
+    output:
+        table=report("results/{dataset}/ch4/static_stiffness.csv", caption="../report/static_stiffness.rst",
+                     category="{dataset}", subcategory="Chapter 4"),
+    params:
+        t_hold=0.55,
+    log:
+        "logs/{dataset}/static_stiffness.log",
+    benchmark:
+        "benchmarks/out/{dataset}/static_stiffness.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    script:
+        "../scripts/static_stiffness.py"
+
+
+rule identify:
+    """Case 1 and Case 2 for every set (Eq 4.15–4.25); Tables 4.1–4.3 and the model for later stages."""
+    input:
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in ch4_sets(w.dataset)],
+        static="results/{dataset}/ch4/static_stiffness.csv",
+        manifest=RAW / "{dataset}" / "dataset.yaml",
+    output:
+        **{t: report(f"results/{{dataset}}/ch4/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
+                     subcategory="Chapter 4") for t in CH4_TABLES},
+        model="results/{dataset}/ch4/model.json",
+    log:
+        "logs/{dataset}/identify.log",
+    benchmark:
+        "benchmarks/out/{dataset}/identify.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=20,
+    script:
+        "../scripts/identify.py"
+
+
+rule ch4_figures:
+    """Figures 4.2–4.8."""
+    input:
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in ch4_sets(w.dataset)],
+        per_set="results/{dataset}/ch4/sets.csv",
+        force=RAW / "{dataset}" / "ch4_sine_50hz_s1.nc",
+        drive=RAW / "{dataset}" / "ch4_sine_10hz_s1.nc",
+    output:
+        [report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
+                subcategory="Chapter 4") for f in CH4_FIGURES],
+    params:
+        out_dir=lambda w: f"figures/{w.dataset}",
+    log:
+        "logs/{dataset}/ch4_figures.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch4_figures.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/ch4_figures.py"
+
+
+rule model_recovery:
+    """Identified parameters against the twin's truth (parameter recovery)."""
+    input:
+        per_set="results/{dataset}/ch4/sets.csv",
+        capture=RAW / "{dataset}" / "ch4_sine_10hz_s1.nc",
+    output:
+        table=report("results/{dataset}/twin/model_recovery.csv", caption="../report/model_recovery.rst",
+                     category="{dataset}", subcategory="Twin validation"),
+    log:
+        "logs/{dataset}/model_recovery.log",
+    benchmark:
+        "benchmarks/out/{dataset}/model_recovery.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    script:
+        "../scripts/model_recovery.py"

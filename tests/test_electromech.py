@@ -1,0 +1,83 @@
+"""Chapter 4 identification on exact synthetic data: what goes in must come out."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from selfsense.electromech import (Geometry, Kinematics, ModelParameters, alpha_from_slope, capacitance_line,
+                                   fit_charge_position, identify_set, material_properties, sensitivity,
+                                   slope_is_consistent)
+
+FS = 4000.0
+TRUE = ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 160.0, 0.1017)
+GEOMETRY = Geometry(4.95e-3 * 4.67e-3, 55e-6, 32e-3)
+
+
+def synthetic(p=TRUE, f=10.0, cycles=5, I0=1e-3, q0=2e-6):
+    t = np.arange(int(cycles / f * FS)) / FS
+    w = 2 * np.pi * f
+    x = 16e-6 * (1 - np.cos(w * t))
+    kin = Kinematics(t, x, 16e-6 * w * np.sin(w * t), 16e-6 * w * w * np.cos(w * t))
+    q = p.charge(kin) + q0 + I0 * t
+    C_e = p.capacitance(x)
+    I = np.gradient(q, t)
+    return t, C_e, x, q, I
+
+
+@settings(max_examples=20, deadline=None)
+@given(k=st.floats(10e6, 40e6), alpha=st.floats(5, 15), dC=st.floats(-0.05, -0.01), f=st.sampled_from([10.0, 50.0]))
+def test_case_2_recovers_k_alpha_and_capacitance(k, alpha, dC, f):
+    p = ModelParameters(2, 3.0e-6, dC, k, alpha, 0.0, 0.0)
+    t, C_e, x, q, I = synthetic(p, f)
+    fit = identify_set(t, C_e, x, q, I, k_static=20e6, m=0.0)
+    # positions are re-smoothed for the derivatives: agreement to 1e-4, not to rounding
+    assert fit.case2.k == pytest.approx(k, rel=1e-4)
+    assert fit.case2.alpha == pytest.approx(alpha, rel=1e-4)
+    assert fit.case2.dC_x == pytest.approx(dC, rel=1e-4)
+    assert fit.charge_quadratic.I0 == pytest.approx(1e-3, rel=1e-4)
+    assert fit.alpha_from_current == pytest.approx(alpha, rel=0.02)
+
+
+def test_damping_is_found_when_the_motion_is_dynamic():
+    t, C_e, x, q, I = synthetic(f=100.0)
+    fit = identify_set(t, C_e, x, q, I, k_static=25e6, m=TRUE.m)
+    assert fit.case2.b == pytest.approx(TRUE.b, rel=0.05)
+
+
+def test_offset_drift_is_separated_from_the_charge():
+    t, C_e, x, q, _ = synthetic(ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 0.0, 0.0), I0=5e-3)
+    fit = fit_charge_position(t, x, q, quadratic=True)
+    assert fit.I0 == pytest.approx(5e-3, rel=1e-8) and fit.rms_residual < 1e-12
+
+
+def test_capacitance_line():
+    x = np.linspace(0, 32e-6, 100)
+    assert capacitance_line(3.13e-6 - 0.03 * x, x) == pytest.approx((3.13e-6, -0.03))
+
+
+def test_case_1_alpha_from_the_slope():
+    C_P, k, alpha = 3.13e-6, 11.2e6, 12.0
+    slope = C_P * k / alpha + alpha
+    assert alpha_from_slope(slope, C_P, k) == pytest.approx(alpha)
+    assert slope_is_consistent(slope, C_P, k)
+    assert not slope_is_consistent(5.0, C_P, 25e6)
+    assert alpha_from_slope(5.0, C_P, 25e6) == pytest.approx(2.5)
+
+
+def test_material_properties_of_the_thesis_parameters():
+    mp = material_properties(ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 0, 0), GEOMETRY, 32e-6)
+    assert mp.C_T == pytest.approx(3.13e-6 + 9.36 ** 2 / 25.1e6)
+    assert mp.k33 == pytest.approx(0.72, abs=0.01)  # Table 4.3
+    assert mp.d33 == pytest.approx(9.36 * 55e-6 / (32e-3 * 25.1e6))
+    assert mp.U_P_max == pytest.approx(32e-6 * 25.1e6 / 9.36)
+
+
+def test_sensitivity_follows_eq_4_18():
+    t, C_e, x, q, I = synthetic()
+    fit = identify_set(t, C_e, x, q, I, k_static=25e6, m=0.0)
+    table = sensitivity(fit.charge_quadratic, TRUE.C_P0, TRUE.dC_x, GEOMETRY, 32e-6,
+                        {"none": (1, 1), "C": (1.2, 1), "dC": (1, 1.2)})
+    # +20 % C_P0 keeps k/α and lowers α; +20 % ΔCx lowers k/α by 1.2 and raises α
+    assert table["C"]["k"] / table["C"]["alpha"] == pytest.approx(table["none"]["k"] / table["none"]["alpha"])
+    assert table["C"]["alpha"] < table["none"]["alpha"] < table["dC"]["alpha"]
+    assert table["dC"]["k"] / table["dC"]["alpha"] == pytest.approx(table["none"]["k"] / table["none"]["alpha"] / 1.2)

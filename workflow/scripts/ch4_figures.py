@@ -1,0 +1,40 @@
+"""Rule `ch4_figures`: Figures 4.2–4.8 from the sets' ripple series and two captures.
+
+Alone: python workflow/scripts/ch4_figures.py --help
+"""
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from selfsense.capture import open_capture, read_series
+from selfsense.chapters import ch4
+from selfsense.provenance import save_figure, script_logging
+
+
+def channel(capture, name):
+    with open_capture(capture, require=(name,)) as cap:
+        return {"t": np.arange(cap.n) / cap.fs, name: cap.read((name,))[name]}
+
+
+def main(series, per_set, force_capture, drive_capture, out_dir, log=None):
+    logger = script_logging(log)
+    sets = {Path(p).stem: read_series(p) for p in series}
+    fits = ch4.fits_from_table(pd.read_csv(per_set))
+    built = ch4.figures_ch4(sets, fits, channel(force_capture, "F"), channel(drive_capture, "U"))
+    for name, fig in built.items():
+        save_figure(fig, Path(out_dir) / f"{name}.png", inputs=[*series, per_set, force_capture, drive_capture])
+    logger.info("wrote %s", ", ".join(sorted(built)))
+
+
+if "snakemake" in globals():
+    i = snakemake.input
+    main(list(i.series), i.per_set, i.force, i.drive, snakemake.params.out_dir, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("per_set", "force_capture", "drive_capture", "out_dir"):
+        cli.add_argument(name)
+    cli.add_argument("--series", nargs="+", required=True)
+    main(**vars(cli.parse_args()))

@@ -1,0 +1,51 @@
+"""Rule `identify`: Case 1 and Case 2 for every set → Tables 4.1–4.3, per-set table, model.json.
+
+Alone: python workflow/scripts/identify.py --help
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.capture import read_series
+from selfsense.chapters import ch4
+from selfsense.electromech import geometry_from_actuator
+from selfsense.manifest import load_dataset
+from selfsense.provenance import script_logging, write_json, write_table, provenance
+
+
+def main(series, static, manifest, out, log=None):
+    """series: list of ripple-series paths (one per set); out: {name: output path}."""
+    logger = script_logging(log)
+    meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
+    actuator = meta["actuator"]
+    geometry = geometry_from_actuator(actuator, f"{manifest}: actuator")
+    k_static = float(pd.read_csv(static)["k [N/µm]"].iloc[0]) * 1e6
+    sets = {Path(p).stem: read_series(p) for p in series}
+    per_set, fits = ch4.identify_sets(sets, k_static, float(actuator["moving_mass_kg"]), geometry)
+    inputs = [*series, static, manifest]
+    write_table(per_set, out["sets"], inputs=inputs)
+    write_table(ch4.table_4_1(), out["table_4_1"])
+    write_table(ch4.table_4_2(per_set), out["table_4_2"], inputs=inputs)
+    write_table(ch4.table_4_3(fits, geometry), out["table_4_3"], inputs=inputs)
+    write_table(ch4.hysteresis_voltage(sets, fits)[0], out["hysteresis_voltage"], inputs=inputs)
+    case2 = per_set[per_set["case"] == 2]
+    model = {key: float(case2[key].mean()) for key in ("C_P0", "dC_x", "k", "alpha", "b", "m")}
+    write_json(model | {"k_over_alpha": model["k"] / model["alpha"], "provenance": provenance(inputs)}, out["model"])
+    logger.info("Case 2 means: %s", json.dumps(model))
+
+
+if "snakemake" in globals():
+    main(list(snakemake.input.series), snakemake.input.static, snakemake.input.manifest,
+         dict(snakemake.output.items()), snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("static")
+    cli.add_argument("manifest")
+    cli.add_argument("out_dir")
+    cli.add_argument("--series", nargs="+", required=True)
+    a = cli.parse_args()
+    names = ("sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage")
+    main(a.series, a.static, a.manifest, {n: f"{a.out_dir}/{n}.csv" for n in names} | {"model": f"{a.out_dir}/model.json"})

@@ -1,0 +1,38 @@
+"""Rule `static_stiffness`: k from the blocked-force and free-stroke holds at U_max (Eq 4.16).
+
+Alone: python workflow/scripts/static_stiffness.py raw/pi_p885/ch4_static_free.nc raw/pi_p885/ch4_static_blocked.nc out.csv
+"""
+
+import argparse
+
+import numpy as np
+import pandas as pd
+
+from selfsense.capture import open_capture
+from selfsense.electromech import hold_rise, static_stiffness
+from selfsense.provenance import script_logging, write_table
+
+
+def rise(capture, channel, t_hold):
+    with open_capture(capture, require=(channel,)) as cap:
+        values = cap.read((channel,))[channel]
+        return hold_rise(values, np.arange(cap.n) / cap.fs, t_hold)
+
+
+def main(free, blocked, table, t_hold=0.55, log=None):
+    logger = script_logging(log)
+    x_free, F_blocked = rise(free, "x_laser", t_hold), rise(blocked, "F", t_hold)
+    k = static_stiffness(F_blocked, x_free)
+    result = pd.DataFrame([{"x_free [µm]": x_free * 1e6, "F_blocked [N]": F_blocked, "k [N/µm]": k * 1e-6}])
+    write_table(result, table, inputs=[free, blocked], config={"t_hold": t_hold})
+    logger.info("static stiffness %.3f N/µm", k * 1e-6)
+
+
+if "snakemake" in globals():
+    main(snakemake.input.free, snakemake.input.blocked, snakemake.output.table, snakemake.params.t_hold,
+         snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("free", "blocked", "table"):
+        cli.add_argument(name)
+    main(**vars(cli.parse_args()))
