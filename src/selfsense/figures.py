@@ -150,3 +150,26 @@ def hysteresis_voltage(traces):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     return fig
+
+
+def observer_study(table):
+    """Observer max error against ω_S for several added offset currents."""
+    fig, ax = _fig()
+    for offset, rows in table.groupby("added offset [mA]"):
+        ax.plot(rows["omega_S [rad/s]"] / (2 * np.pi), rows["max error [µm]"], "o-", label=f"+{offset:g} mA offset")
+    ax.set(xscale="log", xlabel="transition frequency ω_S/2π [Hz]", ylabel="max observer error [µm]",
+           title="Hybrid position observer: transition frequency against offset current")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    return fig
+
+
+def magnitude_plot(freqs_hz, curves: dict, title):
+    """Fig 5.10: magnitude of transfer functions [dB] against frequency."""
+    fig, ax = _fig()
+    for label, mag in curves.items():
+        ax.semilogx(freqs_hz, 20 * np.log10(np.maximum(np.abs(mag), 1e-300)), label=label)
+    ax.set(xlabel="frequency [Hz]", ylabel="magnitude [dB] (x̂/I0 in m/A)", title=title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    return fig

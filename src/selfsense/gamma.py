@@ -406,3 +406,28 @@ def gamma_t_table(
             ),
         },
     )
+
+
+@dataclass(frozen=True)
+class GammaPolynomial:
+    """A chosen Γ as plain data (raw power-basis coefficients, thesis units) for later stages.
+
+    Evaluating the raw basis is benign (the ill-conditioning of Table 5.2's basis hurts the
+    solve, not the evaluation: at C ≈ 2–3 µF the cancellation costs ≈ 1e-10 µm).
+    """
+
+    coefficients: tuple[float, ...]  # b0..bj in µm/µF^i
+    g: float = 0.0  # µm/°C (Γ_T, Eq 7.13)
+
+    @classmethod
+    def from_fit(cls, fit: GammaFit) -> "GammaPolynomial":
+        coefs = fit.coefficients
+        powers = tuple(float(coefs[f"b{i}"]) for i in range(sum(1 for n in coefs.index if n.startswith("b"))))
+        return cls(powers, float(coefs.get("g", 0.0)))
+
+    def predict(self, C: ArrayLike, temperature: ArrayLike | None = None) -> np.ndarray:
+        """x [m] from C [F] (and T [°C] when g ≠ 0)."""
+        x_um = Polynomial(self.coefficients)(np.asarray(C, dtype=float) * _UF_PER_F)
+        if self.g:
+            x_um = x_um + self.g * np.asarray(temperature, dtype=float)
+        return x_um / _UM_PER_M

@@ -140,7 +140,7 @@ def expand_protocols(protocol_names: list[str], campaign: str) -> dict[str, Expe
             for n in names:
                 experiments[n] = Experiment(
                     name=n, chapter=chapter,
-                    protocol={k: entry[k] for k in ("quantity", "segments", "repeat") if k in entry},
+                    protocol={k: entry[k] for k in ("quantity", "segments", "repeat", "warmup") if k in entry},
                     load_stiffness=float(entry.get("load_stiffness", 0.0)),
                     control=entry.get("control", "open_loop"),
                 )

@@ -46,3 +46,14 @@ def protocol_files(dataset):
 
 def has_channels(dataset, *channels):
     return set(channels) <= set(DATASETS[dataset]["daq"]["channels"])
+
+
+def experiment_frequency(name):
+    """Drive frequency [Hz] from a catalogue name such as ch5_sine_0p1hz."""
+    token = next((t for t in name.split("_") if t.endswith("hz")), None)
+    return float(token[:-2].replace("p", ".")) if token else None
+
+
+def sines(dataset, prefix):
+    """{frequency [Hz]: experiment} for the experiments named <prefix><f>hz."""
+    return {experiment_frequency(e): e for e in EXPERIMENTS[dataset] if e.startswith(prefix)}

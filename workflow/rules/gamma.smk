@@ -1,5 +1,35 @@
-# Stage "gamma": rules arrive with its issue.
+# Stage "gamma" (thesis Chapter 5): capacitance self-sensing Γ, Tables 5.1–5.2.
+
+GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
+                "coefficients": "table_5_2_coefficients.csv", "basis": "gamma_basis.csv"}
+
+
+def gamma_datasets():
+    return [d for d in ripple_datasets() if "ch5_sine_0p1hz" in EXPERIMENTS[d]]
 
 
 def gamma_outputs():
-    return []
+    return [f"results/{d}/ch5/{f}" for d in gamma_datasets() for f in list(GAMMA_TABLES.values()) + ["gamma.json"]]
+
+
+rule gamma_fit:
+    """Γ of orders 3–6 and ln on the 0.1 Hz data; ANOVA and coefficients (statsmodels)."""
+    input:
+        series="results/{dataset}/ripple/ch5_sine_0p1hz.nc",
+    output:
+        **{k: report(f"results/{{dataset}}/ch5/{v}", caption=f"../report/{k}.rst", category="{dataset}",
+                     subcategory="Chapter 5") for k, v in GAMMA_TABLES.items()},
+        gamma="results/{dataset}/ch5/gamma.json",
+    params:
+        n_periods=config["ripple"]["n_periods"],
+        orders=config["gamma"]["orders"],
+    log:
+        "logs/{dataset}/gamma_fit.log",
+    benchmark:
+        "benchmarks/out/{dataset}/gamma_fit.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/gamma_fit.py"

@@ -1,5 +1,160 @@
-# Stage "observer": rules arrive with its issue.
+# Stage "observer" (thesis Chapter 5): charge self-sensing a0, the hybrid position observer,
+# Tables 5.3–5.4, Figures 5.1–5.14.
+
+CH5_FIGURES = ["fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
+               "fig_5_13", "fig_5_14"]
+TABLE_5_4_HZ = (0.01, 0.1, 1.0, 10.0, 50.0, 100.0)
+
+
+def charge_sines(dataset):
+    return {f: e for f, e in sines(dataset, "ch5_sine_").items() if f >= 10}
+
+
+def observed_sines(dataset):
+    return {f: e for f, e in sines(dataset, "ch5_sine_").items() if f in TABLE_5_4_HZ}
+
+
+def observer_datasets():
+    return [d for d in gamma_datasets() if charge_sines(d) and "ch5_creep" in EXPERIMENTS[d]
+            and len(observed_sines(d)) == len(TABLE_5_4_HZ)]
 
 
 def observer_outputs():
-    return []
+    out = []
+    for d in observer_datasets():
+        out += [f"results/{d}/ch5/{t}.csv" for t in ("charge_sensing", "table_5_3", "table_5_4", "creep",
+                                                     "observer_study")]
+        out += [f"figures/{d}/{f}.png" for f in CH5_FIGURES + ["fig_5_observer_study"]]
+    return out
+
+
+rule charge_sensing:
+    """a0 from q–x over 10–300 Hz (Eq 5.3) and the observer gains of Table 5.3 (Eq 5.9)."""
+    input:
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in charge_sines(w.dataset).values()],
+    output:
+        charge_sensing=report("results/{dataset}/ch5/charge_sensing.csv", caption="../report/charge_sensing.rst",
+                              category="{dataset}", subcategory="Chapter 5"),
+        table_5_3=report("results/{dataset}/ch5/table_5_3.csv", caption="../report/table_5_3.rst",
+                         category="{dataset}", subcategory="Chapter 5"),
+        observer="results/{dataset}/ch5/observer.json",
+    params:
+        frequencies=lambda w: list(charge_sines(w.dataset)),
+        omega_s=config["observer"]["omega_s"],
+        zeta_s=config["observer"]["zeta_s"],
+    log:
+        "logs/{dataset}/charge_sensing.log",
+    benchmark:
+        "benchmarks/out/{dataset}/charge_sensing.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/charge_sensing.py"
+
+
+rule observe:
+    """The self-sensing chain (ripple → Γ → HPO) over one capture, streamed."""
+    input:
+        capture=RAW / "{dataset}" / "{experiment}.nc",
+        gamma="results/{dataset}/ch5/gamma.json",
+        observer="results/{dataset}/ch5/observer.json",
+    output:
+        traces="results/{dataset}/observer/{experiment}.nc",
+        stats="results/{dataset}/observer/{experiment}.json",
+    params:
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/observe/{experiment}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/observe/{experiment}.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/observe.py"
+
+
+rule ch5_tables:
+    """Table 5.4 (open-loop observer error) and the creep run's errors."""
+    input:
+        stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in observed_sines(w.dataset).values()],
+        creep="results/{dataset}/observer/ch5_creep.nc",
+    output:
+        table=report("results/{dataset}/ch5/table_5_4.csv", caption="../report/table_5_4.rst",
+                     category="{dataset}", subcategory="Chapter 5"),
+        creep=report("results/{dataset}/ch5/creep.csv", caption="../report/creep.rst",
+                     category="{dataset}", subcategory="Chapter 5"),
+    params:
+        frequencies=lambda w: list(observed_sines(w.dataset)),
+        step_at=lambda w: float(expand_protocols(DATASETS[w.dataset]["protocols"], config["campaign"])
+                                ["ch5_creep"].protocol.get("warmup", 0.0)),
+        transient_s=10.0,
+    log:
+        "logs/{dataset}/ch5_tables.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch5_tables.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/ch5_tables.py"
+
+
+rule observer_study:
+    """Beyond the thesis: observer error against ω_S and the offset current (1 Hz capture)."""
+    input:
+        capture=RAW / "{dataset}" / "ch5_sine_1hz.nc",
+        gamma="results/{dataset}/ch5/gamma.json",
+        observer="results/{dataset}/ch5/observer.json",
+    output:
+        table=report("results/{dataset}/ch5/observer_study.csv", caption="../report/observer_study.rst",
+                     category="{dataset}", subcategory="Chapter 5"),
+        figure=report("figures/{dataset}/fig_5_observer_study.png", caption="../report/fig_5_observer_study.rst",
+                      category="{dataset}", subcategory="Chapter 5"),
+    params:
+        omegas=config["observer"]["study_omegas"],
+        offsets=config["observer"]["study_offsets"],
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/observer_study.log",
+    benchmark:
+        "benchmarks/out/{dataset}/observer_study.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=30,
+    script:
+        "../scripts/observer_study.py"
+
+
+rule ch5_figures:
+    """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14."""
+    input:
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
+        gamma_series="results/{dataset}/ripple/ch5_sine_0p1hz.nc",
+        traces=lambda w: [f"results/{w.dataset}/observer/{e}.nc" for e in observed_sines(w.dataset).values()],
+        creep="results/{dataset}/observer/ch5_creep.nc",
+        observer="results/{dataset}/ch5/observer.json",
+    output:
+        [report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
+                subcategory="Chapter 5") for f in CH5_FIGURES],
+    params:
+        series_f=lambda w: list(sines(w.dataset, "ch5_sine_")),
+        traces_f=lambda w: list(observed_sines(w.dataset)),
+        out_dir=lambda w: f"figures/{w.dataset}",
+        n_periods=config["ripple"]["n_periods"],
+        orders=config["gamma"]["orders"],
+    log:
+        "logs/{dataset}/ch5_figures.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch5_figures.tsv"
+    threads: 1
+    resources:
+        mem_mb=1500,
+        runtime=10,
+    script:
+        "../scripts/ch5_figures.py"

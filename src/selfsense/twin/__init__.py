@@ -48,7 +48,7 @@ def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, conf
     params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
     cap = config["capture"]
     attrs = {"dataset": dataset, "protocol": exp.chapter, "campaign": config["campaign"],
-             "description": manifest["description"].strip()}
+             "description": manifest["description"].strip(), "warmup_s": float(exp.protocol.get("warmup", 0.0))}
     return simulate_capture(
         output or Path(raw_dir) / dataset / f"{experiment}.nc", params, daq_plan(manifest),
         drive_from_protocol(exp.protocol), attrs, manifest.get("seed", 0), experiment,

@@ -63,10 +63,15 @@ class Drive:
 
 
 def drive_from_protocol(protocol: Mapping[str, Any], scale: float = 1.0) -> Drive:
-    """Build a drive from a protocol entry. Position profiles are written in µm in the YAML."""
+    """Build a drive from a protocol entry. Position profiles are written in µm in the YAML.
+
+    ``warmup`` [s] prepends a hold at zero: the bench sat idle while the real-time observer
+    learned the current offset before a run started.
+    """
     quantity = protocol.get("quantity", "voltage")
     unit = 1e-6 if quantity == "position" else 1.0
-    segments = []
+    warmup = float(protocol.get("warmup", 0.0)) * scale
+    segments = [Segment(duration=warmup)] if warmup > 0 else []
     for seg in list(protocol["segments"]) * int(protocol.get("repeat", 1)):
         segments.append(Segment(
             duration=float(seg["duration"]) * scale,

@@ -1,0 +1,31 @@
+"""Rule `ch5_figures`: Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14.
+
+Alone: run through Snakemake (`snakemake figures/pi_p885/fig_5_1.png`); the inputs are many.
+"""
+
+import json
+from pathlib import Path
+
+from selfsense.capture import read_series
+from selfsense.chapters.ch5 import figures_ch5
+from selfsense.observer import HPOGains
+from selfsense.provenance import save_figure, script_logging
+
+
+def main(series, gamma_series, traces, creep, observer, out_dir, n_periods, orders, log=None):
+    """series / traces: {frequency [Hz]: path}."""
+    logger = script_logging(log)
+    o = json.loads(Path(observer).read_text())
+    built = figures_ch5({float(f): read_series(p) for f, p in series.items()}, read_series(gamma_series), n_periods,
+                        orders, {float(f): read_series(p) for f, p in traces.items()}, read_series(creep),
+                        HPOGains(o["a0"], o["omega_s"], o["zeta_s"]))
+    inputs = [*series.values(), *traces.values(), creep, observer]
+    for name, fig in built.items():
+        save_figure(fig, Path(out_dir) / f"{name}.png", inputs=inputs)
+    logger.info("wrote %s", ", ".join(sorted(built)))
+
+
+if "snakemake" in globals():
+    i, p = snakemake.input, snakemake.params
+    main(dict(zip(p.series_f, i.series)), i.gamma_series, dict(zip(p.traces_f, i.traces)), i.creep, i.observer,
+         p.out_dir, p.n_periods, p.orders, snakemake.log[0])

@@ -1,0 +1,37 @@
+"""Rule `ch5_tables`: Table 5.4 (open-loop observer error per frequency) and the creep run.
+
+Alone: python workflow/scripts/ch5_tables.py --help
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+from selfsense.capture import read_series
+from selfsense.chapters.ch5 import creep_errors, table_5_4
+from selfsense.provenance import script_logging, write_table
+
+
+def main(stats, creep_traces, creep_step_at, table, creep_table, transient_s=10.0, log=None):
+    """stats: {frequency [Hz]: observe-stats json path}."""
+    logger = script_logging(log)
+    by_f = {float(f): json.loads(Path(p).read_text()) for f, p in stats.items()}
+    write_table(table_5_4(by_f), table, inputs=list(stats.values()))
+    creep = creep_errors(read_series(creep_traces), creep_step_at, transient_s)
+    write_table(creep, creep_table, inputs=[creep_traces], config={"transient_s": transient_s})
+    logger.info("\n%s\n%s", table_5_4(by_f).to_string(), creep.to_string())
+
+
+if "snakemake" in globals():
+    p = snakemake.params
+    main(dict(zip(p.frequencies, snakemake.input.stats)), snakemake.input.creep, p.step_at,
+         snakemake.output.table, snakemake.output.creep, p.transient_s, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("creep_traces")
+    cli.add_argument("creep_step_at", type=float)
+    cli.add_argument("table")
+    cli.add_argument("creep_table")
+    cli.add_argument("--stats", nargs="+", required=True, help="frequency=path")
+    a = cli.parse_args()
+    main(dict(s.split("=", 1) for s in a.stats), a.creep_traces, a.creep_step_at, a.table, a.creep_table)

@@ -1,0 +1,47 @@
+"""Rule `observe`: the self-sensing chain (ripple → Γ → HPO) over one capture, offline.
+
+Alone: python workflow/scripts/observe.py raw/pi_p885/ch5_sine_1hz.nc results/pi_p885/ch5/gamma.json \
+    results/pi_p885/ch5/observer.json out.nc out.json --np 4
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+from selfsense.capture import SeriesWriter, open_capture
+from selfsense.chapters.ch5 import run_observer
+from selfsense.gamma import GammaPolynomial
+from selfsense.observer import HPOGains
+from selfsense.provenance import provenance, script_logging, write_json
+from selfsense.ripple import plan_from_fs
+
+UNITS = {"time": "s", "x_laser": "m", "x_hat": "m", "x_cp": "m", "i0_hat": "A"}
+
+
+def main(capture, gamma, observer, traces, stats, n_periods, log=None):
+    logger = script_logging(log)
+    g = json.loads(Path(gamma).read_text())
+    o = json.loads(Path(observer).read_text())
+    poly = GammaPolynomial(tuple(g["coefficients"]), g["g"])
+    gains = HPOGains(o["a0"], o["omega_s"], o["zeta_s"])
+    with open_capture(capture, require=("Ur", "Ir", "I", "x_laser")) as cap:
+        plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
+        settle = float(cap.attrs.get("warmup_s", 0.0))
+        result, trace = run_observer(cap.iter_chunks(("Ur", "Ir", "I", "x_laser")), plan, poly, gains, cap.fs, settle)
+        nan = dict(cap.stats.nan)
+    with SeriesWriter(traces, UNITS, {"capture": capture}) as out:
+        out.write(trace)
+    write_json(result | {"warmup [s]": settle, "NaN samples": nan,
+                         "provenance": provenance([capture, gamma, observer], {"n_periods": n_periods})}, stats)
+    logger.info("%s: %s", capture, result)
+
+
+if "snakemake" in globals():
+    i, o = snakemake.input, snakemake.output
+    main(i.capture, i.gamma, i.observer, o.traces, o.stats, snakemake.params.n_periods, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("capture", "gamma", "observer", "traces", "stats"):
+        cli.add_argument(name)
+    cli.add_argument("--np", dest="n_periods", type=int, default=4)
+    main(**vars(cli.parse_args()))

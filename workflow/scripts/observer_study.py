@@ -1,0 +1,47 @@
+"""Rule `observer_study`: observer max error against ω_S and an added offset current (one capture).
+
+Alone: python workflow/scripts/observer_study.py raw/pi_p885/ch5_sine_1hz.nc gamma.json observer.json out.csv out.png
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+from selfsense import figures
+from selfsense.capture import open_capture
+from selfsense.chapters.ch5 import observer_study
+from selfsense.gamma import GammaPolynomial
+from selfsense.provenance import save_figure, script_logging, write_table
+from selfsense.ripple import plan_from_fs
+
+CHANNELS = ("Ur", "Ir", "I", "x_laser")
+
+
+def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, log=None):
+    logger = script_logging(log)
+    g = json.loads(Path(gamma).read_text())
+    a0 = json.loads(Path(observer).read_text())["a0"]
+    with open_capture(capture, require=CHANNELS) as cap:
+        plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
+        settle, fs = float(cap.attrs.get("warmup_s", 0.0)), cap.fs
+    def chunks():
+        with open_capture(capture) as cap:
+            yield from cap.iter_chunks(CHANNELS)
+    result = observer_study(chunks, plan, GammaPolynomial(tuple(g["coefficients"]), g["g"]), a0, fs, settle,
+                            omegas, offsets)
+    cfg = {"omegas": list(omegas), "offsets": list(offsets), "n_periods": n_periods}
+    write_table(result, table, inputs=[capture, gamma, observer], config=cfg)
+    save_figure(figures.observer_study(result), figure, inputs=[capture, gamma, observer], config=cfg)
+    logger.info("\n%s", result.to_string())
+
+
+if "snakemake" in globals():
+    p = snakemake.params
+    main(snakemake.input.capture, snakemake.input.gamma, snakemake.input.observer, snakemake.output.table,
+         snakemake.output.figure, p.omegas, p.offsets, p.n_periods, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("capture", "gamma", "observer", "table", "figure"):
+        cli.add_argument(name)
+    a = cli.parse_args()
+    main(a.capture, a.gamma, a.observer, a.table, a.figure, [0.2 * 3.14159, 3.14159, 6.28319, 31.4159], [0, 0.005], 4)
