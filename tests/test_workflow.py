@@ -72,3 +72,19 @@ def test_chapter_4_tables(smoke_run):
     assert len(pd.read_csv(smoke_run / "results/pi_p885/ch4/table_4_1.csv")) == 3
     for n in range(2, 9):
         assert (smoke_run / f"figures/pi_p885/fig_4_{n}.png").exists()
+
+
+def test_chapter_5_outputs(smoke_run):
+    res = smoke_run / "results/pi_p885/ch5"
+    t51 = pd.read_csv(res / "table_5_1.csv")
+    assert list(t51["model"]) == ["j=3", "j=4", "j=5", "j=6", "ln"]
+    anova = pd.read_csv(res / "table_5_2_anova.csv").set_index("source")
+    assert anova.loc["Total", "SS"] == pytest.approx(anova.loc["Regression", "SS"] + anova.loc["Residual", "SS"])
+    t53 = pd.read_csv(res / "table_5_3.csv").set_index("parameter")
+    a0 = t53.loc["a0 [C/m]", "reproduced"]
+    assert t53.loc["L_I", "reproduced"] == pytest.approx((2 * 3.141592653589793) ** 2 * a0)
+    t54 = pd.read_csv(res / "table_5_4.csv")
+    assert list(t54["frequency [Hz]"]) == [0.01, 0.1, 1, 10, 50, 100]
+    assert t54["max error [µm]"].notna().all()
+    for f in ("fig_5_1", "fig_5_10", "fig_5_13", "fig_5_observer_study"):
+        assert (smoke_run / f"figures/pi_p885/{f}.png").exists()

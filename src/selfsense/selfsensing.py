@@ -38,10 +38,12 @@ class SelfSensingChain:
         self.masked_windows += int(np.count_nonzero(~good))
         ends, x_cp = blocks.sample_index[good] - self.n, x_cp[good]
         # sample j sees the latest window that ended strictly before it
-        latest = np.searchsorted(ends, np.arange(len(ur)), side="left") - 1
-        held = np.where(latest >= 0, x_cp[np.maximum(latest, 0)], self.x_cp)
         if x_cp.size:
+            latest = np.searchsorted(ends, np.arange(len(ur)), side="left") - 1
+            held = np.where(latest >= 0, x_cp[np.maximum(latest, 0)], self.x_cp)
             self.x_cp = float(x_cp[-1])
+        else:
+            held = np.full(len(ur), self.x_cp)
         current = np.where(np.isfinite(current), current, 0.0)
         x_hat, i0_hat = self.observer.step_full(current, held)
         self.n += len(ur)
