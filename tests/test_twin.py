@@ -145,6 +145,7 @@ class Hold:
 
     block_len = 12
     logs = ("x_ref", "x_hpo_rt", "u_cmd")
+    engage_at = 0.01
 
     def __init__(self):
         self.seen = 0
@@ -165,5 +166,7 @@ def test_controller_hook_drives_the_bench_and_logs(tmp_path, stack_params, stack
     with open_capture(path, require=["x_hpo_rt", "u_cmd"]) as cap:
         d = cap.read(["U", "u_cmd", "x_hpo_rt", "x_laser"])
     assert ctl.seen == cap.n
-    assert np.median(d["U"]) == pytest.approx(40.0, abs=0.05)
+    engaged = np.arange(cap.n) / cap.fs >= ctl.engage_at
+    assert np.median(d["U"][engaged]) == pytest.approx(40.0, abs=0.05)
+    assert np.median(d["U"][~engaged]) == pytest.approx(0.0, abs=0.05)
     np.testing.assert_allclose(d["x_hpo_rt"], d["x_laser"], atol=1e-8)

@@ -88,3 +88,17 @@ def test_chapter_5_outputs(smoke_run):
     assert t54["max error [µm]"].notna().all()
     for f in ("fig_5_1", "fig_5_10", "fig_5_13", "fig_5_observer_study"):
         assert (smoke_run / f"figures/pi_p885/{f}.png").exists()
+
+
+def test_chapter_6_realtime_audit_and_tables(smoke_run):
+    audit = pd.read_csv(smoke_run / "results/pi_p885/ch6/audit.csv")
+    assert len(audit) >= 7 and (audit["max |offline − logged| [nm]"] <= 1.0).all()
+    t61 = pd.read_csv(smoke_run / "results/pi_p885/ch6/table_6_1.csv")
+    assert set(t61["error"]) == {"e_TOL", "e_TCL", "e_OCL"}
+    t62 = pd.read_csv(smoke_run / "results/pi_p885/ch6/table_6_2.csv")
+    assert set(t62["profile"]) == {"P2a", "P2b", "P2c", "P2d"}
+    p2b = t62[(t62["profile"] == "P2b") & (t62["error"] == "e_CCL")]["max [µm]"].iloc[0]
+    p2a = t62[(t62["profile"] == "P2a") & (t62["error"] == "e_CCL")]["max [µm]"].iloc[0]
+    assert p2b > 3 * p2a  # the loop loses the 125 Hz profile
+    for n in range(2, 9):
+        assert (smoke_run / f"figures/pi_p885/fig_6_{n}.png").exists()

@@ -60,6 +60,13 @@ class ChannelSpec:
         codes[nan] = FILL
         return codes, clipped
 
+    def quantize(self, values: np.ndarray) -> np.ndarray:
+        """The values as the ADC reports them: on the int16 grid, clipped to range, NaN kept."""
+        codes, _ = self.pack(values)
+        out = codes.astype(np.float64) * self.scale_factor + self.add_offset
+        out[codes == FILL] = np.nan
+        return out
+
 
 #: Units and meaning of every channel the bench can record (DESIGN.md). Ranges are the
 #: instrument's; the manifest may override them.
@@ -262,6 +269,11 @@ class Capture:
     @property
     def duration(self) -> float:
         return self.n / self.fs
+
+    def resolution(self, name: str) -> float:
+        """One ADC step of a channel, in its units."""
+        self._require([name])
+        return float(self._nc[name].scale_factor)
 
     @property
     def has_truth(self) -> bool:

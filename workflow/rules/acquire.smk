@@ -20,6 +20,8 @@ if SIMULATED:
             capture=config["capture"],
         wildcard_constraints:
             dataset="|".join(SIMULATED),
+            # closed-loop runs need the identified model: rule simulate_closed_loop
+            experiment=r"(?![A-Za-z0-9_]*_closed)[A-Za-z0-9_]+",
         log:
             "logs/{dataset}/simulate/{experiment}.log",
         benchmark:

@@ -23,8 +23,7 @@ def _experiments(name):
             raise ValueError(f"{RAW / name / 'dataset.yaml'}: experiment {missing[0]} is listed "
                              f"without a capture {RAW / name / (missing[0] + '.nc')}")
         return {e: catalogue.get(e) for e in manifest["experiments"]}
-    # closed-loop runs need the real-time controller (Chapter 6), open-loop ones run now
-    return {e: x for e, x in catalogue.items() if x.control == "open_loop"}
+    return catalogue
 
 
 EXPERIMENTS = {name: _experiments(name) for name in DATASETS}
@@ -33,6 +32,10 @@ EXPERIMENTS = {name: _experiments(name) for name in DATASETS}
 wildcard_constraints:
     dataset=r"[A-Za-z0-9][A-Za-z0-9_-]*",
     experiment=r"[A-Za-z0-9_]+",
+
+
+def closed_loop(dataset):
+    return [e for e, x in EXPERIMENTS[dataset].items() if x is not None and x.control == "closed_loop"]
 
 
 def captures(dataset, prefix=""):

@@ -1,5 +1,120 @@
-# Stage "control": rules arrive with its issue.
+# Stage "control" (thesis Chapter 6): closed-loop runs on the twin with the real-time HPO, the
+# audit of the logged estimate, Tables 6.1–6.2, Figures 6.2–6.8.
+
+CH6_TABLES = ["table_6_1", "table_6_2", "p3", "tracking"]
+CH6_FIGURES = ["fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8"]
+
+
+def ch6_runs(dataset):
+    return [e for e in EXPERIMENTS[dataset] if e.startswith("ch6_")]
+
+
+def control_datasets():
+    return [d for d in observer_datasets() if closed_loop(d) and identify_datasets().count(d)]
 
 
 def control_outputs():
-    return []
+    out = []
+    for d in control_datasets():
+        out += [f"results/{d}/ch6/{t}.csv" for t in CH6_TABLES + ["audit"]]
+        out += [f"figures/{d}/{f}.png" for f in CH6_FIGURES]
+    return out
+
+
+if SIMULATED:
+
+    rule simulate_closed_loop:
+        """A closed-loop run on the twin; its real-time loop uses the identified Γ, a0 and k/α."""
+        input:
+            manifest=RAW / "{dataset}" / "dataset.yaml",
+            protocols=lambda w: protocol_files(w.dataset),
+            gamma="results/{dataset}/ch5/gamma.json",
+            observer="results/{dataset}/ch5/observer.json",
+            model="results/{dataset}/ch4/model.json",
+        output:
+            capture=RAW / "{dataset}" / "{experiment}.nc",
+        params:
+            campaign=config["campaign"],
+            capture=config["capture"],
+            omega_c=config["control"]["omega_c"],
+        wildcard_constraints:
+            dataset="|".join(SIMULATED),
+            experiment=r"[A-Za-z0-9_]*_closed[A-Za-z0-9_]*",
+        log:
+            "logs/{dataset}/simulate_closed_loop/{experiment}.log",
+        benchmark:
+            "benchmarks/out/{dataset}/simulate_closed_loop/{experiment}.tsv"
+        threads: 1
+        resources:
+            mem_mb=config["resources"]["simulate_mem_mb"],
+            runtime=120,
+        script:
+            "../scripts/simulate_closed_loop.py"
+
+
+rule audit_realtime:
+    """Offline HPO from the raw capture against the real-time estimate the loop logged."""
+    input:
+        capture=RAW / "{dataset}" / "{experiment}.nc",
+        gamma="results/{dataset}/ch5/gamma.json",
+        observer="results/{dataset}/ch5/observer.json",
+    output:
+        report="results/{dataset}/audit/{experiment}.json",
+    params:
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/audit_realtime/{experiment}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/audit_realtime/{experiment}.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/audit_realtime.py"
+
+
+rule audit_summary:
+    """One row per closed-loop run: max |offline − logged| HPO estimate."""
+    input:
+        reports=lambda w: [f"results/{w.dataset}/audit/{e}.json" for e in closed_loop(w.dataset)],
+    output:
+        table=report("results/{dataset}/ch6/audit.csv", caption="../report/audit.rst", category="{dataset}",
+                     subcategory="Chapter 6"),
+    log:
+        "logs/{dataset}/audit_summary.log",
+    benchmark:
+        "benchmarks/out/{dataset}/audit_summary.tsv"
+    threads: 1
+    resources:
+        mem_mb=200,
+        runtime=5,
+    script:
+        "../scripts/audit_summary.py"
+
+
+rule ch6_results:
+    """Tables 6.1–6.2, P3, the loop's tracking prediction, Figures 6.2–6.8."""
+    input:
+        captures=lambda w: [str(RAW / w.dataset / f"{e}.nc") for e in ch6_runs(w.dataset)],
+        model="results/{dataset}/ch4/model.json",
+    output:
+        **{t: report(f"results/{{dataset}}/ch6/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
+                     subcategory="Chapter 6") for t in CH6_TABLES},
+        figures=[report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
+                        subcategory="Chapter 6") for f in CH6_FIGURES],
+    params:
+        protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in ch6_runs(w.dataset)},
+        controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in ch6_runs(w.dataset)},
+        omega_c=config["control"]["omega_c"],
+        out_dir=lambda w: f"figures/{w.dataset}",
+    log:
+        "logs/{dataset}/ch6_results.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch6_results.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/ch6_results.py"

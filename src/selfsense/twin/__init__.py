@@ -10,7 +10,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Mapping
 
+from ..control import HPOIntegralController, IntegralController
+from ..gamma import GammaPolynomial
 from ..manifest import ManifestError, expand_protocols, load_dataset
+from ..observer import HPOGains
+from ..ripple import SamplingPlan
+from ..selfsensing import SelfSensingChain
+from . import bender
 from .bench import Bench, Controller, DaqPlan, simulate_capture
 from .drive import Drive, drive_from_protocol
 from .params import TwinParams
@@ -31,26 +37,49 @@ def daq_plan(manifest: Mapping) -> DaqPlan:
 
 
 def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
-                        output: str | Path | None = None) -> Path:
-    """Make raw/<dataset>/<experiment>.nc with the twin, as configured."""
+                        output: str | Path | None = None, realtime: Mapping | None = None) -> Path:
+    """Make raw/<dataset>/<experiment>.nc with the twin, as configured.
+
+    Closed-loop experiments also need ``realtime``: see :func:`realtime_controller`.
+    """
     manifest = load_dataset(raw_dir, dataset)
     where = Path(raw_dir) / dataset / "dataset.yaml"
     if manifest["source"] != "simulated":
         raise ManifestError(f"{where}: source is {manifest['source']}; the twin never writes measured captures")
-    if manifest["model"] != "stack":
-        raise ManifestError(f"{where}: model {manifest['model']!r} has no twin yet")
     catalogue = expand_protocols(manifest["protocols"], config["campaign"])
     if experiment not in catalogue:
         raise ManifestError(f"{where}: unknown experiment {experiment!r} for campaign {config['campaign']}")
     exp = catalogue[experiment]
-    if exp.control != "open_loop":
-        raise ManifestError(f"{where}: experiment {experiment} needs the real-time controller")
-    params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
     cap = config["capture"]
+    warmup = float(exp.protocol.get("warmup", 0.0))
     attrs = {"dataset": dataset, "protocol": exp.chapter, "campaign": config["campaign"],
-             "description": manifest["description"].strip(), "warmup_s": float(exp.protocol.get("warmup", 0.0))}
+             "description": manifest["description"].strip(), "warmup_s": warmup, "control": exp.control}
+    path = output or Path(raw_dir) / dataset / f"{experiment}.nc"
+    if manifest["model"] == "bender":
+        return bender.simulate_experiment(path, manifest["twin"], daq_plan(manifest), exp, attrs,
+                                          manifest.get("seed", 0), cap, f"{where}: twin")
+    params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
+    daq = daq_plan(manifest)
+    drive = drive_from_protocol(exp.protocol)
+    controller = None
+    if exp.control == "closed_loop":
+        if realtime is None:
+            raise ManifestError(f"{where}: experiment {experiment} needs the real-time controller's Γ, a0 and k/α")
+        controller = realtime_controller(daq, drive, warmup, config["ripple"]["n_periods"], realtime)
     return simulate_capture(
-        output or Path(raw_dir) / dataset / f"{experiment}.nc", params, daq_plan(manifest),
-        drive_from_protocol(exp.protocol), attrs, manifest.get("seed", 0), experiment,
-        load_stiffness=exp.load_stiffness, chunk_len=cap["chunk_len"],
+        path, params, daq, drive, attrs, manifest.get("seed", 0), experiment,
+        load_stiffness=exp.load_stiffness, controller=controller, chunk_len=cap["chunk_len"],
         truth_decimation=cap["truth_decimation"], zlib=cap["zlib"], complevel=cap["complevel"])
+
+
+def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int, realtime: Mapping):
+    """The bench's real-time loop (Chapter 6) from the identified Γ, a0 and k/α.
+
+    ``realtime`` holds ``gamma`` (coefficients, g), ``a0``, ``omega_s``, ``zeta_s``,
+    ``k_over_alpha`` and ``omega_c``: what the bench's loop was configured with.
+    """
+    plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
+    gamma = GammaPolynomial(tuple(realtime["gamma"]["coefficients"]), realtime["gamma"]["g"])
+    chain = SelfSensingChain(plan, gamma, HPOGains(realtime["a0"], realtime["omega_s"], realtime["zeta_s"]), daq.fs)
+    gains = IntegralController(realtime["omega_c"], realtime["k_over_alpha"])
+    return HPOIntegralController(chain, gains, drive, daq.fs, plan.ns, warmup)

@@ -48,6 +48,7 @@ class Controller(Protocol):
 
     block_len: int
     logs: tuple[str, ...]
+    engage_at: float  # [s] before this the loop is open (U = 0) and the controller only observes
 
     def command(self, t: np.ndarray) -> np.ndarray:
         """Drive voltage for the block starting at t[0] (from what was observed before it)."""
@@ -74,6 +75,8 @@ class Bench:
         self.T_amb = params.thermal.T_amb if T_amb is None else T_amb
         self.state = kernel.initial_state(self.kc, self.T_amb)
         self.load_stiffness = load_stiffness
+        # the real-time loop and the capture both see the ADC's quantised values
+        self.adc = {c: channel_spec(c, *daq.ranges[c]) for c in daq.channels if c not in SLOW_CHANNELS}
         ins = params.instruments
         self.ripple = RippleSource(params.ripple, daq.fs, rng)
         self.hp_u = HighPass(params.ripple.highpass_hz, daq.fs)
@@ -99,6 +102,7 @@ class Bench:
             "F": (ins.F_preload + (self.p.stack.k_spring + self.load_stiffness) * x
                   + self.p.stack.m * a + ins.F_noise * gauss(n)),
         }
+        measured = {c: self.adc[c].quantize(v) if c in self.adc else v for c, v in measured.items()}
         truth = {"x": x, "q": q, "U_P": U_P, "U_H": U_H, "T": T, "C_P": C_P,
                  "R_e": effective_resistance(C_P, self.p.ripple), "I_offset": I0, "U_drive": U}
         return measured, truth
@@ -170,11 +174,15 @@ def simulate_capture(
 
 
 def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
+    """Step the bench block by block under the controller (one block of delay, as a DAQ loop)."""
     parts: list[tuple[dict, dict, Mapping]] = []
+    idle = int(np.count_nonzero(t < controller.engage_at))
+    if idle:  # loop still open: one step for the whole stretch, the controller only observes
+        measured, truth = bench.step(t[:idle], np.zeros(idle))
+        parts.append((measured, truth, controller.observe(t[:idle], measured)))
     b = controller.block_len
-    for s in range(0, len(t), b):
+    for s in range(idle, len(t), b):
         tb = t[s:s + b]
         measured, truth = bench.step(tb, controller.command(tb))
         parts.append((measured, truth, controller.observe(tb, measured)))
     return tuple({k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3))
-

@@ -1,0 +1,128 @@
+"""Chapter 6: closed-loop control with HPO feedback — Tables 6.1–6.2, the audit, Figures 6.2–6.8.
+
+Error names as in the thesis: ε_O = x_laser − x̂ (observer), ε_C = x_R − x̂ (controller),
+ε_T = x_R − x_laser (total); OL/CL = open/closed loop.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+SEGMENTS = "abcdefgh"
+THESIS_TABLE_6_1 = {  # error: (max, mean, σ) per segment a–h [µm]
+    "e_TOL": ((0.89, 3.08, 0.89, 1.75, 1.73, 1.62, 0.76, 1.85), (0.54, 2.69, 0.60, 1.38, 1.33, 1.34, 0.48, 1.52),
+              (0.15, 0.16, 0.14, 0.14, 0.17, 0.15, 0.10, 0.17)),
+    "e_TCL": ((0.83, 0.99, 0.83, 0.82, 0.89, 0.66, 0.95, 0.63), (0.45, 0.78, 0.58, 0.34, 0.40, 0.36, 0.63, 0.31),
+              (0.18, 0.14, 0.17, 0.15, 0.17, 0.11, 0.17, 0.13)),
+    "e_OCL": ((0.78, 0.93, 0.85, 0.90, 0.78, 0.64, 0.92, 0.84), (0.41, 0.72, 0.56, 0.44, 0.39, 0.38, 0.58, 0.40),
+              (0.18, 0.14, 0.15, 0.15, 0.14, 0.11, 0.16, 0.14)),
+}
+THESIS_TABLE_6_2 = {  # profile: {error: (µm, % of stroke)}
+    "P2a": {"e_OCL": (0.82, 2.74), "e_CCL": (0.69, 2.3), "e_TCL": (1.46, 4.86), "e_TOL": (3.51, 11.72)},
+    "P2b": {"e_OCL": (0.92, 3.08), "e_CCL": (9.84, 32.82), "e_TCL": (9.7, 32.34), "e_TOL": (6.93, 23.11)},
+    "P2c": {"e_OCL": (0.91, 3.04), "e_CCL": (2.32, 7.74), "e_TCL": (2.81, 9.29), "e_TOL": (4.52, 15.08)},
+    "P2d": {"e_OCL": (0.89, 2.95), "e_CCL": (4.42, 14.74), "e_TCL": (4.74, 15.81), "e_TOL": (5.86, 19.54)},
+}
+
+
+def errors(x_ref: np.ndarray, x_laser: np.ndarray, x_hat: np.ndarray | None, closed: bool) -> dict[str, np.ndarray]:
+    """The thesis's error signals for one run (positions zeroed at the run's start)."""
+    loop = "CL" if closed else "OL"
+    out = {f"e_T{loop}": x_ref - x_laser}
+    if x_hat is not None:
+        out[f"e_O{loop}"] = x_laser - x_hat
+        out[f"e_C{loop}"] = x_ref - x_hat
+    return out
+
+
+def segment_maxima(t: np.ndarray, errs: Mapping[str, np.ndarray], starts: Sequence[float], ends: Sequence[float],
+                   settle: float) -> dict[str, list[float]]:
+    """Per error signal, the max |ε| in each segment's steady window [start + settle, end)."""
+    out = {}
+    for name, e in errs.items():
+        out[name] = [float(np.max(np.abs(e[(t >= a + settle) & (t < b)]))) for a, b in zip(starts, ends)]
+    return out
+
+
+def table_6_1(per_test: Mapping[str, list[list[float]]]) -> pd.DataFrame:
+    """Max, mean and σ over the tests of the per-segment maxima (µm), beside the thesis's."""
+    rows = []
+    for name in ("e_TOL", "e_TCL", "e_OCL"):
+        if name not in per_test:
+            continue
+        m = np.asarray(per_test[name]) * 1e6  # tests × segments
+        pub = THESIS_TABLE_6_1[name]
+        for stat, values, published in (("max", m.max(axis=0), pub[0]), ("mean", m.mean(axis=0), pub[1]),
+                                        ("σ", m.std(axis=0, ddof=1) if len(m) > 1 else np.full(m.shape[1], np.nan),
+                                         pub[2])):
+            row = {"error": name, "statistic": stat, "tests": len(m)}
+            row |= {f"{seg} [µm]": float(v) for seg, v in zip(SEGMENTS, values)}
+            row |= {f"thesis {seg} [µm]": p for seg, p in zip(SEGMENTS, published)}
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def profile_errors(profile: str, t: np.ndarray, errs: Mapping[str, np.ndarray], stroke: float,
+                   after: float) -> list[dict]:
+    """Table 6.2 rows of one profile: max |ε| [µm] and % of stroke after ``after`` seconds."""
+    rows = []
+    for name, e in sorted(errs.items()):
+        m = float(np.max(np.abs(e[t >= after])))
+        pub = THESIS_TABLE_6_2.get(profile, {}).get(name, (np.nan, np.nan))
+        rows.append({"profile": profile, "error": name, "max [µm]": m * 1e6, "% of stroke": 100 * m / stroke,
+                     "thesis [µm]": pub[0], "thesis [%]": pub[1]})
+    return rows
+
+
+def p3_summary(t: np.ndarray, open_run: Mapping[str, np.ndarray], closed_run: Mapping[str, np.ndarray],
+               hold_start: float, settle: float = 1.0) -> pd.DataFrame:
+    """P3: the HPO error during the hold (thesis 0.53 µm) and the creep open vs closed loop."""
+    hold = t >= hold_start + settle
+
+    def drift(x):
+        return float(x[hold][-1] - x[hold][0]) * 1e6
+
+    return pd.DataFrame([
+        {"quantity": "max HPO error during the hold (closed loop)", "value [µm]":
+            float(np.max(np.abs(closed_run["x_laser"][hold] - closed_run["x_hat"][hold]))) * 1e6, "thesis [µm]": 0.53},
+        {"quantity": "creep over the hold, open loop", "value [µm]": drift(open_run["x_laser"]),
+         "thesis [µm]": "< 1"},
+        {"quantity": "creep over the hold, closed loop", "value [µm]": drift(closed_run["x_laser"]),
+         "thesis [µm]": np.nan},
+    ])
+
+
+def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataFrame) -> dict:
+    """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}})."""
+    from .. import figures
+
+    out = {}
+    p1o, p1c = runs.get("ch6_p1_open_s1"), runs.get("ch6_p1_closed_s1")
+    if p1o is not None and p1c is not None:
+        out["fig_6_2"] = figures.time_traces(p1c["t"], [(p1c["x_ref"] * 1e6, "x_R [µm]"),
+                                                        (p1c["x_laser"] * 1e6, "x closed loop [µm]"),
+                                                        (p1o["x_laser"] * 1e6, "x open loop [µm]")],
+                                             "P1: steps with minor loops (segments a–h)")
+        out["fig_6_3"] = figures.time_traces(p1c["t"], [((p1o["x_ref"] - p1o["x_laser"]) * 1e6, "ε_TOL [µm]"),
+                                                        ((p1c["x_ref"] - p1c["x_laser"]) * 1e6, "ε_TCL [µm]"),
+                                                        ((p1c["x_laser"] - p1c["x_hat"]) * 1e6, "ε_OCL [µm]")],
+                                             "P1 errors, open and closed loop")
+    for n, p in zip((4, 5, 6, 7), ("p2a", "p2b", "p2c", "p2d")):
+        o, c = runs.get(f"ch6_{p}_open"), runs.get(f"ch6_{p}_closed")
+        if o is None or c is None:
+            continue
+        out[f"fig_6_{n}"] = figures.time_traces(c["t"], [(c["x_ref"] * 1e6, "x_R [µm]"),
+                                                         (c["x_laser"] * 1e6, "x closed [µm]"),
+                                                         (o["x_laser"] * 1e6, "x open [µm]"),
+                                                         ((c["x_ref"] - c["x_laser"]) * 1e6, "ε_TCL [µm]")],
+                                                f"{p.upper()}: tracking open and closed loop")
+    o, c = runs.get("ch6_p3_open"), runs.get("ch6_p3_closed")
+    if o is not None and c is not None:
+        out["fig_6_8"] = figures.time_traces(c["t"], [(o["U"], "U open loop [V]"), (c["U"], "U closed loop [V]"),
+                                                      (o["x_laser"] * 1e6, "x open [µm]"),
+                                                      (c["x_laser"] * 1e6, "x closed [µm]")],
+                                             "P3: 50 Hz transient then DC; voltage open vs closed loop")
+    return out

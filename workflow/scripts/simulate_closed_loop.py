@@ -1,0 +1,41 @@
+"""Rule `simulate_closed_loop`: a closed-loop experiment on the twin, its real-time loop configured
+with the identified Γ (Ch 5), a0 (Ch 5) and k/α (Ch 4), as the bench's loop was.
+
+Alone: python workflow/scripts/simulate_closed_loop.py pi_p885 ch6_p2a_closed results/pi_p885/ch5/gamma.json \
+    results/pi_p885/ch5/observer.json results/pi_p885/ch4/model.json --config tests/config/smoke.yaml
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+from selfsense.manifest import load_config
+from selfsense.provenance import script_logging
+from selfsense.twin import simulate_experiment
+
+
+def realtime(gamma, observer, model, omega_c):
+    o = json.loads(Path(observer).read_text())
+    return {"gamma": json.loads(Path(gamma).read_text()), "a0": o["a0"], "omega_s": o["omega_s"],
+            "zeta_s": o["zeta_s"], "k_over_alpha": json.loads(Path(model).read_text())["k_over_alpha"],
+            "omega_c": omega_c}
+
+
+def main(dataset, experiment, gamma, observer, model, config, output=None, log=None):
+    logger = script_logging(log)
+    rt = realtime(gamma, observer, model, config["control"]["omega_c"])
+    path = simulate_experiment(config["raw_dir"], dataset, experiment, config, output, realtime=rt)
+    logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", path, rt["k_over_alpha"], rt["a0"])
+
+
+if "snakemake" in globals():
+    i = snakemake.input
+    main(snakemake.wildcards.dataset, snakemake.wildcards.experiment, i.gamma, i.observer, i.model,
+         snakemake.config, snakemake.output.capture, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("dataset", "experiment", "gamma", "observer", "model"):
+        cli.add_argument(name)
+    cli.add_argument("--config", default="config.yaml")
+    a = cli.parse_args()
+    main(a.dataset, a.experiment, a.gamma, a.observer, a.model, load_config(a.config))
