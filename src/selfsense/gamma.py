@@ -426,7 +426,7 @@ class GammaPolynomial:
         return cls(powers, float(coefs.get("g", 0.0)))
 
     def predict(self, C: ArrayLike, temperature: ArrayLike | None = None) -> np.ndarray:
-        """x [m] from C [F] (and T [°C] when g ≠ 0)."""
+        """x [m] from C [F] (and T [°C], used only when g ≠ 0)."""
         x_um = Polynomial(self.coefficients)(np.asarray(C, dtype=float) * _UF_PER_F)
         if self.g:
             x_um = x_um + self.g * np.asarray(temperature, dtype=float)

@@ -16,8 +16,9 @@ from .ripple import RippleExtractor, SamplingPlan
 class SelfSensingChain:
     """Per-sample position estimate from ripple voltage/current and drive current.
 
-    x_CP = Γ(C_e) becomes available at the end of each ripple window and is held until the
-    next one, as the real-time system holds it; a window whose C_e is not finite (a NaN burst
+    x_CP = Γ(C_e) — or Γ_T(C_e, T) with the stack temperature in :attr:`temperature` [°C]
+    (Eq 7.13, Chapter 7) — becomes available at the end of each ripple window and is held until
+    the next one, as the real-time system holds it; a window whose C_e is not finite (a NaN burst
     in the capture) keeps the previous x_CP, so one bad window cannot poison the observer.
     """
 
@@ -27,13 +28,14 @@ class SelfSensingChain:
         self.gamma = gamma
         self.observer = HybridPositionObserver(gains, fs, method)
         self.x_cp = 0.0
+        self.temperature = 23.0
         self.n = 0
         self.masked_windows = 0
 
     def process(self, ur: np.ndarray, ir: np.ndarray, current: np.ndarray) -> dict[str, np.ndarray]:
         """One chunk: returns per-sample x̂ (x_hat), held x_CP (x_cp) and Î0 (i0_hat)."""
         blocks = self.extractor.process(ur, ir)
-        x_cp = self.gamma.predict(blocks.C_e)
+        x_cp = self.gamma.predict(blocks.C_e, self.temperature)
         good = np.isfinite(x_cp)
         self.masked_windows += int(np.count_nonzero(~good))
         ends, x_cp = blocks.sample_index[good] - self.n, x_cp[good]

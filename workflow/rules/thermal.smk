@@ -1,5 +1,161 @@
-# Stage "thermal": rules arrive with its issue.
+# Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
+# 7.3), the coupled observer/thermal estimation, Figures 7.1–7.12.
+
+CH7_COUPLED = ["ch7_freq_100hz", "ch7_freq_50hz", "ch7_mixed_ae"]
+CH7_CHECKS = ["ch7_heat_cool", "ch7_mixed_voltage"]
+THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
+GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
+                  "coefficients": "table_7_3_coefficients.csv"}
+
+
+def thermal_datasets():
+    return [d for d in control_datasets() + [d for d in observer_datasets() if d in identify_datasets()]
+            if sines(d, "ch7_freq_") and {"ch7_volt_150hz", *CH7_CHECKS, *CH7_COUPLED} <= set(EXPERIMENTS[d])
+            and has_channels(d, "T_mid")]
 
 
 def thermal_outputs():
-    return []
+    out = []
+    for d in sorted(set(thermal_datasets())):
+        out += [f"results/{d}/ch7/{t}.csv" for t in THERMAL_TABLES + ["coupled"]]
+        out += [f"results/{d}/ch7/{v}" for v in GAMMA_T_TABLES.values()]
+        out += [f"figures/{d}/fig_7_{n}.png" for n in (1, 2, 3, 5, 6, 7, 10, 11, 12)]
+        if "twin" in DATASETS[d]:
+            out.append(f"results/{d}/twin/thermal_recovery.csv")
+    return out
+
+
+rule thermal_extract:
+    """Loss power per 0.1 s with the IR temperatures, and C_e/x samples for Γ_T (streamed)."""
+    input:
+        capture=RAW / "{dataset}" / "{experiment}.nc",
+        model="results/{dataset}/ch4/model.json",
+    output:
+        power="results/{dataset}/thermal/{experiment}.nc",
+        samples="results/{dataset}/thermal/{experiment}_gamma.nc",
+    params:
+        n_periods=config["ripple"]["n_periods"],
+        interval=0.1,
+        every=200,
+    log:
+        "logs/{dataset}/thermal_extract/{experiment}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/thermal_extract/{experiment}.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=60,
+    script:
+        "../scripts/thermal_extract.py"
+
+
+rule thermal_identify:
+    """τ, γ, k_T per heating run and Table 7.1; trends with frequency and V²; prediction errors."""
+    input:
+        freq_series=lambda w: [f"results/{w.dataset}/thermal/{e}.nc" for e in sines(w.dataset, "ch7_freq_").values()],
+        volt_series="results/{dataset}/thermal/ch7_volt_150hz.nc",
+        check_series=[f"results/{{dataset}}/thermal/{e}.nc" for e in CH7_CHECKS],
+        manifest=RAW / "{dataset}" / "dataset.yaml",
+        model="results/{dataset}/ch4/model.json",
+    output:
+        **{t: report(f"results/{{dataset}}/ch7/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
+                     subcategory="Chapter 7") for t in THERMAL_TABLES},
+        thermal_model="results/{dataset}/ch7/thermal_model.json",
+        figures=[report(f"figures/{{dataset}}/fig_7_{n}.png", caption=f"../report/fig_7_{n}.rst", category="{dataset}",
+                        subcategory="Chapter 7") for n in (1, 2, 3, 5, 6)],
+    params:
+        freqs=lambda w: list(sines(w.dataset, "ch7_freq_")),
+        checks=CH7_CHECKS,
+        volt_segments=lambda w: EXPERIMENTS[w.dataset]["ch7_volt_150hz"].protocol["segments"],
+        out_dir=lambda w: f"figures/{w.dataset}",
+    log:
+        "logs/{dataset}/thermal_identify.log",
+    benchmark:
+        "benchmarks/out/{dataset}/thermal_identify.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/thermal_identify.py"
+
+
+rule gamma_t_fit:
+    """Γ_T of orders 4–6 with temperature, and with a C·T interaction, on the 50 Hz run."""
+    input:
+        samples="results/{dataset}/thermal/ch7_freq_50hz_gamma.nc",
+        power="results/{dataset}/thermal/ch7_freq_50hz.nc",
+    output:
+        **{k: report(f"results/{{dataset}}/ch7/{v}", caption=f"../report/{k}_t.rst", category="{dataset}",
+                     subcategory="Chapter 7") for k, v in GAMMA_T_TABLES.items()},
+        gamma_t="results/{dataset}/ch7/gamma_t.json",
+        figure=report("figures/{dataset}/fig_7_7.png", caption="../report/fig_7_7.rst", category="{dataset}",
+                      subcategory="Chapter 7"),
+    params:
+        orders=[4, 5, 6],
+        order=5,
+    log:
+        "logs/{dataset}/gamma_t_fit.log",
+    benchmark:
+        "benchmarks/out/{dataset}/gamma_t_fit.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/gamma_t_fit.py"
+
+
+rule coupled:
+    """Temperature-compensated observer coupled with the thermal model over one run (Fig 7.9)."""
+    input:
+        capture=RAW / "{dataset}" / "{experiment}.nc",
+        power="results/{dataset}/thermal/{experiment}.nc",
+        gamma_t="results/{dataset}/ch7/gamma_t.json",
+        observer="results/{dataset}/ch5/observer.json",
+        thermal_model="results/{dataset}/ch7/thermal_model.json",
+        model="results/{dataset}/ch4/model.json",
+    output:
+        traces="results/{dataset}/ch7/coupled/{experiment}.nc",
+        stats="results/{dataset}/ch7/coupled/{experiment}.json",
+    params:
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/coupled/{experiment}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/coupled/{experiment}.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=60,
+    script:
+        "../scripts/coupled.py"
+
+
+rule ch7_summary:
+    """Coupled-estimation errors beside the thesis, Figures 7.10–7.12, thermal parameter recovery."""
+    input:
+        stats=[f"results/{{dataset}}/ch7/coupled/{e}.json" for e in CH7_COUPLED],
+        traces=[f"results/{{dataset}}/ch7/coupled/{e}.nc" for e in CH7_COUPLED],
+        table_7_1="results/{dataset}/ch7/table_7_1.csv",
+        truth_capture=RAW / "{dataset}" / "ch7_freq_100hz.nc",
+    output:
+        coupled=report("results/{dataset}/ch7/coupled.csv", caption="../report/coupled.rst", category="{dataset}",
+                       subcategory="Chapter 7"),
+        recovery=report("results/{dataset}/twin/thermal_recovery.csv", caption="../report/thermal_recovery.rst",
+                        category="{dataset}", subcategory="Twin validation"),
+        figures=[report(f"figures/{{dataset}}/fig_7_{n}.png", caption=f"../report/fig_7_{n}.rst",
+                        category="{dataset}", subcategory="Chapter 7") for n in (10, 11, 12)],
+    params:
+        runs=CH7_COUPLED,
+        out_dir=lambda w: f"figures/{w.dataset}",
+    log:
+        "logs/{dataset}/ch7_summary.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch7_summary.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=10,
+    script:
+        "../scripts/ch7_summary.py"

@@ -1,0 +1,49 @@
+"""Rule `thermal_extract`: loss power per 0.1 s (Eq 7.4) with the IR temperatures, and C_e/x samples
+for Γ_T, from one Chapter 7 capture (streamed).
+
+Alone: python workflow/scripts/thermal_extract.py raw/pi_p885/ch7_freq_50hz.nc results/pi_p885/ch4/model.json p.nc g.nc
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from selfsense.capture import SeriesWriter, open_capture
+from selfsense.chapters.ch7 import extract
+from selfsense.provenance import script_logging
+from selfsense.ripple import plan_from_fs
+
+FAST = ("U", "I", "x_laser", "Ur", "Ir")
+
+
+def main(capture, model, power, samples, n_periods, interval=0.1, every=200, log=None):
+    logger = script_logging(log)
+    k_over_alpha = json.loads(Path(model).read_text())["k_over_alpha"]
+    with open_capture(capture, require=FAST + ("T_mid",)) as cap:
+        plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
+        parts = list(extract(cap.iter_chunks(FAST), cap.fs, plan, k_over_alpha, interval, every))
+        slow = [c for c in ("T_top", "T_mid", "T_bot") if c in cap.channels]
+        temps = cap.read(slow, dim="time_slow")
+    P = {k: np.concatenate([p[0][k] for p in parts]) for k in ("time", "P_PS")}
+    n = min(len(P["time"]), len(temps["T_mid"]))
+    with SeriesWriter(power, {"time": "s", "P_PS": "W"} | {c: "degC" for c in slow}, {"capture": capture}) as w:
+        w.write({"time": P["time"][:n], "P_PS": P["P_PS"][:n]} | {c: temps[c][:n] for c in slow})
+    G = {k: np.concatenate([p[1][k] for p in parts]) for k in ("time", "C_e", "x_laser")}
+    with SeriesWriter(samples, {"time": "s", "C_e": "F", "x_laser": "m"}, {"capture": capture}) as w:
+        w.write(G)
+    logger.info("%s: %d power intervals, %d Γ_T samples, mean power %.3f W", capture, n, len(G["time"]),
+                float(np.mean(P["P_PS"])))
+
+
+if "snakemake" in globals():
+    p = snakemake.params
+    main(snakemake.input.capture, snakemake.input.model, snakemake.output.power, snakemake.output.samples,
+         p.n_periods, p.interval, p.every, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("capture", "model", "power", "samples"):
+        cli.add_argument(name)
+    cli.add_argument("--np", dest="n_periods", type=int, default=4)
+    main(**vars(cli.parse_args()))
