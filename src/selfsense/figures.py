@@ -173,3 +173,11 @@ def magnitude_plot(freqs_hz, curves: dict, title):
     ax.grid(alpha=0.3, which="both")
     ax.legend()
     return fig
+
+
+def placeholder(title: str, reason: str):
+    """A figure that says why its content could not be computed for this campaign or dataset."""
+    fig, ax = _fig()
+    ax.text(0.5, 0.5, reason, ha="center", va="center", wrap=True)
+    ax.set(title=title, xticks=[], yticks=[])
+    return fig

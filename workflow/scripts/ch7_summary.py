@@ -26,19 +26,22 @@ def main(stats, traces, table_7_1, truth_capture, out, out_dir, log=None):
         rows.append({"run": run} | s | ({f"thesis {k}": v for k, v in THESIS_MIXED.items()} if run == "ch7_mixed_ae" else {}))
     write_table(pd.DataFrame(rows), out["coupled"], inputs=list(stats.values()))
     for n, run in zip((10, 11, 12), ("ch7_freq_100hz", "ch7_freq_50hz", "ch7_mixed_ae")):
-        if run in traces:
-            tr = read_series(traces[run])
+        tr = read_series(traces[run])
+        if not len(tr["time"]):
+            fig = figures.placeholder(f"Figure 7.{n}", json.loads(Path(stats[run]).read_text())["note"])
+        else:
             fig = figures.time_traces(tr["time"], [(tr["T_mid"], "T measured [°C]"), (tr["T_SH_PS"], "T_SH(PS) [°C]"),
                                                    (tr["T_SH_HPO"], "T_SH(HPO) [°C]"),
                                                    (tr["T_SH_HPO"] - tr["T_mid"], "T_SH(HPO) − T [K]")],
                                       f"{run}: temperature from the laser and from the observer")
-            save_figure(fig, Path(out_dir) / f"fig_7_{n}.png", inputs=[traces[run]])
-    identified = pd.read_csv(table_7_1).set_index("parameter")["reproduced"]
+        save_figure(fig, Path(out_dir) / f"fig_7_{n}.png", inputs=[traces[run]])
+    t71 = pd.read_csv(table_7_1)
+    identified = t71.set_index("parameter")["reproduced"] if "parameter" in t71 else pd.Series(dtype=float)
     with open_capture(truth_capture) as cap:
         truth, _ = cap.read_truth()
     recovery = pd.DataFrame([
-        {"parameter": name, "truth": float(truth[attr]), "identified": float(identified[key]),
-         "error [%]": 100 * (float(identified[key]) / float(truth[attr]) - 1)}
+        {"parameter": name, "truth": float(truth[attr]), "identified": float(identified.get(key, float("nan"))),
+         "error [%]": 100 * (float(identified.get(key, float("nan"))) / float(truth[attr]) - 1)}
         for name, attr, key in (("tau [s]", "thermal_tau", "tau [s]"), ("gamma [K/W]", "thermal_gamma", "gamma [K/W]"),
                                 ("k_T [W/(m² K)]", "thermal_k_T", "k_T [W/(m² K)]"))])
     write_table(recovery, out["recovery"], inputs=[table_7_1, truth_capture])

@@ -25,6 +25,13 @@ def main(capture, power, gamma_t, observer, thermal_model, model, traces, stats,
     g, o = json.loads(Path(gamma_t).read_text()), json.loads(Path(observer).read_text())
     th = json.loads(Path(thermal_model).read_text())
     k_over_alpha = json.loads(Path(model).read_text())["k_over_alpha"]
+    units = {"time": "s", "T_SH_HPO": "degC", "T_SH_PS": "degC", "T_mid": "degC"}
+    if not th["identified"]:  # nothing to couple with: skip, and say why
+        with SeriesWriter(traces, units) as w:
+            w.write({k: [] for k in units})
+        write_json({"note": f"skipped: {th['reason']}", "provenance": provenance([thermal_model])}, stats)
+        logger.warning("%s: skipped, %s", capture, th["reason"])
+        return
     with open_capture(capture, require=CHANNELS) as cap:
         plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
         out, result = coupled_estimation(cap.iter_chunks(CHANNELS), cap.fs, plan,
@@ -37,7 +44,7 @@ def main(capture, power, gamma_t, observer, thermal_model, model, traces, stats,
     out = {k: v[:n] for k, v in out.items()} | {"T_mid": measured["T_mid"][:n]}
     for key in ("T_SH_HPO", "T_SH_PS"):
         result[f"max |{key} − T| [K]"] = float(np.max(np.abs(out[key] - out["T_mid"])))
-    with SeriesWriter(traces, {"time": "s", "T_SH_HPO": "degC", "T_SH_PS": "degC", "T_mid": "degC"}) as w:
+    with SeriesWriter(traces, units) as w:
         w.write(out)
     write_json(result | {"provenance": provenance([capture, power, gamma_t, observer, thermal_model, model])}, stats)
     logger.info("%s: %s", capture, result)

@@ -54,6 +54,11 @@ def identify(series: Mapping[str, Mapping[str, np.ndarray]], props: ThermalPrope
         except ValueError as err:  # a run too short to see τ (e.g. the smoke campaign): say so
             rows.append({"run": name, "note": f"not identifiable: {err}"})
             continue
+        span = float(s["time"][-1] - s["time"][0])
+        if span < 3 * fit.tau or fit.r_squared < 0.9:
+            rows.append({"run": name, "note": f"not identifiable: {span:.3g} s of data for τ = {fit.tau:.3g} s, "
+                                              f"R² = {fit.r_squared:.3f}"})
+            continue
         fits[name] = fit
         rows.append({"run": name, "tau [s]": fit.tau, "gamma [K/W]": fit.gamma,
                      "k_T from tau [W/(m² K)]": fit.k_T_from_tau, "k_T from gamma [W/(m² K)]": fit.k_T_from_gamma,
