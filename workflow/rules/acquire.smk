@@ -12,7 +12,7 @@ if SIMULATED:
         """Run one experiment of the catalogue on the digital twin."""
         input:
             manifest=RAW / "{dataset}" / "dataset.yaml",
-            protocols=lambda w: protocol_files(w.dataset),
+            protocol=lambda w: protocol_file(w.dataset, w.experiment),
         output:
             capture=RAW / "{dataset}" / "{experiment}.nc",
         params:

@@ -43,8 +43,9 @@ def captures(dataset, prefix=""):
     return [str(RAW / dataset / f"{e}.nc") for e in EXPERIMENTS[dataset] if e.startswith(prefix)]
 
 
-def protocol_files(dataset):
-    return [f"workflow/protocols/{p}.yaml" for p in DATASETS[dataset]["protocols"]]
+def protocol_file(dataset, experiment):
+    """The catalogue file an experiment comes from: a capture depends on its own protocol only."""
+    return f"workflow/protocols/{EXPERIMENTS[dataset][experiment].chapter}.yaml"
 
 
 def has_channels(dataset, *channels):

@@ -27,7 +27,7 @@ if SIMULATED:
         """A closed-loop run on the twin; its real-time loop uses the identified Γ, a0 and k/α."""
         input:
             manifest=RAW / "{dataset}" / "dataset.yaml",
-            protocols=lambda w: protocol_files(w.dataset),
+            protocol=lambda w: protocol_file(w.dataset, w.experiment),
             gamma="results/{dataset}/ch5/gamma.json",
             observer="results/{dataset}/ch5/observer.json",
             model="results/{dataset}/ch4/model.json",
