@@ -10,7 +10,7 @@ def ch6_runs(dataset):
 
 
 def control_datasets():
-    return [d for d in observer_datasets() if closed_loop(d) and identify_datasets().count(d)]
+    return [d for d in observer_datasets() if closed_loop(d) and d in identify_datasets()]
 
 
 def control_outputs():

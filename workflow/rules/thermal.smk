@@ -9,14 +9,13 @@ GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
 
 
 def thermal_datasets():
-    return [d for d in control_datasets() + [d for d in observer_datasets() if d in identify_datasets()]
-            if sines(d, "ch7_freq_") and {"ch7_volt_150hz", *CH7_CHECKS, *CH7_COUPLED} <= set(EXPERIMENTS[d])
-            and has_channels(d, "T_mid")]
+    return [d for d in observer_datasets() if d in identify_datasets() and sines(d, "ch7_freq_")
+            and {"ch7_volt_150hz", *CH7_CHECKS, *CH7_COUPLED} <= set(EXPERIMENTS[d]) and has_channels(d, "T_mid")]
 
 
 def thermal_outputs():
     out = []
-    for d in sorted(set(thermal_datasets())):
+    for d in thermal_datasets():
         out += [f"results/{d}/ch7/{t}.csv" for t in THERMAL_TABLES + ["coupled"]]
         out += [f"results/{d}/ch7/{v}" for v in GAMMA_T_TABLES.values()]
         out += [f"figures/{d}/fig_7_{n}.png" for n in (1, 2, 3, 5, 6, 7, 10, 11, 12)]
