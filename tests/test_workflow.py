@@ -12,7 +12,12 @@ def test_every_capture_is_made_and_checked(smoke_run):
     table = pd.read_csv(smoke_run / "results/pi_p885/qc/captures.csv")
     made = sorted(p.stem for p in (smoke_run / "raw/pi_p885").glob("*.nc"))
     assert sorted(table["experiment"]) == made and len(made) > 20
-    assert (table["NaN samples"] == 0).all() and (table["clipped samples"] == 0).all()
+    assert (table["NaN samples"] == 0).all()
+    # only P1's instantaneous steps drive the current probe and the ripple channels to full scale
+    # (for a few samples per step, as on a bench); the QC counts them
+    steps = table["experiment"].str.startswith("ch6_p1_")
+    assert (table.loc[~steps, "clipped samples"] == 0).all()
+    assert (table.loc[steps & table["experiment"].str.contains("open"), "clipped samples"] > 0).all()
     assert (smoke_run / "results/pi_p885/qc/captures.csv.json").exists()
 
 
