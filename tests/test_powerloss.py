@@ -387,3 +387,102 @@ def test_pid_tracks_current_through_lagging_meter():
     # Proportional-type tracking: r*K/(1+K) plus the small leakage V/R
     assert meas == pytest.approx(r * K / (1 + K), rel=0.005)
     assert abs(meas - r) < 0.03 * r
+
+
+# ---------------------------------------------------------------------------
+# Static hold from a record, ramp helpers
+# ---------------------------------------------------------------------------
+def test_hold_from_record_removes_the_residual_charging():
+    t = np.linspace(0, 20, 2001)
+    # 5.5 nA flows, 0.5 nA of it still charges the actuator (the position creeps up)
+    x = 100e-6 + A_SYN * 0.5e-9 * t
+    est = pl.hold_from_record(t, np.full_like(t, 105.0), np.full_like(t, 5.5e-9), x, A_SYN)
+    assert est.R == pytest.approx(21e9, rel=1e-9)
+    assert est.R_ohm == pytest.approx(105.0 / 5.5e-9, rel=1e-9)
+    assert est.velocity == pytest.approx(A_SYN * 0.5e-9, rel=1e-9)
+
+
+def test_impedance_from_ramp_segments_absorb_a_lagging_meter():
+    """A meter with a 0.5 s lag mis-places tau*dI of charge at each reversal; per-stretch offsets remove it."""
+    t, d, i, V = _synthetic_ramp(2e9, I=300e-9)
+    dt = t[1] - t[0]
+    decay = np.exp(-dt / 0.5)
+    lagged = np.empty_like(i)
+    lagged[0] = i[0]
+    for k in range(1, i.size):
+        lagged[k] = decay * lagged[k - 1] + (1 - decay) * i[k]
+    biased = pl.impedance_from_ramp(t, d, lagged, V)
+    fixed = pl.impedance_from_ramp(t, d, lagged, V, segments=pl.constant_stretches(i))
+    assert abs(biased.impedance / 2e9 - 1) > 0.02
+    assert fixed.impedance == pytest.approx(2e9, rel=0.005)
+    with pytest.raises(ValueError):
+        pl.impedance_from_ramp(t, d, lagged, V, segments=np.zeros(3))
+
+
+def test_constant_stretches_and_charging_current():
+    np.testing.assert_array_equal(pl.constant_stretches([1, 1, -1, -1, -1, 2]), [0, 0, 1, 1, 1, 2])
+    np.testing.assert_allclose(pl.charging_current([300e-9], [100.0], 2e9), [250e-9])
+
+
+def test_ramp_velocity_and_its_spread():
+    t = np.arange(0, 60, 0.01)
+    steady = 5e-6 * t
+    np.testing.assert_allclose(pl.ramp_velocity(t, steady, 2.0), 5e-6, rtol=1e-9)
+    command = np.full_like(t, 300e-9)
+    assert pl.velocity_spread(t, steady, command, 2.0) < 1e-6
+    slowing = 5e-6 * t - 0.02e-6 * t**2  # 5 -> 2.6 um/s
+    assert pl.velocity_spread(t, slowing, command, 2.0) > 10.0
+
+
+# ---------------------------------------------------------------------------
+# Positioning performance (Section 7)
+# ---------------------------------------------------------------------------
+def _triangle(t, period):
+    return 4 * np.abs(((t / period + 0.25) % 1) - 0.5) - 1  # starts at 0, rising
+
+
+def test_turning_points_follow_the_ramps_not_the_noise():
+    t = np.linspace(0, 4, 4001)
+    y = _triangle(t, 1.0) + 0.01 * np.random.default_rng(0).standard_normal(t.size)
+    tp = pl.turning_points(y, 0.2)
+    assert tp[0] == 0 and tp[-1] == t.size - 1
+    np.testing.assert_allclose(t[tp[1:-1]], [0.25, 0.75, 1.25, 1.75, 2.25, 2.75, 3.25, 3.75], atol=0.03)
+    assert len(pl.turning_points(np.r_[0, 0.1, 0, 0.1, 1.0], 0.5)) == 2  # wiggles below the swing
+
+
+def test_branch_hysteresis_of_a_known_loop():
+    # fine sampling: branch_gap's bin means compare the branches half a sample step apart
+    t = np.linspace(0, 3, 60001)
+    req = 300e-6 * _triangle(t, 1.0)
+    rising = np.diff(req, prepend=-1.0) > 0  # a turning sample ends the branch that reached it
+    meas = req + np.where(rising, -4.5e-6, 4.5e-6)  # branches 9 um apart
+    expected = 100 * 9e-6 / np.ptp(meas)
+    assert pl.branch_hysteresis_percent(req, meas, 30e-6) == pytest.approx(expected, rel=0.01)
+    with pytest.raises(ValueError):
+        pl.branch_hysteresis_percent(np.linspace(0, 1, 50), np.linspace(0, 1, 50), 0.1)
+
+
+def test_drift_percent_of_an_exponential_creep():
+    t = np.arange(0, 160, 0.01)
+    x = np.where(t < 40, 200e-6 * t / 40, 200e-6 * (1 + 0.1 * (1 - np.exp(-(t - 40) / 30))))
+    expected = 100 * 0.1 * (1 - np.exp(-119.5 / 30))  # averages centred 0.5 s inside the window
+    assert pl.drift_percent(t, x, 40.0, 120.0) == pytest.approx(expected, rel=0.01)
+
+
+def test_repeatability_finds_every_cycle_midpoint_and_peak_to_peak():
+    t = np.arange(0, 1000, 0.1)
+    req = 300e-6 * _triangle(t, 100.0)
+    meas = req * (1 + 0.005 * t / 1000) + 6e-6 * t / 1000  # ptp grows 0.5 %, midpoint drifts 6 um
+    cycles = pl.repeatability(t, req, meas, 30e-6)
+    assert list(cycles["cycle"]) == list(range(1, 11))
+    drift = cycles["midpoint [m]"].iloc[-1] - cycles["midpoint [m]"].iloc[0]
+    assert drift == pytest.approx(6e-6 * 900 / 1000, rel=0.02)
+    growth = cycles["peak-to-peak [m]"].iloc[-1] / cycles["peak-to-peak [m]"].iloc[0] - 1
+    assert growth == pytest.approx(0.005 * 0.9, rel=0.05)
+
+
+def test_linear_gain_and_max_error():
+    u = np.linspace(-100, 100, 201)
+    assert pl.linear_gain(u, 2e-6 * u) == pytest.approx(2e-6)
+    req = 1e-6 * u
+    assert pl.max_error(req, req + np.r_[np.zeros(200), 7e-6]) == pytest.approx(7e-6)

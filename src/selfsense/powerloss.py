@@ -52,6 +52,9 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import cumulative_trapezoid
 from scipy.optimize import least_squares
+from scipy.signal import savgol_filter
+
+from .metrics import branch_gap
 
 __all__ = [
     "PAPER_HOLD_VOLTAGE",
@@ -76,8 +79,20 @@ __all__ = [
     "voltage_from_charge",
     "compensated_current_from_charge",
     "hold_resistance",
+    "HoldEstimate",
+    "hold_from_record",
+    "charging_current",
+    "constant_stretches",
+    "ramp_velocity",
+    "velocity_spread",
     "PIDState",
     "CurrentPID",
+    "turning_points",
+    "linear_gain",
+    "max_error",
+    "branch_hysteresis_percent",
+    "drift_percent",
+    "repeatability",
 ]
 
 GIGA = 1e9
@@ -116,6 +131,41 @@ def hold_resistance(voltage: ArrayLike, hold_current: ArrayLike) -> NDArray[np.f
         # A hold current opposing the voltage would mean a negative resistance.
         raise ValueError("voltage and hold_current must have the same sign")
     return float(r) if r.ndim == 0 else r
+
+
+@dataclass(frozen=True)
+class HoldEstimate:
+    """Internal resistance from a recorded static hold (Section 4, Fig. 2).
+
+    ``R`` counts only the current that leaks: the hold current less what still
+    charges the actuator, (dx/dt)/a.  ``R_ohm`` is the paper's plain V/i_hold,
+    equal to ``R`` when the hold keeps the position exactly.
+    """
+
+    R: float
+    R_ohm: float
+    voltage: float
+    current: float
+    velocity: float
+
+
+def hold_from_record(
+    time: ArrayLike, voltage: ArrayLike, current: ArrayLike, displacement: ArrayLike, a: float
+) -> HoldEstimate:
+    """R from the samples of a hold (Section 4): mean V over the leaking part of the mean current.
+
+    The paper found the hold current by trial until the bender stood still, then
+    applied Ohm's law.  A recorded hold need not be perfectly balanced, so the
+    residual velocity (a straight-line fit of the displacement) is converted to
+    the charging current it needs via Eq. (2), (dx/dt)/a, and removed first.
+    """
+    t = np.asarray(time, float)
+    v, i, x = (np.asarray(y, float) for y in (voltage, current, displacement))
+    velocity = float(np.polyfit(t, x, 1)[0])
+    v_mean, i_mean = float(np.mean(v)), float(np.mean(i))
+    return HoldEstimate(R=float(hold_resistance(v_mean, i_mean - velocity / a)),
+                        R_ohm=float(hold_resistance(v_mean, i_mean)),
+                        voltage=v_mean, current=i_mean, velocity=velocity)
 
 
 # ---------------------------------------------------------------------------
@@ -385,6 +435,7 @@ def impedance_from_ramp(
     voltage: ArrayLike,
     *,
     method: Literal["displacement", "voltage"] = "displacement",
+    segments: ArrayLike | None = None,
 ) -> RampImpedanceEstimate:
     """Estimate the loss impedance X from a constant-|i| ramp record (Section 5).
 
@@ -408,7 +459,11 @@ def impedance_from_ramp(
 
     Caveat: the integrals use the trapezoidal rule, so a current reversal that
     falls on a sample instant mis-counts about |I|*dt/2 of charge; sample fast
-    enough that this is small against the leaked charge int(V dt)/X.
+    enough that this is small against the leaked charge int(V dt)/X.  A current
+    meter with a lag tau mis-places tau*|dI| at every reversal in the same way.
+    Both errors are constant between reversals, so ``segments`` (one label per
+    sample, constant over each constant-current stretch) gives every stretch
+    its own offset and removes them; ``offset`` is then the first stretch's.
     """
     t = np.asarray(time, dtype=float)
     i = np.asarray(current, dtype=float)
@@ -428,14 +483,22 @@ def impedance_from_ramp(
     if np.any(np.diff(t) <= 0):
         raise ValueError("time must be strictly increasing")
 
+    if segments is None:
+        offsets = np.ones((t.size, 1))
+    else:
+        labels = np.asarray(segments)
+        if labels.shape != t.shape:
+            raise ValueError("segments must label every sample")
+        offsets = (labels[:, None] == np.unique(labels)[None, :]).astype(float)
+        offsets = offsets[:, np.argsort(np.argmax(offsets, axis=0))]  # first stretch first
     q = cumulative_trapezoid(i, t, initial=0.0)  # delivered charge [C]
     w = cumulative_trapezoid(v, t, initial=0.0)  # int V dt [V s]; w/X = leaked charge
     # Column scaling so lstsq's rank decision is not fooled by nC vs kV*s magnitudes.
-    A = np.column_stack([np.ones_like(t), q, -w])
+    A = np.column_stack([offsets, q, -w])
     scale = np.max(np.abs(A), axis=0)
     scale[scale == 0] = 1.0
     coef, *_ = np.linalg.lstsq(A / scale, y, rcond=None)
-    offset, gain, loss = coef / scale
+    offset, (gain, loss) = (coef / scale)[0], (coef / scale)[-2:]
     resid = y - A @ (coef / scale)
     impedance = float(gain / loss) if loss > 0 and gain > 0 else float("inf")
     return RampImpedanceEstimate(
@@ -446,6 +509,42 @@ def impedance_from_ramp(
         method=method,
         n_samples=int(t.size),
     )
+
+
+def charging_current(current: ArrayLike, voltage: ArrayLike, impedance: float) -> NDArray[np.float64]:
+    """i_c = i_t - V/X (Eqs. 4, 13): the part of the measured current that reaches the capacitance."""
+    return np.asarray(current, float) - np.asarray(voltage, float) / impedance
+
+
+def constant_stretches(command: ArrayLike) -> NDArray[np.int64]:
+    """Label every sample with the index of the constant-command stretch it belongs to."""
+    c = np.asarray(command, float)
+    return np.concatenate([[0], np.cumsum(np.diff(c) != 0)])
+
+
+def velocity_spread(time: ArrayLike, displacement: ArrayLike, command: ArrayLike, window: float) -> float:
+    """How far a ramp's speed is from constant (the paper's test of X, Figs. 3-5), in %.
+
+    Standard deviation of |velocity| over its mean, on the samples at least one
+    ``window`` away from a change of the current command (the reversals).
+    """
+    t = np.asarray(time, float)
+    speed = np.abs(ramp_velocity(t, displacement, window))
+    changes = t[1:][np.diff(np.asarray(command, float)) != 0]
+    away = np.all(np.abs(t[:, None] - changes[None, :]) >= window, axis=1) if changes.size else np.ones(t.size, bool)
+    return float(100.0 * np.std(speed[away]) / np.mean(speed[away]))
+
+
+def ramp_velocity(time: ArrayLike, displacement: ArrayLike, window: float) -> NDArray[np.float64]:
+    """Velocity of a ramp record (Figs. 3-5): the slope of a straight line fitted over ``window`` s.
+
+    A first-order Savitzky-Golay derivative, i.e. a sliding least-squares slope,
+    so sensor noise is averaged instead of amplified by differencing.
+    """
+    t = np.asarray(time, float)
+    dt = float(np.median(np.diff(t)))
+    n = max(3, int(round(window / dt)) | 1)
+    return savgol_filter(np.asarray(displacement, float), n, 1, deriv=1, delta=dt, mode="interp")
 
 
 # ---------------------------------------------------------------------------
@@ -556,3 +655,118 @@ class CurrentPID:
         if u != u_raw and np.sign(e) == np.sign(u_raw - u):
             integral = state.integral  # anti-windup: do not integrate into saturation
         return u, PIDState(integral=integral, prev_error=e)
+
+
+# ---------------------------------------------------------------------------
+# Positioning performance (Section 7: Figs. 8-11)
+# ---------------------------------------------------------------------------
+def turning_points(y: ArrayLike, min_swing: float) -> NDArray[np.int64]:
+    """Indices of the alternating extremes of ``y``, ignoring reversals smaller than ``min_swing``.
+
+    A zig-zag scan: an extreme is confirmed once ``y`` has moved ``min_swing``
+    back from it, so noise and holds do not split a ramp.  The first and last
+    samples are included, making consecutive pairs the branches of the record.
+    """
+    y = np.asarray(y, float)
+    points = [0]
+    hi = lo = 0  # extremes since the start, until the first swing sets the trend
+    trend = 0
+    for k in range(1, y.size):
+        if trend == 0:
+            hi = k if y[k] > y[hi] else hi
+            lo = k if y[k] < y[lo] else lo
+            if y[hi] - y[lo] >= min_swing:
+                trend, extreme = (1, hi) if hi > lo else (-1, lo)
+        elif trend * (y[k] - y[extreme]) > 0:
+            extreme = k
+        elif trend * (y[extreme] - y[k]) >= min_swing:
+            points.append(extreme)
+            trend, extreme = -trend, k
+    if points[-1] != y.size - 1:
+        points.append(y.size - 1)
+    return np.asarray(points, dtype=np.int64)
+
+
+def linear_gain(drive: ArrayLike, displacement: ArrayLike) -> float:
+    """Least-squares gain of a line through the origin, displacement ~ g * drive.
+
+    The best a linear (hysteresis- and creep-free) model of open-loop voltage
+    control can do for a record: its errors are then hysteresis and drift only.
+    """
+    u, x = np.asarray(drive, float), np.asarray(displacement, float)
+    return float(np.dot(u, x) / np.dot(u, u))
+
+
+def max_error(required: ArrayLike, measured: ArrayLike) -> float:
+    """Maximum inaccuracy, max |measured - required| (Section 7, Fig. 8)."""
+    return float(np.max(np.abs(np.asarray(measured, float) - np.asarray(required, float))))
+
+
+def branch_hysteresis_percent(required: ArrayLike, measured: ArrayLike, min_swing: float) -> float:
+    """Hysteresis of a record in % of its measured range (Fig. 9).
+
+    The record is cut at the reversals of the required displacement; for every
+    pair of consecutive branches (one rising, one falling) the largest gap in
+    measured displacement at equal required displacement is found
+    (:func:`selfsense.metrics.branch_gap`), and the largest over all pairs is
+    divided by the measured peak-to-peak.  Pairing consecutive branches keeps
+    the nested loops of a decaying ramp apart instead of averaging them.
+    """
+    req, meas = np.asarray(required, float), np.asarray(measured, float)
+    tp = turning_points(req, min_swing)
+    gaps = []
+    for first, turn, last in zip(tp[:-2], tp[1:-1], tp[2:]):
+        # each sample's branch from where it lies, not from a (noisy) local slope; a turning
+        # sample ends the branch that reached it
+        start = first + (first > 0)
+        up = 1 if req[turn] > req[first] else -1
+        rising = np.where(np.arange(start, last + 1) <= turn, up, -up)
+        gaps.append(branch_gap(req[start:last + 1], meas[start:last + 1], rising))
+    if not gaps:
+        raise ValueError("the record has no rising and falling branch to compare")
+    return 100.0 * max(gaps) / float(np.ptp(meas))
+
+
+def _mean_near(time: NDArray, values: NDArray, t0: float, half_width: float) -> float:
+    sel = np.abs(time - t0) <= half_width
+    return float(np.mean(values[sel]))
+
+
+def drift_percent(time: ArrayLike, displacement: ArrayLike, t_hold: float, duration: float,
+                  average: float = 1.0) -> float:
+    """Drift of a held position in % of that position (Fig. 11).
+
+    Position ``duration`` s after the hold starts against the position at its
+    start, each averaged over +-``average``/2 s against sensor noise; the
+    displacement is counted from the record's start (the unloaded zero).
+    """
+    t, x = np.asarray(time, float), np.asarray(displacement, float)
+    zero = _mean_near(t, x, t[0] + average / 2, average / 2)
+    start = _mean_near(t, x, t_hold + average / 2, average / 2) - zero
+    end = _mean_near(t, x, min(t_hold + duration, t[-1]) - average / 2, average / 2) - zero
+    return 100.0 * (end - start) / start
+
+
+def repeatability(time: ArrayLike, required: ArrayLike, measured: ArrayLike, min_swing: float,
+                  average: float = 1.0) -> pd.DataFrame:
+    """Peaks of every cycle of a repeated ramp (Fig. 10): one row per cycle.
+
+    Columns: cycle, time [s] of its maximum, max and min of the measured
+    displacement at the required extremes (averaged over +-``average``/2 s),
+    midpoint and peak-to-peak.  The drift of the record is the change of the
+    midpoint, and the peak-to-peak change its growth, both relative to the first
+    cycle's peak-to-peak.
+    """
+    t, req, meas = (np.asarray(y, float) for y in (time, required, measured))
+    tp = turning_points(req, min_swing)[1:-1]
+    highs = [k for k in tp if req[k] > np.median(req)]
+    lows = [k for k in tp if req[k] <= np.median(req)]
+    rows = []
+    for cycle, (hi, lo) in enumerate(zip(highs, lows)):
+        top = _mean_near(t, meas, t[hi], average / 2)
+        bottom = _mean_near(t, meas, t[lo], average / 2)
+        rows.append({"cycle": cycle + 1, "time [s]": float(t[hi]), "max [m]": top, "min [m]": bottom,
+                     "midpoint [m]": 0.5 * (top + bottom), "peak-to-peak [m]": top - bottom})
+    if not rows:
+        raise ValueError("the record has no complete cycle")
+    return pd.DataFrame(rows)

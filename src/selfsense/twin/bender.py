@@ -18,6 +18,9 @@ reads the setpoint i_t, which the feedforward block makes from the charging-curr
 (Eq 3) plus the loss current: none, V/X for a trial impedance X (Eq 13), or Eq 15 with the
 operator's R and c. V in Eq 13/15 is the PID output times G of the previous sample, as the paper
 reads it. In voltage mode the amplifier input follows the drive directly (open loop).
+Into the capacitive load the PID's integral gain is a proportional current gain K = C·G·ki, so
+the loop settles at K/(1 + K) of its setpoint, and the meter's lag τ shifts the delivered charge
+by τ·Δi at every reversal: these, not the loss model, set most of the current-control error.
 
 Discretisation: the amplifier output is held over each sample (zero-order hold), so Q jumps to
 its new balance each sample and the charging current is ΔQ·fs; the meter is a first-order lag

@@ -1,0 +1,58 @@
+"""Rule `powerloss_figures`: Figures 2–11 of Ronkanen 2002 from the captures and the identified constants.
+
+Alone: python workflow/scripts/powerloss_figures.py raw/tokin_nb40/rk_static_hold.nc table_1.csv table_2.csv \
+    identified.csv figures/tokin_nb40 --ramps <10 GΩ> <1 GΩ> <2 GΩ> --captures decay_current=... --drift-start 40
+"""
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.chapters import ronkanen
+from selfsense.provenance import save_figure, script_logging
+
+TITLES = {3: "too large", 4: "too small", 5: "the paper's ideal"}
+
+
+def main(hold, ramps, captures, table_1, table_2, identified, out_dir, drift_start, velocity_window=2.0, log=None):
+    """ramps: the ±300 nA ramps compensated for too large, too small and ideal X (Figs 3, 4, 5–6);
+    captures: {"<decay|repeat|drift>_<current|voltage>": path}."""
+    logger = script_logging(log)
+    a_cmd = float(pd.read_csv(identified).set_index("key").loc["a_cmd", "value"])
+    records = ronkanen.read_records([hold, *ramps, *captures.values()])
+    pair = {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in ("current", "voltage")}
+            for k in ("decay", "repeat", "drift")}
+    velocity = {n: records[Path(r).stem] for n, r in zip(TITLES, ramps)}
+    built = {2: ronkanen.figure_2(records[Path(hold).stem])}
+    for n, rec in velocity.items():
+        built[n] = ronkanen.velocity_figure(rec, velocity_window, f"Ramp velocity, compensation for "
+                                            f"{rec.X_trial / 1e9:g} GΩ ({TITLES[n]}) (Fig {n})")
+    built |= {6: ronkanen.figure_6(velocity[5]),
+              7: ronkanen.figure_7(pd.read_csv(table_1), pd.read_csv(table_2)),
+              8: ronkanen.figure_8(pair["decay"], a_cmd), 9: ronkanen.figure_9(pair["decay"], a_cmd),
+              10: ronkanen.figure_10(pair["repeat"], a_cmd), 11: ronkanen.figure_11(pair["drift"], drift_start)}
+    inputs = [hold, *ramps, *captures.values(), table_1, table_2, identified]
+    config = {"velocity_window": velocity_window, "drift_start": drift_start}
+    for n, fig in built.items():
+        save_figure(fig, Path(out_dir) / f"fig_ronkanen_{n}.png", inputs=inputs, config=config)
+        ronkanen.plt.close(fig)
+    logger.info("wrote Figures %s to %s", ", ".join(map(str, sorted(built))), out_dir)
+
+
+if "snakemake" in globals():
+    i, p = snakemake.input, snakemake.params
+    pairs = {f"{k}_{c}": i[f"{k}_{c}"] for k in ("decay", "repeat", "drift") for c in ("current", "voltage")}
+    main(i.hold, list(i.ramps), pairs, i.table_1, i.table_2, i.identified, p.out_dir, p.drift_start,
+         p.velocity_window, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("hold", "table_1", "table_2", "identified", "out_dir"):
+        cli.add_argument(name)
+    cli.add_argument("--ramps", nargs=3, required=True)
+    cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
+    cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
+    cli.add_argument("--velocity-window", dest="velocity_window", type=float, default=2.0, help="[s]")
+    args = cli.parse_args()
+    main(args.hold, args.ramps, dict(c.split("=", 1) for c in args.captures), args.table_1, args.table_2,
+         args.identified, args.out_dir, args.drift_start, args.velocity_window)

@@ -1,0 +1,49 @@
+"""Rule `powerloss_performance`: hysteresis, drift, repeatability and max error, current vs voltage control.
+
+Alone: python workflow/scripts/powerloss_performance.py identified.csv performance.csv repeatability.csv \
+    --captures decay_current=raw/tokin_nb40/rk_decay_current.nc ... --drift-start 40
+"""
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.chapters import ronkanen
+from selfsense.provenance import script_logging, write_table
+
+KINDS = ("decay", "repeat", "drift")
+CONTROLS = ("current", "voltage")
+
+
+def main(captures, identified, performance, repeatability, drift_start, drift_duration=120.0, log=None):
+    """captures: {"<decay|repeat|drift>_<current|voltage>": path}."""
+    logger = script_logging(log)
+    a_cmd = float(pd.read_csv(identified).set_index("key").loc["a_cmd", "value"])
+    records = ronkanen.read_records(captures.values())
+    kind = {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
+    table = ronkanen.performance(kind["decay"], kind["repeat"], kind["drift"], a_cmd, drift_start, drift_duration)
+    cycles = pd.concat([ronkanen.cycles(rec, a_cmd).assign(control=c) for c, rec in kind["repeat"].items()])
+    config = {"drift_start": drift_start, "drift_duration": drift_duration}
+    inputs = [*captures.values(), identified]
+    write_table(table, performance, inputs=inputs, config=config)
+    write_table(cycles, repeatability, inputs=inputs, config=config)
+    logger.info("a_cmd = %g m/C\n%s", a_cmd, table.to_string())
+
+
+if "snakemake" in globals():
+    i, p = snakemake.input, snakemake.params
+    pairs = {f"{k}_{c}": i[f"{k}_{c}"] for k in KINDS for c in CONTROLS}
+    main(pairs, i.identified, snakemake.output.performance, snakemake.output.repeatability,
+         p.drift_start, p.drift_duration, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("identified")
+    cli.add_argument("performance")
+    cli.add_argument("repeatability")
+    cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
+    cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
+    cli.add_argument("--drift-duration", dest="drift_duration", type=float, default=120.0, help="[s]")
+    args = cli.parse_args()
+    main(dict(c.split("=", 1) for c in args.captures), args.identified, args.performance, args.repeatability,
+         args.drift_start, args.drift_duration)

@@ -1,0 +1,32 @@
+"""Rule `powerloss_recovery`: identified R, a, X and c against the twin's truth (twin validation).
+
+Alone: python workflow/scripts/powerloss_recovery.py raw/tokin_nb40/rk_static_hold.nc identified.csv \
+    table_1.csv table_2.csv recovery.csv
+"""
+
+import argparse
+
+import pandas as pd
+
+from selfsense.capture import open_capture
+from selfsense.chapters import ronkanen
+from selfsense.provenance import script_logging, write_table
+
+
+def main(capture, identified, table_1, table_2, table, log=None):
+    logger = script_logging(log)
+    with open_capture(capture) as cap:
+        truth, _ = cap.read_truth()
+    result = ronkanen.recovery(pd.read_csv(identified), pd.read_csv(table_1), pd.read_csv(table_2), truth)
+    write_table(result, table, inputs=[capture, identified, table_1, table_2])
+    logger.info("\n%s", result.to_string())
+
+
+if "snakemake" in globals():
+    i = snakemake.input
+    main(i.capture, i.identified, i.table_1, i.table_2, snakemake.output.table, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("capture", "identified", "table_1", "table_2", "table"):
+        cli.add_argument(name)
+    main(**vars(cli.parse_args()))

@@ -1,0 +1,28 @@
+"""Rule `powerloss_table_2`: models (7)–(11) fitted to the paper's Table 1 and to the identified X.
+
+Alone: python workflow/scripts/powerloss_table_2.py table_1.csv identified.csv table_2.csv
+"""
+
+import argparse
+
+import pandas as pd
+
+from selfsense.chapters import ronkanen
+from selfsense.provenance import script_logging, write_table
+
+
+def main(table_1, identified, table, log=None):
+    logger = script_logging(log)
+    R = float(pd.read_csv(identified).set_index("key").loc["R", "value"])
+    result = ronkanen.table_2_both(pd.read_csv(table_1), R)
+    write_table(result, table, inputs=[table_1, identified])
+    logger.info("\n%s", result.to_string())
+
+
+if "snakemake" in globals():
+    main(snakemake.input.table_1, snakemake.input.identified, snakemake.output.table, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("table_1", "identified", "table"):
+        cli.add_argument(name)
+    main(**vars(cli.parse_args()))
