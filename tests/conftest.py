@@ -43,7 +43,8 @@ def copy_repo(dest: Path) -> Path:
 
 
 def snakemake(repo, *args, config="tests/config/smoke.yaml"):
-    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", config, *args],
+    # targets go before --configfile, which takes several values
+    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", *args, "--configfile", config],
                           cwd=repo, capture_output=True, text=True, timeout=1800)
 
 

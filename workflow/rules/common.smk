@@ -6,7 +6,8 @@ from snakemake.utils import validate
 from selfsense.manifest import expand_protocols, load_dataset, validate_config
 
 # One-line errors first (file and key), then Snakemake's validate to fill the schema defaults.
-validate_config(config, workflow.configfiles[-1] if workflow.configfiles else "config")
+# --configfile files override config.yaml; Snakemake lists them before it in workflow.configfiles
+validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config")
 validate(config, "../schemas/config.schema.yaml")
 
 RAW = Path(config["raw_dir"])
