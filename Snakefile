@@ -17,6 +17,7 @@ include: "workflow/rules/observer.smk"
 include: "workflow/rules/control.smk"
 include: "workflow/rules/thermal.smk"
 include: "workflow/rules/powerloss.smk"
+include: "workflow/rules/stages.smk"
 include: "workflow/rules/report.smk"
 
 
@@ -30,5 +31,6 @@ rule all:
         control_outputs(),
         thermal_outputs(),
         powerloss_outputs(),
+        [f"results/{d}/stages.csv" for d in DATASETS],
         report_outputs(),
     default_target: True
