@@ -21,7 +21,7 @@ def main(manifest, table, figure, nps=(1, 2, 4, 8, 12, 16), wanders=(0, 30, 100,
                                        list(nps), list(wanders), drive_hz=drive_hz, seed=meta.get("seed", 0))
     config = {"np": list(nps), "wander_hz": list(wanders), "drive_hz": drive_hz}
     write_table(result, table, inputs=[manifest], config=config, seed=meta.get("seed", 0))
-    save_figure(figures.np_study(result), figure, inputs=[manifest], config=config)
+    save_figure(figures.np_study(result), figure, inputs=[manifest], config=config, seed=meta.get("seed", 0))
     logger.info("\n%s", result.to_string())
 
 
