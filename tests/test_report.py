@@ -1,0 +1,214 @@
+"""The report, the scorecard, provenance and re-runs, on the smoke DAG (run once per session)."""
+
+import html
+import json
+import os
+import re
+import shutil
+
+import pandas as pd
+import pytest
+import yaml
+
+from selfsense.capture import open_capture
+from selfsense.manifest import load_dataset, load_yaml
+from selfsense.provenance import sha256
+from selfsense.scorecard import LEFT_OUT, MISSING, NOT_YET, OUT, WITHIN, applicable, parse_registry
+
+from .conftest import snakemake
+
+pytestmark = pytest.mark.slow
+
+SMOKE = "tests/config/smoke.yaml"
+
+
+def outputs(repo):
+    """Every table and figure the DAG made, relative to the repository."""
+    found = [*(repo / "results").rglob("*.csv"), *(repo / "figures").rglob("*.png")]
+    return sorted(p.relative_to(repo).as_posix() for p in found)
+
+
+def datasets(repo):
+    return load_yaml(repo / SMOKE)["datasets"]
+
+
+@pytest.fixture(scope="module")
+def report(smoke_run):
+    """`snakemake --report` on the smoke run; the report's embedded JSON (results, categories, description)."""
+    run = snakemake(smoke_run, "--report", "report.html")
+    assert run.returncode == 0, run.stderr[-3000:]
+    page = (smoke_run / "report.html").read_text(encoding="utf-8")
+    blocks = dict(re.findall(r'<script id="([\w-]+)">\s*var \w+ = (.*?);\s*</script>', page, re.S))
+    return {name: json.loads(blocks[name]) for name in ("workflow-desc", "results", "categories")}
+
+
+# --- the report -----------------------------------------------------------------------------------
+
+def test_report_is_one_self_contained_page(smoke_run, report):
+    page = (smoke_run / "report.html").read_text(encoding="utf-8")
+    # every result is embedded as a data URI: nothing points back at the results folder
+    assert all(r["data_uri"].startswith("data:") for r in report["results"].values())
+    assert not re.search(r'(src|href)="(results|figures)/', page)
+
+
+def test_every_table_and_figure_is_in_the_report_with_a_caption(smoke_run, report):
+    made = outputs(smoke_run)
+    absent = [p for p in made if p not in report["results"]]
+    assert not absent
+    uncaptioned = [p for p in made if len(re.sub("<[^>]+>", "", report["results"][p]["caption"]).strip()) < 40]
+    assert not uncaptioned
+
+
+def test_results_are_grouped_by_dataset_then_chapter(smoke_run, report):
+    for dataset in datasets(smoke_run):
+        for path in outputs(smoke_run):
+            if path.split("/")[1] == dataset:
+                placed = [(c, s) for c, subs in report["categories"].items() for s, ps in subs.items() if path in ps]
+                assert len(placed) == 1 and placed[0][0] == dataset, (path, placed)
+    subcategories = set(report["categories"]["pi_p885"])
+    assert {"Captures", "Chapter 3", "Twin validation", "Scorecard"} <= subcategories
+
+
+def test_report_opens_with_the_scorecard_summary(smoke_run, report):
+    description = html.unescape(report["workflow-desc"])
+    assert "summary is missing" not in description
+    assert description.index("Scorecard") < description.index("How the results are organised")
+    for dataset in datasets(smoke_run):
+        card = pd.read_csv(smoke_run / f"results/{dataset}/scorecard.csv")
+        reproduced = card["verdict"].isin([WITHIN, OUT]).sum()
+        if reproduced:
+            assert f"{(card['verdict'] == WITHIN).sum()} of {reproduced} reproduced numbers within band" in description
+        for quantity in card.loc[card["verdict"] == OUT, "quantity"]:
+            assert quantity in description  # every number out of band is named, with its note
+
+
+# --- the scorecard --------------------------------------------------------------------------------
+
+def test_scorecard_reproduces_every_entry_whose_table_exists(smoke_run):
+    """A reproduced value that goes missing (renamed column, table no longer made) fails here."""
+    entries = parse_registry(load_yaml(smoke_run / "workflow/scorecard.yaml"))
+    for dataset in datasets(smoke_run):
+        results = smoke_run / "results" / dataset
+        mine = applicable(entries, load_dataset(smoke_run / "raw", dataset))
+        card = pd.read_csv(results / "scorecard.csv")
+        assert len(card) == len(mine)  # nothing dropped
+        expected = {(e.source, e.quantity) for e in mine if e.locate and (results / e.locate.table).exists()}
+        # a stage may leave a number out (and say why): shown as not reproduced yet, with its reason
+        scored = card["verdict"].isin([WITHIN, OUT]) | card["note"].str.startswith(LEFT_OUT, na=False)
+        reproduced = set(zip(card.loc[scored, "source"], card.loc[scored, "quantity"]))
+        assert reproduced == expected, card.loc[card["verdict"] == MISSING, ["quantity", "note"]].to_string()
+        assert set(card["verdict"]) <= {WITHIN, OUT, NOT_YET}
+
+
+def test_every_landed_chapter_has_reproduced_numbers(smoke_run):
+    for dataset in datasets(smoke_run):
+        card = pd.read_csv(smoke_run / f"results/{dataset}/scorecard.csv")
+        scored = set(card.loc[card["verdict"].isin([WITHIN, OUT]), "chapter"].astype(str))
+        landed = {d.name.removeprefix("ch") for d in (smoke_run / "results" / dataset).glob("ch[0-9]*")}
+        unread = [f"results/{dataset}/ch{c}" for c in sorted(landed - scored)]
+        assert not unread, f"{unread}: no scorecard entry reads them; give their entries a locate: in workflow/scorecard.yaml"
+    stack = pd.read_csv(smoke_run / "results/pi_p885/scorecard.csv")
+    assert {"published", "twin recovery"} <= set(stack.loc[stack["verdict"].isin([WITHIN, OUT]), "section"])
+
+
+# --- provenance -----------------------------------------------------------------------------------
+
+def test_every_table_and_figure_has_a_provenance_sidecar_matching_its_inputs(smoke_run):
+    for path in outputs(smoke_run):
+        side = json.loads((smoke_run / f"{path}.json").read_text())
+        assert {"inputs", "config", "config_sha256", "code", "seed"} <= set(side), path
+        assert side["code"]["git_describe"] and side["code"]["packages"]["selfsense"] != "not installed"
+        for source, digest in side["inputs"].items():
+            assert sha256(smoke_run / source) == digest, (path, source)
+
+
+# Outputs of rules that run the twin themselves (not from captures) must name its seed.
+TWIN_RUNS = ["results/pi_p885/twin/ce_np_study.csv", "figures/pi_p885/fig_3_np_study.png"]
+
+
+@pytest.mark.parametrize("path", TWIN_RUNS)
+def test_outputs_of_twin_runs_record_the_seed(smoke_run, path):
+    side = json.loads((smoke_run / f"{path}.json").read_text())
+    assert side["seed"] == load_dataset(smoke_run / "raw", path.split("/")[1])["seed"]
+
+
+def test_the_seed_of_every_capture_an_output_hashes_is_the_datasets(smoke_run):
+    """An output made from captures reaches the twin's seed through the captures' sha256."""
+    seeds = {d: load_dataset(smoke_run / "raw", d).get("seed") for d in datasets(smoke_run)}
+    captures = set()
+    for path in outputs(smoke_run):
+        side = json.loads((smoke_run / f"{path}.json").read_text())
+        if side["seed"] is not None:
+            assert side["seed"] == seeds[path.split("/")[1]], path
+        captures |= {s for s in side["inputs"] if s.startswith("raw/") and s.endswith(".nc")}
+    assert captures
+    for capture in sorted(captures):
+        with open_capture(smoke_run / capture) as cap:
+            assert int(cap.attrs["seed"]) == seeds[capture.split("/")[1]], capture
+
+
+# --- re-runs --------------------------------------------------------------------------------------
+
+def jobs(dry_run_output):
+    """{rule: [reasons]} of a dry run's job list."""
+    found = {}
+    for rule, body in re.findall(r"^(?:local)?rule (\w+):\n((?:[ \t]+.*\n)*)", dry_run_output, re.M):
+        found.setdefault(rule, []).append(re.search(r"reason: (.*)", body).group(1))
+    return found
+
+
+def test_changing_one_parameter_reruns_only_what_depends_on_it(smoke_run, tmp_path):
+    # a second config file, not --config: --config cannot type a nested value (ripple.n_periods)
+    changed = yaml.safe_load((smoke_run / SMOKE).read_text())
+    changed["ripple"]["n_periods"] = 8
+    # key order kept: Snakemake compares a dict param by its text, so a reordered config reruns
+    (tmp_path / "np8.yaml").write_text(yaml.safe_dump(changed, sort_keys=False))
+    dry = snakemake(smoke_run, "-n", config=str(tmp_path / "np8.yaml"))
+    assert dry.returncode == 0, dry.stderr[-3000:]
+    planned = jobs(dry.stdout)
+    assert any(r.startswith("Params have changed") for r in planned["extract_ripple"])
+    # everything else runs only because an upstream job does: no mtime, code or input-hash reruns
+    for rule, reasons in planned.items():
+        assert all(r.startswith(("Params have changed", "Input files updated by another job")) for r in reasons), rule
+    # open-loop captures and what depends only on them or on the manifest (closed-loop captures do
+    # depend on the identified Γ, so they, their checks and the capture table rightly rerun)
+    untouched = {"simulate", "ch3_tables", "ch3_model_figure", "ce_np_study", "static_stiffness"}
+    assert not untouched & set(planned)
+    assert {"ce_recovery", "ch3_hysteresis", "scorecard", "scorecard_summary"} <= set(planned)
+
+
+def made_by(repo):
+    """{output file: rule} of every file the DAG makes (snakemake --summary)."""
+    run = snakemake(repo, "--summary")
+    assert run.returncode == 0, run.stderr[-3000:]
+    rows = [line.split("\t") for line in run.stdout.splitlines()[1:] if line.count("\t") >= 2]
+    return {row[0]: row[2] for row in rows}
+
+
+def test_rebuilding_from_the_same_captures_gives_byte_identical_tables(smoke_run, tmp_path):
+    """Every table's job runs again on the same captures; its CSV must come out byte for byte.
+
+    By default the tables are deleted and only the jobs that write tables run again, on the same
+    intermediate products (ripple series, observer runs): re-running the whole chain costs
+    ≈ 3 min on the smoke campaign. SELFSENSE_FULL_REBUILD=1 deletes all of results/ instead.
+    Either way the captures are kept: the rules that write raw/ are not allowed to run.
+    """
+    copy = tmp_path / "repo"
+    shutil.copytree(smoke_run, copy, symlinks=True)
+    made = made_by(copy)
+    tables = sorted(p for p in made if p.endswith(".csv"))
+    assert tables == [p for p in outputs(copy) if p.endswith(".csv")]
+    before = {p: (copy / p).read_bytes() for p in tables}
+    captures = {p: p.stat().st_mtime_ns for p in copy.glob("raw/*/*.nc")}
+    if os.environ.get("SELFSENSE_FULL_REBUILD") == "1":
+        shutil.rmtree(copy / "results")
+        allowed = {rule for path, rule in made.items() if not path.startswith("raw/")}
+    else:
+        for p in tables:
+            (copy / p).unlink()
+        allowed = {made[p] for p in tables}
+    # the flag after the rule list ends it (and --configfile's), so the tables are the targets
+    run = snakemake(copy, "--allowed-rules", *sorted(allowed), "--rerun-incomplete", *tables)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert [p for p in tables if (copy / p).read_bytes() != before[p]] == []
+    assert {p: p.stat().st_mtime_ns for p in copy.glob("raw/*/*.nc")} == captures

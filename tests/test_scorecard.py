@@ -1,0 +1,217 @@
+"""The scorecard module and its registry: bands, verdicts, lookups, missing tables, the schema."""
+
+import math
+
+import docutils.core
+import numpy as np
+import pandas as pd
+import pytest
+
+from selfsense.manifest import ManifestError, load_yaml
+from selfsense.scorecard import (LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Entry, Locator, Tolerance, applicable,
+                                 band, judge, lookup, parse_registry, score, scorecard, scorecard_html,
+                                 summary_rst, tables_read)
+
+from .conftest import ROOT
+
+REGISTRY = ROOT / "workflow" / "scorecard.yaml"
+STACK = {"name": "stack_ds", "model": "stack", "twin": {}}
+
+
+def entry(published=10.0, tolerance=Tolerance(rel=10), bound=None, locate=None, **kw):
+    fields = dict(section="published", chapter="3", source="Table 9.9", model="stack", quantity="q",
+                  unit="%", published=published, tolerance=tolerance, justification="why", bound=bound,
+                  locate=locate)
+    return Entry(**(fields | kw))
+
+
+def group(**overrides):
+    g = {"source": "Table 9.9", "chapter": "9", "model": "stack", "unit": "V", "tolerance": {"abs": 1},
+         "justification": "why", "entries": [{"quantity": "a", "published": 1}]}
+    return {"groups": [g | overrides]}
+
+
+# --- bands and verdicts ---------------------------------------------------------------------------
+
+def test_band_of_a_value_is_symmetric_in_abs_or_percent():
+    assert band(10.0, None, Tolerance(abs=0.5)) == (9.5, 10.5)
+    assert band(-0.03, None, Tolerance(rel=2)) == pytest.approx((-0.0306, -0.0294))
+
+
+def test_band_of_a_bound_is_open_on_one_side_and_widened_by_the_tolerance():
+    assert band(3.0, "upper", Tolerance(abs=0)) == (-math.inf, 3.0)
+    assert band(45.0, "lower", Tolerance(abs=5)) == (40.0, math.inf)
+
+
+def test_verdict_includes_the_band_edges_despite_float_round_trips():
+    lo, hi = band(0.33, None, Tolerance(abs=0.005))
+    assert judge(0.335 + 1e-14, lo, hi) == WITHIN
+    assert judge(0.3333, lo, hi) == WITHIN
+    assert judge(0.336, lo, hi) == OUT
+    assert judge(-1e9, -math.inf, 3.0) == WITHIN and judge(3.01, -math.inf, 3.0) == OUT
+
+
+# --- locating the reproduced value ----------------------------------------------------------------
+
+TABLE = pd.DataFrame({"ns": [4, 4, 12], "nf": [0, 2, 4], "fs [kHz]": [400.0, 80.0, 48.0],
+                      "loop": ["C_e–U", "C_e–x", "R–C"], "empty": [np.nan, 1.0, 2.0]})
+
+
+def test_lookup_selects_one_row_by_numbers_or_text_and_scales():
+    assert lookup(Locator("t.csv", "fs [kHz]", (("ns", 4), ("nf", 2))), TABLE) == 80.0
+    assert lookup(Locator("t.csv", "fs [kHz]", (("loop", "R–C"),), scale=1e3), TABLE) == 48000.0
+
+
+@pytest.mark.parametrize("locator, message", [
+    (Locator("t.csv", "fs", (("ns", 4),)), "no column 'fs'"),
+    (Locator("t.csv", "fs [kHz]", (("ns", 4),)), "2 rows"),
+    (Locator("t.csv", "fs [kHz]", (("ns", 5),)), "0 rows"),
+    (Locator("t.csv", "empty", (("nf", 0),)), "is empty"),
+])
+def test_lookup_says_what_is_wrong(locator, message):
+    with pytest.raises(LookupError, match=message):
+        lookup(locator, TABLE)
+
+
+def test_an_entry_without_a_locator_or_whose_table_is_not_made_is_not_reproduced_yet():
+    pending = score(entry(), {})
+    assert pending.verdict == NOT_YET and pending.reproduced is None and "no stage" in pending.detail
+    absent = score(entry(locate=Locator("ch9/t.csv", "fs [kHz]")), {})
+    assert absent.verdict == NOT_YET and "ch9/t.csv is not made" in absent.detail
+
+
+def test_a_broken_locator_on_an_existing_table_is_missing_not_silently_pending():
+    broken = score(entry(locate=Locator("t.csv", "nope")), {"t.csv": TABLE})
+    assert broken.verdict == MISSING and "no column 'nope'" in broken.detail
+    gone = score(entry(locate=Locator("t.csv", "fs [kHz]", (("ns", 5),))), {"t.csv": TABLE})
+    assert gone.verdict == MISSING and "0 rows" in gone.detail
+
+
+def test_a_number_its_stage_left_out_is_not_reproduced_yet_with_the_stages_reason():
+    empty = score(entry(locate=Locator("t.csv", "empty", (("nf", 0),))), {"t.csv": TABLE})
+    assert empty.verdict == NOT_YET and empty.detail == LEFT_OUT + "t.csv [nf = 0] empty is empty"
+    skipped = pd.DataFrame({"note": ["not computed: runs too short"]})
+    noted = score(entry(locate=Locator("s.csv", "tau [s]", (("parameter", "tau"),))), {"s.csv": skipped})
+    assert noted.verdict == NOT_YET and noted.detail == LEFT_OUT + "s.csv: not computed: runs too short"
+
+
+def test_within_and_out_of_band():
+    here = Locator("t.csv", "fs [kHz]", (("ns", 12),))
+    assert score(entry(published=50, locate=here), {"t.csv": TABLE}).verdict == WITHIN  # 48 vs 50 ± 5
+    assert score(entry(published=40, locate=here), {"t.csv": TABLE}).verdict == OUT
+
+
+def test_twin_recovery_reads_the_truth_from_the_located_row():
+    e = entry(section=RECOVERY, published=None, truth="nf", unit="", tolerance=Tolerance(rel=2),
+              locate=Locator("t.csv", "fs [kHz]", (("ns", 12),), scale=1 / 12))
+    s = score(e, {"t.csv": TABLE})
+    assert s.published == pytest.approx(4 / 12) and s.reproduced == pytest.approx(4.0) and s.verdict == OUT
+    pending = score(e, {})
+    assert math.isnan(pending.published) and pending.verdict == NOT_YET
+
+
+# --- the table ------------------------------------------------------------------------------------
+
+def test_scorecard_keeps_every_applicable_entry_in_order_and_computes_deviations():
+    entries = [entry(quantity="a", published=50, locate=Locator("t.csv", "fs [kHz]", (("ns", 12),))),
+               entry(quantity="b"),
+               entry(quantity="c", model="bender"),
+               entry(quantity="d", published=0.0, tolerance=Tolerance(abs=0), locate=Locator("t.csv", "nf", (("ns", 12),))),
+               entry(quantity="e", section=RECOVERY)]
+    card = scorecard(entries, {"t.csv": TABLE}, {"model": "stack"})  # no twin: no recovery rows
+    assert card["quantity"].tolist() == ["a", "b", "d"]
+    assert card["verdict"].tolist() == [WITHIN, NOT_YET, OUT]
+    a = card.iloc[0]
+    assert a["deviation"] == -2 and a["deviation [%]"] == -4 and (a["band low"], a["band high"]) == (45, 55)
+    assert np.isnan(card.iloc[2]["deviation [%]"])  # published 0: no percentage
+    assert card.iloc[0]["read from"] == "t.csv [ns = 12] fs [kHz]"
+
+
+def test_the_tolerance_column_says_how_the_band_was_made():
+    entries = [entry(quantity="a", tolerance=Tolerance(abs=0.5)), entry(quantity="b"),
+               entry(quantity="c", bound="upper", tolerance=Tolerance(abs=0)),
+               entry(quantity="d", published=0.33, bound="lower", tolerance=Tolerance(abs=0.28))]
+    card = scorecard(entries, {}, STACK)
+    assert card["tolerance"].tolist() == ["±0.5 %", "±10 %", "≤ published", "≥ published − 0.28"]
+    assert card.loc[3, "band low"] == pytest.approx(0.05) and np.isnan(card.loc[3, "band high"])
+
+
+def test_applicable_filters_by_actuator_and_twin():
+    es = [entry(quantity="a"), entry(quantity="b", model="bender"), entry(quantity="c", section=RECOVERY)]
+    assert [e.quantity for e in applicable(es, STACK)] == ["a", "c"]
+    assert [e.quantity for e in applicable(es, {"model": "bender"})] == ["b"]
+
+
+# --- the registry and its schema ------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def registry():
+    return parse_registry(load_yaml(REGISTRY), str(REGISTRY))
+
+
+# number of published numbers per source table of REFERENCE.md: guards against entries lost in edits
+EXPECTED = {("stack", "Table 3.1"): 10, ("stack", "Table 3.2"): 12, ("stack", "Table 4.2"): 11,
+            ("stack", "Table 4.3"): 20, ("stack", "Table 5.1"): 14, ("stack", "Table 5.2"): 22,
+            ("stack", "Table 5.3"): 3, ("stack", "Table 5.4"): 18, ("stack", "Table 6.1"): 72,
+            ("stack", "Table 6.2"): 34, ("stack", "Table 7.1"): 4, ("stack", "Table 7.2"): 13,
+            ("stack", "Table 7.3"): 23, ("bender", "Ronkanen, Table 1"): 2, ("bender", "Ronkanen, Table 2"): 5}
+
+
+def test_the_registry_lists_every_published_table(registry):
+    found = pd.Series([(e.model, e.source) for e in registry]).value_counts().to_dict()
+    assert {k: found.get(k, 0) for k in EXPECTED} == EXPECTED
+    assert {e.chapter for e in registry} == {"3", "4", "5", "6", "7", "Ronkanen"}
+
+
+def test_every_registry_table_is_a_relative_csv_and_every_band_has_a_reason(registry):
+    assert all(not t.startswith(("/", "..")) and t.endswith(".csv") for t in tables_read(registry))
+    assert all(e.justification.strip() for e in registry)
+
+
+def test_group_and_entry_locators_merge():
+    doc = group(locate={"table": "ch9/t.csv", "column": "fs [kHz]"},
+                entries=[{"quantity": "a", "published": 1, "locate": {"where": {"ns": 4}}},
+                         {"quantity": "b", "published": 1, "locate": {"column": "nf", "where": {"ns": 4}}}])
+    a, b = parse_registry(doc)
+    assert a.locate == Locator("ch9/t.csv", "fs [kHz]", (("ns", 4),))
+    assert b.locate.column == "nf"
+
+
+@pytest.mark.parametrize("doc, message", [
+    (group(colour="red"), "unknown key|colour"),
+    ({"groups": [{k: v for k, v in group()["groups"][0].items() if k != "justification"}]}, "justification"),
+    (group(entries=[{"quantity": "a", "published": "ten"}]), "published"),
+    (group(tolerance={"abs": 1, "rel": 2}), "tolerance"),
+    (group(locate={"table": "/etc/passwd.csv", "column": "x"}), "table"),
+    (group(locate={"where": {"ns": 4}}), "both table and column"),
+    (group(entries=[{"quantity": "a", "published": 1}, {"quantity": "a", "published": 2}]), "listed twice"),
+    (group(entries=[{"quantity": "a", "published": {"truth": "truth"}}]), "twin recovery and a locate"),
+    (group(section="twin recovery", entries=[{"quantity": "a", "published": {"truth": "truth"}}]), "and a locate"),
+])
+def test_the_registry_schema_and_rules_reject_bad_entries_in_one_line(doc, message):
+    with pytest.raises(ManifestError, match=message) as err:
+        parse_registry(doc, "reg.yaml")
+    assert str(err.value).startswith("reg.yaml") and "\n" not in str(err.value)
+
+
+# --- renderings -----------------------------------------------------------------------------------
+
+def test_summary_is_valid_restructuredtext_naming_what_is_out_and_why():
+    entries = [entry(quantity="a", published=50, locate=Locator("t.csv", "fs [kHz]", (("ns", 12),))),
+               entry(quantity="b*c|d_", published=40, note="twin_choice `x`",
+                     locate=Locator("t.csv", "fs [kHz]", (("ns", 12),))),
+               entry(quantity="e", published=40, locate=Locator("t.csv", "fs [kHz]", (("ns", 12),))),
+               entry(quantity="c", chapter="Ronkanen")]
+    card = scorecard(entries, {"t.csv": TABLE}, STACK)
+    text = summary_rst({"stack_ds": card})
+    assert "1 of 3 reproduced numbers within band" in text and "(1 without a note" in text
+    html = docutils.core.publish_parts(text, writer="html",
+                                       settings_overrides={"halt_level": 2, "report_level": 5})["body"]
+    assert "b*c|d_" in html and "twin_choice `x`" in html and "Ronkanen: Table 9.9 (1)" in html
+
+
+def test_html_page_escapes_and_colours_by_verdict():
+    card = scorecard([entry(quantity="<x>", published=50, locate=Locator("t.csv", "fs [kHz]", (("ns", 12),)))],
+                     {"t.csv": TABLE}, STACK)
+    page = scorecard_html(card, "Scorecard: stack_ds")
+    assert "&lt;x&gt;" in page and 'class="within-band"' in page and "<x>" not in page

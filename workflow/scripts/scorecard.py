@@ -1,0 +1,42 @@
+"""Rule `scorecard`: every published number beside its reproduction for one dataset (CSV + page).
+
+Alone: python workflow/scripts/scorecard.py raw/pi_p885/dataset.yaml results/pi_p885 out.csv out.html
+(reads whichever of the registry's tables exist under the results folder)
+"""
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.manifest import load_dataset, load_yaml
+from selfsense.provenance import atomic_path, provenance, script_logging, write_json, write_table
+from selfsense.scorecard import applicable, counts, parse_registry, scorecard, scorecard_html, tables_read
+
+REGISTRY = "workflow/scorecard.yaml"
+
+
+def main(manifest, results_dir, table, page, tables=None, registry=REGISTRY, log=None):
+    logger = script_logging(log)
+    meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
+    entries = parse_registry(load_yaml(registry), registry)
+    if tables is None:  # run alone: the registry's tables that exist
+        tables = [p for t in tables_read(applicable(entries, meta)) if (p := Path(results_dir) / t).exists()]
+    read = {Path(t).relative_to(results_dir).as_posix(): pd.read_csv(t) for t in tables}
+    card = scorecard(entries, read, meta)
+    inputs = [registry, manifest, *map(str, tables)]
+    write_table(card, table, inputs=inputs)
+    with atomic_path(page) as tmp:
+        tmp.write_text(scorecard_html(card, f"Scorecard: {meta['name']}"), encoding="utf-8")
+    write_json(provenance(inputs), f"{page}.json")
+    logger.info("%s: %s", meta["name"], counts(card))
+
+
+if "snakemake" in globals():
+    main(snakemake.input.manifest, snakemake.params.results_dir, snakemake.output.table,
+         snakemake.output.page, list(snakemake.input.tables), snakemake.input.registry, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("manifest", "results_dir", "table", "page"):
+        cli.add_argument(name)
+    main(**vars(cli.parse_args()))
