@@ -1,28 +1,44 @@
-"""Throughput and memory figures of the pipeline's hot paths, printed for benchmarks/README.md.
+"""Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
-    .venv/bin/python benchmarks/run.py [--seconds 20]
+    .venv/bin/python benchmarks/run.py [--seconds 20] [--skip-hot] [--skip-dag] [--skip-stream]
 
-Prints: the twin kernel (samples/s per core), a whole simulated capture (samples/s), capture
-write and read throughput with and without zlib, ripple extraction and HPO throughput with their
-ratio to just reading the channels they consume, and the peak memory of `simulate` for a capture
-and one 10× longer (each in a fresh process, so peaks do not mix).
+Prints, in three parts that can be skipped one by one:
+- hot paths: the twin kernel (samples/s per core), a whole simulated capture (samples/s), capture
+  write and read throughput with and without zlib, ripple extraction and HPO throughput with their
+  ratio to just reading the channels they consume;
+- the DAG: `snakemake --cores 2` on the small configuration in a scratch copy of the repository,
+  its wall time and the peak memory of its whole process tree, the rules' own figures from their
+  `benchmark:` files (summed and per rule: seconds, max_rss), and a no-op `snakemake -n` on the
+  up-to-date tree;
+- streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
+  `thermal_extract` for a capture of --seconds and one 10× longer (each in a fresh process, so
+  peaks do not mix).
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
+import json
+import os
 import platform
-import resource
+import runpy
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+import psutil
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = 48000.0
+# what a scratch copy leaves out: outputs, captures, caches (as tests/conftest.py's copy_repo)
+SCRATCH_IGNORE = shutil.ignore_patterns(".venv", ".git", ".snakemake", "results", "figures", "logs", "*.nc",
+                                        "out", "__pycache__", ".hypothesis", ".pytest_cache", "report.html")
 
 
 def best_of(fn, repeats=3):
@@ -116,26 +132,121 @@ def bench_ripple_and_hpo(path):
           f"= {t_read_i / t_hpo:.2f}× reading I")
 
 
-def peak_memory_of_simulate(seconds):
-    code = (f"import sys, resource; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import run; "
-            f"run.simulate({str(Path(tempfile.gettempdir()) / 'mem.nc')!r}, {seconds}); "
+def peak_rss_mb(code):
+    """Peak RSS [MB] of a fresh interpreter running code (run.py importable as `run`)."""
+    code = (f"import sys, resource; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import run; {code}; "
             "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return int(out.stdout.split()[-1]) / 1024
 
 
-def main():
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("--seconds", type=float, default=20.0, help="capture length for throughput")
-    args = cli.parse_args()
-    print(f"machine: {platform.machine()}, {platform.processor() or '?'}, python {platform.python_version()}")
-    bench_kernel(args.seconds)
+def run_script(name, *args):
+    """A rule's script run alone (workflow/scripts/<name>.py), as the rule runs it."""
+    sys.argv = [name, *args]
+    runpy.run_path(str(ROOT / "workflow" / "scripts" / f"{name}.py"), run_name="__main__")
+
+
+def bench_streaming(seconds, tmp):
+    """Peak memory of simulate and of the streaming rules for a capture and one 10x longer."""
+    model = tmp / "model.json"
+    model.write_text(json.dumps({"k_over_alpha": 2.68e6}))  # Table 4.3; only scales the loss power
+    peaks = defaultdict(list)
+    for length in (seconds, 10 * seconds):
+        cap = tmp / f"stream_{length:g}.nc"
+        peaks["simulate"].append(peak_rss_mb(f"run.simulate({str(cap)!r}, {length})"))
+        peaks["extract_ripple"].append(peak_rss_mb(f"run.run_script('extract_ripple', {str(cap)!r}, "
+                                                   f"{str(tmp / 'series.nc')!r})"))
+        peaks["thermal_extract"].append(peak_rss_mb(f"run.run_script('thermal_extract', {str(cap)!r}, "
+                                                    f"{str(model)!r}, {str(tmp / 'p.nc')!r}, {str(tmp / 'g.nc')!r})"))
+        cap.unlink()
+    for name, (short, long) in peaks.items():
+        print(f"{name + ' peak RSS:':25s} {short:5.0f} MB for {seconds:g} s, {long:5.0f} MB for "
+              f"{10 * seconds:g} s (ratio {long / short:.2f})")
+
+
+def run_sampled(cmd, cwd, every=0.5):
+    """Run cmd; return (wall seconds, peak summed RSS [MB] of its process tree, sampled)."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    root, peak = psutil.Process(proc.pid), 0
+    while proc.poll() is None:
+        rss = 0
+        try:
+            for p in [root, *root.children(recursive=True)]:
+                rss += p.memory_info().rss
+        except psutil.NoSuchProcess:  # a job ended while we walked the tree
+            pass
+        peak = max(peak, rss)
+        time.sleep(every)
+    stderr = proc.stderr.read()
+    if proc.returncode:
+        sys.exit(f"{' '.join(cmd)} failed in {cwd}:\n{stderr[-3000:]}")
+    return time.perf_counter() - t0, peak / 2**20
+
+
+def rule_of(tsv, out):
+    """The rule a benchmark file belongs to: benchmarks/out/<dataset>/<rule>/<experiment>.tsv,
+    benchmarks/out/<dataset>/<rule>.tsv or benchmarks/out/<rule>.tsv (workflow/rules/*.smk)."""
+    parts = tsv.relative_to(out).parts
+    return parts[1] if len(parts) == 3 else tsv.stem
+
+
+def bench_dag(config):
+    """The whole DAG on the small configuration in a scratch copy, then a no-op dry run."""
+    snakemake = [sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", config]
     with tempfile.TemporaryDirectory() as tmp:
-        path = bench_capture(args.seconds, Path(tmp))
-        bench_ripple_and_hpo(path)
-    short, long = peak_memory_of_simulate(args.seconds), peak_memory_of_simulate(10 * args.seconds)
-    print(f"simulate peak RSS: {short:.0f} MB for {args.seconds:g} s, {long:.0f} MB for "
-          f"{10 * args.seconds:g} s (ratio {long / short:.2f})")
+        repo = Path(tmp) / "repo"
+        shutil.copytree(ROOT, repo, ignore=SCRATCH_IGNORE)
+        wall, peak = run_sampled(snakemake, repo)
+        out = repo / "benchmarks" / "out"
+        rules = defaultdict(list)
+        for tsv in sorted(out.rglob("*.tsv")):
+            with tsv.open() as f:
+                row = next(csv.DictReader(f, delimiter="\t"))
+            rules[rule_of(tsv, out)].append((float(row["s"]), float(row["max_rss"]), float(row["cpu_time"])))
+        jobs = [j for js in rules.values() for j in js]
+        job_s, cpu_s = sum(j[0] for j in jobs), sum(j[2] for j in jobs)
+        print(f"DAG ({config}, --cores 2): {len(jobs)} jobs, wall {wall:.0f} s, peak RSS of the process tree "
+              f"{peak:.0f} MB (sampled every 0.5 s)")
+        print(f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall), "
+              f"CPU {cpu_s:.0f} s; largest job max_rss {max(j[1] for j in jobs):.0f} MB")
+        print(f"  {'rule':24s} {'jobs':>4s} {'s (sum)':>8s} {'s (max)':>8s} {'max_rss MB':>10s}")
+        for rule, js in sorted(rules.items(), key=lambda kv: -sum(j[0] for j in kv[1])):
+            print(f"  {rule:24s} {len(js):4d} {sum(j[0] for j in js):8.1f} {max(j[0] for j in js):8.1f} "
+                  f"{max(j[1] for j in js):10.0f}")
+        times = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            dry = subprocess.run([*snakemake, "-n"], cwd=repo, capture_output=True, text=True)
+            times.append(time.perf_counter() - t0)
+            if "Nothing to be done" not in dry.stdout + dry.stderr:
+                sys.exit(f"the tree is not up to date after the run:\n{dry.stdout[-3000:]}")
+        print(f"no-op `snakemake -n` on the up-to-date tree: {min(times):.1f} s (best of 3; "
+              f"{', '.join(f'{t:.1f}' for t in times)})")
+
+
+def main():
+    cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    cli.add_argument("--seconds", type=float, default=20.0, help="capture length for throughput and memory")
+    cli.add_argument("--config", default="tests/config/smoke.yaml", help="configfile of the DAG part")
+    cli.add_argument("--skip-hot", action="store_true", help="skip the hot-path throughputs")
+    cli.add_argument("--skip-dag", action="store_true", help="skip the whole-DAG run")
+    cli.add_argument("--skip-stream", action="store_true", help="skip the streaming peak memories")
+    args = cli.parse_args()
+    mem = psutil.virtual_memory().total / 2**30
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {mem:.0f} GiB, python "
+          f"{platform.python_version()}; load average at start {os.getloadavg()[0]:.1f}")
+    if not args.skip_hot:
+        bench_kernel(args.seconds)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = bench_capture(args.seconds, Path(tmp))
+            bench_ripple_and_hpo(path)
+    if not args.skip_dag:
+        bench_dag(args.config)
+    if not args.skip_stream:
+        with tempfile.TemporaryDirectory() as tmp:
+            bench_streaming(args.seconds, Path(tmp))
+    print(f"load average at end {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":
