@@ -166,22 +166,24 @@ def bench_streaming(seconds, tmp):
 
 def run_sampled(cmd, cwd, every=0.5):
     """Run cmd; return (wall seconds, peak summed RSS [MB] of its process tree, sampled)."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    root, peak = psutil.Process(proc.pid), 0
-    while proc.poll() is None:
-        rss = 0
-        try:
-            for p in [root, *root.children(recursive=True)]:
-                rss += p.memory_info().rss
-        except psutil.NoSuchProcess:  # a job ended while we walked the tree
-            pass
-        peak = max(peak, rss)
-        time.sleep(every)
-    stderr = proc.stderr.read()
-    if proc.returncode:
-        sys.exit(f"{' '.join(cmd)} failed in {cwd}:\n{stderr[-3000:]}")
-    return time.perf_counter() - t0, peak / 2**20
+    with open(Path(cwd) / "benchmark-run.log", "w+") as log:  # a file: a full pipe would stall the run
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, cwd=cwd, stdout=log, stderr=subprocess.STDOUT)
+        root, peak = psutil.Process(proc.pid), 0
+        while proc.poll() is None:
+            rss = 0
+            try:
+                for p in [root, *root.children(recursive=True)]:
+                    rss += p.memory_info().rss
+            except psutil.NoSuchProcess:  # a job ended while we walked the tree
+                pass
+            peak = max(peak, rss)
+            time.sleep(every)
+        wall = time.perf_counter() - t0
+        log.seek(0)
+        if proc.returncode:
+            sys.exit(f"{' '.join(cmd)} failed in {cwd}:\n{log.read()[-3000:]}")
+    return wall, peak / 2**20
 
 
 def rule_of(tsv, out):

@@ -1,14 +1,15 @@
 """The small configuration through SLURM (profiles/slurm) on a real single-node cluster: its
 tables must be byte-identical to the local run's.
 
-The cluster is the one scripts/slurm_local.sh brings up (installing Debian's munge, slurmctld and
-slurmd where they are missing), or finds running. Where it cannot (not root, no apt, no network),
-the test skips and says why; `pytest -m "not slurm"` leaves it out.
+Opt-in (SELFSENSE_SLURM=1): the cluster is the one scripts/slurm_local.sh brings up (installing
+Debian's munge, slurmctld and slurmd where they are missing), or finds running. Where it cannot
+(not root, no apt, no network), the test skips and says why.
 
 Chapter 3 and 4 only (35 SLURM jobs: 11 captures simulated, 9 checked and ripple-extracted, the
-Ch. 3 and Ch. 4 tables, ≈ 3 minutes on 2 cores): every SLURM job starts Snakemake twice (the batch
-script, then the job step), so the whole smoke DAG (181 jobs) would take ≈ 15–20 minutes, where
-this subset goes the same way (simulate → check → extract → identify).
+Ch. 3 and Ch. 4 tables, ≈ 2½ minutes on 2 cores): every SLURM job starts Snakemake twice (the
+batch script, then the job step), ≈ 7 s of extra core time per job, so the whole smoke DAG (180
+jobs) would take ≈ 15 minutes, where this subset goes the same way (simulate → check → extract →
+identify).
 """
 
 import os
