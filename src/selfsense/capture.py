@@ -26,6 +26,10 @@ INT16_FULL = 32767
 CONVENTIONS = "CF-1.8"
 #: relative tolerance on fs against the folding equation and on the time axis
 FS_RTOL = 1e-6
+#: per-variable chunk cache [bytes]. netCDF-C's default (64 MB per variable) only pays off for
+#: random access; captures are streamed in order, so a few chunks per variable suffice and a
+#: capture's memory stays flat however long it is (benchmarks/README.md, "Streaming memory").
+CHUNK_CACHE_BYTES = 1 << 20
 
 
 class CaptureError(ValueError):
@@ -172,6 +176,7 @@ class CaptureWriter:
             for name in self.truth:
                 g.createVariable(name, "f4", ("time_truth",), zlib=self._zlib, complevel=self._complevel,
                                  shuffle=True, chunksizes=(max(1, min(self._chunk_len, n_truth)),))
+        _limit_chunk_cache(nc)
         self._nc = nc
         return self
 
@@ -222,6 +227,14 @@ class CaptureWriter:
             self.tmp.unlink(missing_ok=True)
             raise ValueError(f"{self.path}: writer stopped early at {short} samples")
         os.replace(self.tmp, self.path)
+
+
+def _limit_chunk_cache(group: netCDF4.Dataset | netCDF4.Group) -> None:
+    """Cap every variable's chunk cache, in the file and its groups, at CHUNK_CACHE_BYTES."""
+    for var in group.variables.values():
+        var.set_var_chunk_cache(size=CHUNK_CACHE_BYTES)
+    for sub in group.groups.values():
+        _limit_chunk_cache(sub)
 
 
 def _attr(value: object) -> object:
@@ -348,6 +361,7 @@ def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Captur
     except OSError as err:
         raise _fail(path, f"not a readable netCDF4 capture ({err.strerror or err})") from None
     try:
+        _limit_chunk_cache(nc)
         _check_structure(path, nc, require)
     except CaptureError:
         nc.close()
@@ -448,6 +462,7 @@ class SeriesWriter:
         for name, units in self.variables.items():
             nc.createVariable(name, "f8", (self.dim,), zlib=True, complevel=1, shuffle=True,
                               chunksizes=(1 << 14,)).units = units
+        _limit_chunk_cache(nc)
         self._nc = nc
         return self
 
