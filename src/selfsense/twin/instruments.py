@@ -16,17 +16,30 @@ from .params import RippleParams
 class SlowProcess:
     """A smooth random signal of given peak and bandwidth: a sum of slow sinusoids.
 
-    It is a function of absolute time, so chunked generation needs no state.
+    It is a function of absolute time, so chunked generation needs no state. The sinusoids are
+    evaluated on a grid of absolute times POINTS_PER_CYCLE to the fastest one's period and
+    interpolated linearly (relative error ≤ (2π/POINTS_PER_CYCLE)²/8 ≈ 1e-4 of the peak): summing
+    them at every 48 kHz sample was a third of the time to simulate a capture.
     """
+
+    POINTS_PER_CYCLE = 200
 
     def __init__(self, rng: np.random.Generator, peak: float, bandwidth: float, terms: int = 6):
         self.freqs = bandwidth * rng.uniform(0.05, 1.0, terms)
         self.phases = rng.uniform(0, 2 * np.pi, terms)
         self.amps = rng.uniform(0.5, 1.0, terms)
         self.amps *= peak / self.amps.sum() if terms else 0.0
+        self.step = 1.0 / (self.POINTS_PER_CYCLE * self.freqs.max()) if terms else np.inf
+
+    def exact(self, t: np.ndarray) -> np.ndarray:
+        """The sum of sinusoids itself at times t."""
+        return np.sin(2 * np.pi * np.asarray(t)[:, None] * self.freqs + self.phases) @ self.amps
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
-        return np.sin(2 * np.pi * t[:, None] * self.freqs + self.phases) @ self.amps
+        if not len(t) or not np.isfinite(self.step):
+            return self.exact(t)
+        grid = np.arange(np.floor(t.min() / self.step), np.ceil(t.max() / self.step) + 1) * self.step
+        return np.interp(t, grid, self.exact(grid))
 
 
 class HighPass:
