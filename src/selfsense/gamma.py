@@ -37,13 +37,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import pandas as pd
-import statsmodels.api as sm
 from numpy.polynomial import Legendre, Polynomial
 from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    import statsmodels.api as sm
 
 __all__ = [
     "GammaFit",
@@ -281,6 +283,10 @@ def _fit(
             f"design matrix has rank {rank} < {n_params} coefficients: needs more than "
             f"{order} distinct C values and a temperature not collinear with C"
         )
+    # imported here: statsmodels takes ≈ 0.9 s to import, and the jobs that only evaluate Γ
+    # (the observer over each capture, the real-time loop) never fit
+    import statsmodels.api as sm
+
     results = sm.OLS(x_um, raw if basis == "raw" else scaled).fit()
     return GammaFit(
         design=design,

@@ -40,12 +40,18 @@ Module contents
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
-import control
 import numba
 import numpy as np
 import scipy.signal
+
+if TYPE_CHECKING:
+    import control
+
+# python-control is imported inside the functions that build transfer functions: with the
+# matplotlib it pulls in it costs ≈ 0.4 s per process, and the streaming jobs (one per capture)
+# only need the state-space matrices.
 
 __all__ = [
     "THESIS_A0",
@@ -145,6 +151,8 @@ def transfer_functions(gains: HPOGains) -> dict[str, control.TransferFunction]:
     The sum is returned *unsimplified* (as python-control forms it) so that callers and tests
     can check the complementarity themselves, e.g. with ``control.minreal``.
     """
+    import control
+
     plant = control.tf([1.0], [gains.a0, 0.0])  # 1/(a0 s): current -> position
     offset_estimator = control.tf([gains.LP, gains.LI], [1.0, 0.0])  # LP + LI/s
     loop = plant * offset_estimator
@@ -208,12 +216,19 @@ def continuous_state_space(gains: HPOGains) -> control.StateSpace:
     Its transfer functions equal Eq 5.6–5.8 (checked in the tests against the block-algebra
     versions of :func:`transfer_functions`).
     """
+    import control
+
+    return control.ss(*_state_matrices(gains), inputs=["I", "x_CP"], outputs=["xhat", "I0hat"])
+
+
+def _state_matrices(gains: HPOGains) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A, B, C, D of :func:`continuous_state_space`."""
     a0, lp, li = gains.a0, gains.LP, gains.LI
     A = np.array([[-lp / a0, -li / a0], [1.0, 0.0]])
     B = np.array([[1.0 / a0, lp / a0], [0.0, -1.0]])
     C = np.array([[1.0, 0.0], [lp, li]])
     D = np.array([[0.0, 0.0], [0.0, -lp]])
-    return control.ss(A, B, C, D, inputs=["I", "x_CP"], outputs=["xhat", "I0hat"])
+    return A, B, C, D
 
 
 class DiscreteHPO(NamedTuple):
@@ -249,11 +264,8 @@ def discretize(gains: HPOGains, fs: float, method: str = "tustin") -> DiscreteHP
     fs = float(fs)
     if not np.isfinite(fs) or fs <= 0.0:
         raise ValueError(f"fs must be finite and > 0, got {fs!r}")
-    sys_c = continuous_state_space(gains)
     dt = 1.0 / fs
-    Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete(
-        (sys_c.A, sys_c.B, sys_c.C, sys_c.D), dt, method=_SCIPY_METHOD[method]
-    )
+    Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete(_state_matrices(gains), dt, method=_SCIPY_METHOD[method])
     as_c = lambda m: np.ascontiguousarray(m, dtype=np.float64)  # noqa: E731
     return DiscreteHPO(as_c(Ad), as_c(Bd), as_c(Cd), as_c(Dd), dt, method)
 

@@ -10,7 +10,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Mapping
 
+from ..control import HPOIntegralController, IntegralController
+from ..gamma import GammaPolynomial
 from ..manifest import ManifestError, expand_protocols, load_dataset
+from ..observer import HPOGains
+from ..ripple import SamplingPlan
+from ..selfsensing import SelfSensingChain
 from . import bender
 from .bench import Bench, Controller, DaqPlan, simulate_capture
 from .drive import Drive, drive_from_protocol
@@ -73,14 +78,6 @@ def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: in
     ``realtime`` holds ``gamma`` (coefficients, g), ``a0``, ``omega_s``, ``zeta_s``,
     ``k_over_alpha`` and ``omega_c``: what the bench's loop was configured with.
     """
-    # Imported here, not at the top: python-control and statsmodels take ≈ 2 s to import, and
-    # only closed-loop runs need them, not the dozens of open-loop `simulate` jobs.
-    from ..control import HPOIntegralController, IntegralController
-    from ..gamma import GammaPolynomial
-    from ..observer import HPOGains
-    from ..ripple import SamplingPlan
-    from ..selfsensing import SelfSensingChain
-
     plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
     gamma = GammaPolynomial(tuple(realtime["gamma"]["coefficients"]), realtime["gamma"]["g"])
     chain = SelfSensingChain(plan, gamma, HPOGains(realtime["a0"], realtime["omega_s"], realtime["zeta_s"]), daq.fs)
