@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from selfsense.chapters import ch7
+from selfsense.gamma import GammaPolynomial
 from selfsense.ripple import SamplingPlan
 from selfsense.thermal import ThermalModel, ThermalProperties, predict_temperature
 
@@ -56,3 +57,55 @@ def test_extract_is_chunk_invariant_and_measures_hysteresis_power(stack_params, 
     np.testing.assert_allclose(run([10_000, 7, len(t) - 10_007]), whole, rtol=1e-12)
     true_power = np.mean((truth["U_H"] * np.gradient(truth["q"]) * fs)[int(fs) // 2:])
     assert np.mean(whole[5:]) == pytest.approx(true_power, rel=0.2)  # the loss seen through the instruments
+
+
+LINEAR_GAMMA = GammaPolynomial((32.0 * 3.13, -32.0))  # x [µm] = 32 (3.13 − C [µF]): 0 at rest, 32 µm at 2.13 µF
+
+
+def sine_run(frequency, shift=0.0, loop=0.0, T=(23.0, 23.0), seconds=3.0, warmup=0.5, rate=4000.0):
+    """A ripple series whose C_e–x follows LINEAR_GAMMA, the laser reading `shift` more after the
+    warm-up and `loop` more (less) on the rising (falling) branch; T_mid ramps from T[0] to T[1]."""
+    t = np.arange(int(seconds * rate)) / rate
+    U = np.where(t >= warmup, 50 - 50 * np.cos(2 * np.pi * frequency * (t - warmup)), 0.0)
+    C = 3.13e-6 - 1e-8 * U
+    rising = np.gradient(U) >= 0
+    x = LINEAR_GAMMA.predict(C) + 5e-6 + (t >= warmup) * (shift + np.where(rising, loop, -loop))  # laser zero: 5 µm
+    t_slow = np.arange(0, seconds, 0.1)
+    return {"time": t, "C_e": C, "x_laser": x, "U": U, "frequency": frequency, "warmup": warmup, "T_time": t_slow,
+            "T_mid": np.interp(t_slow, [warmup, seconds], T)}
+
+
+def test_frequency_effect_is_zero_on_gamma_and_gives_a_shift_or_a_loop_back():
+    runs = {"ref": sine_run(0.5), "on": sine_run(10.0), "shifted": sine_run(50.0, shift=0.4e-6, T=(25.0, 25.0)),
+            "loop": sine_run(100.0, loop=0.3e-6, T=(23.0, 24.0))}
+    table, curves = ch7.frequency_effect(runs, LINEAR_GAMMA, g=0.2, reference="ref", bins=10, min_windows=5)
+    t = table.set_index("run")
+    assert list(table["frequency [Hz]"]) == [0.5, 10, 50, 100]
+    for run in ("ref", "on"):
+        assert t.loc[run, "max |x − Γ(C_e)| [µm]"] < 1e-6
+    for col in ("mean x − Γ(C_e) [µm]", "max |x − Γ(C_e)| [µm]", "rms x − Γ(C_e) [µm]"):
+        assert t.loc["shifted", col] == pytest.approx(0.4, rel=1e-6)
+    assert t.loc["shifted", "max [% of stroke]"] == pytest.approx(100 * 0.4 / t.loc["shifted", "stroke [µm]"])
+    # the two branches straddle Γ: their mean hides the loop, the per-branch curves do not
+    assert abs(t.loc["loop", "mean x − Γ(C_e) [µm]"]) < 0.05
+    assert t.loc["loop", "max |x − Γ(C_e)| [µm]"] == pytest.approx(0.3, rel=1e-6)
+    assert t.loc["shifted", "offset from temperature g·(T − T_Γ) [µm]"] == pytest.approx(0.2 * 2.0)
+    assert t.loc["loop", "T rise [K]"] == pytest.approx(1.0, abs=0.05)
+    assert t.loc["ref", "note"] == "Γ fitted on this run" and t.loc["on", "note"] == ""
+    assert set(curves) == {"0.5 Hz", "10 Hz", "50 Hz", "100 Hz"}
+
+
+def test_figure_7_9_shows_the_identified_values_or_says_why_not():
+    from selfsense.observer import HPOGains
+    from selfsense.ripple import plan_from_fs
+
+    def texts(fig):
+        return " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
+
+    args = (GammaPolynomial((1.0, 2.0), g=0.203), 5, HPOGains(16.6, 2 * np.pi, 1.0))
+    plan = plan_from_fs(48000.0, 1e5, 12, 4)
+    fig, shown = ch7.figure_7_9(*args, {"identified": True, "tau": 106.9, "gamma": 50.4, "T_amb": 23.1}, 2.64e6, plan)
+    assert "τ = 106.9 s, γ = 50.4 K/W" in texts(fig) and "g = 0.203 µm/K" in texts(fig) and "2.64 V/µm" in texts(fig)
+    assert shown["L_I"] == pytest.approx((2 * np.pi) ** 2 * 16.6) and shown["tau [s]"] == 106.9
+    fig, shown = ch7.figure_7_9(*args, {"identified": False, "reason": "runs too short"}, 2.64e6, plan)
+    assert "not identified" in texts(fig) and "runs too short" in texts(fig) and shown["tau [s]"] is None

@@ -175,9 +175,122 @@ def magnitude_plot(freqs_hz, curves: dict, title):
     return fig
 
 
+def bode(table: pd.DataFrame, model_f, model_G, peaks: pd.DataFrame, thesis_hz: float, title):
+    """Fig 5.3: measured points against the model line, magnitude and phase; resonances marked.
+
+    ``table`` has the measured columns of :func:`selfsense.frequency_response.response_table`,
+    ``model_G`` is complex on ``model_f`` [Hz] (m/C, numerically µm/µC), ``peaks`` is
+    :func:`~selfsense.frequency_response.resonance_table`.
+    """
+    fig, (mag, phase) = _fig(2, 1, sharex=True)
+    f = table["frequency [Hz]"]
+    mag.loglog(model_f, np.abs(model_G), "-", lw=1, label="model, Eq 5.2 (identified parameters)")
+    mag.loglog(f, table["measured |G| [µm/µC]"], "o", ms=3, label="measured (stepped sine)")
+    phase.semilogx(model_f, np.degrees(np.unwrap(np.angle(model_G))), "-", lw=1)
+    phase.semilogx(f, np.degrees(np.unwrap(np.radians(table["measured phase [deg]"]))), "o", ms=3)
+    for (_, row), style in zip(peaks.iterrows(), ("--", ":")):
+        if np.isfinite(row["peak frequency [Hz]"]):
+            for ax in (mag, phase):
+                ax.axvline(row["peak frequency [Hz]"], ls=style, lw=0.8, color="gray")
+            mag.annotate(f"{row['response']} peak {row['peak frequency [Hz]']:.0f} Hz",
+                         (row["peak frequency [Hz]"], row["peak |G| [µm/µC]"]), fontsize=7,
+                         xytext=(-4, -12 - 10 * (style == ":")), textcoords="offset points", ha="right")
+    for ax in (mag, phase):
+        ax.axvline(thesis_hz, ls="-.", lw=0.8, color="tab:red")
+        ax.grid(alpha=0.3, which="both")
+    mag.annotate(f"thesis ≈ {thesis_hz:g} Hz", (thesis_hz, mag.get_ylim()[1]), fontsize=7, color="tab:red",
+                 xytext=(3, -10), textcoords="offset points")
+    mag.set(ylabel="|G| = |x/q| [µm/µC]", title=title)
+    phase.set(xlabel="frequency [Hz]", ylabel="phase [deg]")
+    mag.legend(fontsize=7, loc="upper left")
+    return fig
+
+
 def placeholder(title: str, reason: str):
     """A figure that says why its content could not be computed for this campaign or dataset."""
     fig, ax = _fig()
     ax.text(0.5, 0.5, reason, ha="center", va="center", wrap=True)
     ax.set(title=title, xticks=[], yticks=[])
+    return fig
+
+
+def frequency_effect(curves, gamma_curve: tuple[np.ndarray, np.ndarray], max_points: int = 3000):
+    """Fig 7.8: (a) C_e against x per drive frequency over Γ; (b) each curve's distance from Γ.
+
+    ``curves``: {label: {"x", "C_e", "centres", "rising", "falling"}} with raw ripple windows
+    (thinned to ``max_points`` for drawing) and the binned x − Γ(C_e) per branch;
+    ``gamma_curve``: (C, Γ(C)) in SI units.
+    """
+    fig, axes = _fig(1, 2)
+    for label, c in curves.items():
+        step = max(1, len(c["x"]) // max_points)
+        colour = axes[0].plot(c["x"][::step] * UM, c["C_e"][::step] * UF, ".", ms=1, alpha=0.4)[0].get_color()
+        axes[0].plot([], [], "o", color=colour, label=label)
+        axes[1].plot(c["centres"] * UM, c["rising"] * UM, ".-", color=colour, lw=0.9, ms=3)
+        axes[1].plot(c["centres"] * UM, c["falling"] * UM, ".--", color=colour, lw=0.9, ms=3)
+    axes[0].plot(gamma_curve[1] * UM, gamma_curve[0] * UF, "k-", lw=1, label="Γ (0.1 Hz fit)")
+    axes[0].set(xlabel="x [µm]", ylabel="C_e [µF]", title="(a) capacitance against position")
+    axes[1].axhline(0, color="k", lw=0.8)
+    axes[1].set(xlabel="x [µm]", ylabel="x − Γ(C_e) [µm]",
+                title="(b) distance from Γ, binned\n(solid: rising, dashed: falling)")
+    axes[0].legend(fontsize=7)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    return fig
+
+
+def _boundary(block: dict, toward) -> np.ndarray:
+    """Where a wire from the block's centre towards ``toward`` leaves the block's outline."""
+    c, d = np.asarray(block["xy"], float), np.asarray(toward, float) - np.asarray(block["xy"], float)
+    if not np.any(d):
+        return c
+    if block.get("kind", "box") in ("sum", "mul"):
+        return c + d / np.hypot(*d) * block.get("r", 1.8)
+    w, h = block.get("size", (0.0, 0.0))
+    scale = min(0.5 * w / abs(d[0]) if d[0] else np.inf, 0.5 * h / abs(d[1]) if d[1] else np.inf)
+    return c + d * min(scale, 1.0)
+
+
+def block_diagram(panels, width: float = 12.0, extent: tuple[float, float] = (104.0, 46.0)):
+    """Signal-flow diagrams, one panel each, drawn in data coordinates (0..extent).
+
+    ``panels``: [(title, blocks, wires)]. ``blocks``: {name: {"xy", "text", "kind", "size" | "r"}}
+    with kind "box" (framed text of ``size`` (w, h)), "port" (unframed text of ``size``: where a
+    signal enters or leaves), "node" (a branch point), "sum" (Σ circle) or "mul" (× circle).
+    ``wires``: [(from, to, label, via, sign)] drawn as straight segments through the ``via``
+    points, the arrow at ``to``; ``label`` names the signal beside its longest segment and
+    ``sign`` ("+", "−") is written where the wire enters a summing junction.
+    """
+    fig, axes = plt.subplots(len(panels), 1, figsize=(width, width * extent[1] / extent[0] * len(panels)),
+                             constrained_layout=True, squeeze=False)
+    for ax, (title, blocks, wires) in zip(axes[:, 0], panels):
+        ax.set(xlim=(0, extent[0]), ylim=(0, extent[1]), aspect="equal", title=title)
+        ax.axis("off")
+        for b in blocks.values():
+            kind = b.get("kind", "box")
+            if kind in ("sum", "mul"):
+                ax.add_patch(plt.Circle(b["xy"], b.get("r", 1.8), fill=False, lw=1))
+                ax.text(*b["xy"], "Σ" if kind == "sum" else "×", ha="center", va="center", fontsize=10)
+            elif kind == "node":
+                ax.plot(*b["xy"], "ko", ms=3)
+            else:
+                w, h = b["size"]
+                if kind == "box":
+                    ax.add_patch(plt.Rectangle((b["xy"][0] - w / 2, b["xy"][1] - h / 2), w, h, fill=False, lw=1))
+                ax.text(*b["xy"], b["text"], ha="center", va="center", fontsize=7.5, linespacing=1.3)
+        for src, dst, label, via, sign in wires:
+            pts = [blocks[src]["xy"], *via, blocks[dst]["xy"]]
+            pts[0], pts[-1] = _boundary(blocks[src], pts[1]), _boundary(blocks[dst], pts[-2])
+            if len(pts) > 2:
+                ax.plot(*zip(*pts[:-1]), "k-", lw=0.9)
+            ax.annotate("", xy=pts[-1], xytext=pts[-2], arrowprops={"arrowstyle": "-|>", "lw": 0.9, "color": "k"})
+            if label:  # beside the longest segment, above it or to its right
+                (x0, y0), (x1, y1) = max(zip(pts[:-1], pts[1:]), key=lambda seg: np.hypot(*np.subtract(*seg)))
+                vertical = abs(x1 - x0) < abs(y1 - y0)
+                ax.text((x0 + x1) / 2 + (0.8 if vertical else 0), (y0 + y1) / 2 + (0 if vertical else 0.8), label,
+                        ha="left" if vertical else "center", va="center" if vertical else "bottom", fontsize=8.5)
+            if sign:  # right of the arrow's direction, so it keeps clear of the labels
+                end, before = np.asarray(pts[-1]), np.asarray(pts[-2])
+                d = (end - before) / np.hypot(*(end - before))
+                ax.text(*(end - 1.6 * d + 1.3 * np.array([d[1], -d[0]])), sign, ha="center", va="center", fontsize=9)
     return fig

@@ -11,12 +11,13 @@ def direction(drive: np.ndarray) -> np.ndarray:
     return np.where(d >= 0, 1, -1)
 
 
-def branch_gap(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray, bins: int = 40) -> float:
-    """Largest vertical distance between the rising and falling branches of a loop.
+def branch_means(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray, bins: int = 40,
+                 min_count: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A loop as two curves: the vertical quantity averaged per bin of the horizontal one, per branch.
 
     The horizontal axis is binned over the range both branches cover; each branch is averaged
-    per bin (the estimates are noisy sample by sample) and the largest difference of the
-    branch means is returned, in the vertical quantity's units.
+    per bin (the estimates are noisy sample by sample). Returns the bin centres and the rising
+    and falling branches' means (NaN in a bin a branch visits fewer than ``min_count`` times).
     """
     h, v, up = (np.asarray(a) for a in (horizontal, vertical, rising))
     ok = np.isfinite(h) & np.isfinite(v)
@@ -27,14 +28,19 @@ def branch_gap(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray,
     which = np.clip(np.digitize(h, edges) - 1, 0, bins - 1)
     inside = (h >= lo) & (h <= hi)
 
-    def branch_means(sel):
+    def means(sel):
         sums = np.bincount(which[sel], weights=v[sel], minlength=bins)
         counts = np.bincount(which[sel], minlength=bins)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return sums / counts
+        return np.where(counts >= max(min_count, 1), sums / np.maximum(counts, 1), np.nan)
 
-    gap = branch_means(inside & (up > 0)) - branch_means(inside & (up < 0))
-    return float(np.nanmax(np.abs(gap)))
+    return 0.5 * (edges[:-1] + edges[1:]), means(inside & (up > 0)), means(inside & (up < 0))
+
+
+def branch_gap(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray, bins: int = 40) -> float:
+    """Largest vertical distance between the rising and falling branches of a loop
+    (of their bin means, :func:`branch_means`), in the vertical quantity's units."""
+    _, rise, fall = branch_means(horizontal, vertical, rising, bins)
+    return float(np.nanmax(np.abs(rise - fall)))
 
 
 def hysteresis_percent(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray) -> tuple[float, float]:

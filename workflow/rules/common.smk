@@ -62,3 +62,10 @@ def experiment_frequency(name):
 def sines(dataset, prefix):
     """{frequency [Hz]: experiment} for the experiments named <prefix><f>hz."""
     return {experiment_frequency(e): e for e in EXPERIMENTS[dataset] if e.startswith(prefix)}
+
+
+def drive_frequency(dataset, experiment):
+    """The drive frequency [Hz] the protocol ran: the smoke campaign speeds up the slow sines, so
+    it differs from the name's."""
+    run = EXPERIMENTS[dataset][experiment]
+    return run.protocol["segments"][0]["frequency"] if run is not None else experiment_frequency(experiment)

@@ -2,10 +2,11 @@
 
 GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
                 "coefficients": "table_5_2_coefficients.csv", "basis": "gamma_basis.csv"}
+GAMMA_RUN = "ch5_sine_0p1hz"  # Γ is fitted on the 0.1 Hz run (Tables 5.1, 5.2)
 
 
 def gamma_datasets():
-    return [d for d in ripple_datasets() if "ch5_sine_0p1hz" in EXPERIMENTS[d]]
+    return [d for d in ripple_datasets() if GAMMA_RUN in EXPERIMENTS[d]]
 
 
 def gamma_outputs():
@@ -15,7 +16,7 @@ def gamma_outputs():
 rule gamma_fit:
     """Γ of orders 3–6 and ln on the 0.1 Hz data; ANOVA and coefficients (statsmodels)."""
     input:
-        series="results/{dataset}/ripple/ch5_sine_0p1hz.nc",
+        series=f"results/{{dataset}}/ripple/{GAMMA_RUN}.nc",
     output:
         **{k: report(f"results/{{dataset}}/ch5/{v}", caption=f"../report/{k}.rst", category="{dataset}",
                      subcategory="Chapter 5") for k, v in GAMMA_TABLES.items()},

@@ -1,5 +1,5 @@
 # Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
-# 7.3), the coupled observer/thermal estimation, Figures 7.1–7.12.
+# 7.3), the frequency effect on C_e–x, the coupled observer/thermal estimation, Figures 7.1–7.12.
 
 CH7_COUPLED = ["ch7_freq_100hz", "ch7_freq_50hz", "ch7_mixed_ae"]
 CH7_CHECKS = ["ch7_heat_cool", "ch7_mixed_voltage"]
@@ -16,9 +16,9 @@ def thermal_datasets():
 def thermal_outputs():
     out = []
     for d in thermal_datasets():
-        out += [f"results/{d}/ch7/{t}.csv" for t in THERMAL_TABLES + ["coupled"]]
+        out += [f"results/{d}/ch7/{t}.csv" for t in THERMAL_TABLES + ["coupled", "frequency_effect"]]
         out += [f"results/{d}/ch7/{v}" for v in GAMMA_T_TABLES.values()]
-        out += [f"figures/{d}/fig_7_{n}.png" for n in (1, 2, 3, 5, 6, 7, 10, 11, 12)]
+        out += [f"figures/{d}/fig_7_{n}.png" for n in (1, 2, 3, 5, 6, 7, 8, 9, 10, 11, 12)]
         if "twin" in DATASETS[d]:
             out.append(f"results/{d}/twin/thermal_recovery.csv")
     return out
@@ -103,6 +103,63 @@ rule gamma_t_fit:
         runtime=10,
     script:
         "../scripts/gamma_t_fit.py"
+
+
+rule frequency_effect:
+    """Figure 7.8: C_e–x at each Chapter 5 drive frequency against Γ, beside each run's temperature."""
+    input:
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
+        captures=lambda w: [RAW / w.dataset / f"{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
+        gamma="results/{dataset}/ch5/gamma.json",
+        gamma_t="results/{dataset}/ch7/gamma_t.json",
+    output:
+        table=report("results/{dataset}/ch7/frequency_effect.csv", caption="../report/frequency_effect.rst",
+                     category="{dataset}", subcategory="Chapter 7"),
+        figure=report("figures/{dataset}/fig_7_8.png", caption="../report/fig_7_8.rst", category="{dataset}",
+                      subcategory="Chapter 7"),
+    params:
+        runs=lambda w: list(sines(w.dataset, "ch5_sine_").values()),
+        frequencies=lambda w: [drive_frequency(w.dataset, e) for e in sines(w.dataset, "ch5_sine_").values()],
+        reference=GAMMA_RUN,
+        bins=20,
+        min_windows=10,
+    log:
+        "logs/{dataset}/frequency_effect.log",
+    benchmark:
+        "benchmarks/out/{dataset}/frequency_effect.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/frequency_effect.py"
+
+
+rule estimator_diagram:
+    """Figure 7.9: block diagrams of the coupled estimation, annotated with the identified values."""
+    input:
+        gamma_t="results/{dataset}/ch7/gamma_t.json",
+        observer="results/{dataset}/ch5/observer.json",
+        thermal_model="results/{dataset}/ch7/thermal_model.json",
+        model="results/{dataset}/ch4/model.json",
+    output:
+        figure=report("figures/{dataset}/fig_7_9.png", caption="../report/fig_7_9.rst", category="{dataset}",
+                      subcategory="Chapter 7"),
+    params:
+        fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
+        fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
+        ns=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["ns"],
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/estimator_diagram.log",
+    benchmark:
+        "benchmarks/out/{dataset}/estimator_diagram.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    script:
+        "../scripts/estimator_diagram.py"
 
 
 rule coupled:

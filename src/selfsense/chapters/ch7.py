@@ -1,14 +1,16 @@
-"""Chapter 7: self-heating — loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2–7.3) and
-the coupled observer/thermal estimation (Fig 7.9–7.12)."""
+"""Chapter 7: self-heating — loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2–7.3), the
+frequency effect on C_e–x (Fig 7.8) and the coupled observer/thermal estimation (Fig 7.9–7.12)."""
 
 from __future__ import annotations
 
+import textwrap
 from typing import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
 
 from ..gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, gamma_t_table
+from ..metrics import branch_means, direction
 from ..observer import HPOGains
 from ..ripple import RippleExtractor, SamplingPlan, WindowMeans
 from ..selfsensing import SelfSensingChain
@@ -17,6 +19,9 @@ from ..thermal import (PowerAverager, SelfHeatingEstimator, ThermalModel, Therma
 
 THESIS_TABLE_7_1 = {"tau [s]": 100.0, "k_T [W/(m² K)]": 28.0, "gamma [K/W]": 57.0, "k/alpha [V/m]": 2.85e6,
                     "T_ref [°C]": 23.0}
+#: How often the coupled estimation hands T_SH(HPO) to Γ_T and x̂ to the loss power [s]: the IR
+#: thermometers' rate, and fast enough for a temperature that changes over τ ≈ 100 s.
+COUPLING_INTERVAL = 0.1
 THESIS_TABLE_7_2 = {"n=4": (0.998189, 0.998188, 0.474422), "n=5": (0.998194, 0.998193, 0.473808),
                     "n=6": (0.998194, 0.998193, 0.47377), "n=5 + C·T": (0.998193, 0.998193, 0.473825)}
 
@@ -130,7 +135,7 @@ def gamma_t(samples: Mapping[str, np.ndarray], T_mid_time, T_mid, orders=(4, 5, 
 
 def coupled_estimation(chunks, fs: float, plan: SamplingPlan, gamma: GammaPolynomial, gains: HPOGains,
                        model: ThermalModel, k_over_alpha: float, T_amb: float, warmup: float,
-                       interval: float = 0.1):
+                       interval: float = COUPLING_INTERVAL):
     """Fig 7.9: the temperature-compensated observer and the thermal model, coupled.
 
     Every ``interval`` the thermal model, driven by the loss power computed with the observer's
@@ -165,3 +170,134 @@ def coupled_estimation(chunks, fs: float, plan: SamplingPlan, gamma: GammaPolyno
     stroke = x_hi - x_lo
     return out, {"max observer error [µm]": err_max * 1e6, "stroke [µm]": stroke * 1e6,
                  "max observer error [% of stroke]": 100 * err_max / stroke}
+
+
+def frequency_effect(runs: Mapping[str, Mapping], gamma: GammaPolynomial, g: float, reference: str, bins: int = 20,
+                     min_windows: int = 10):
+    """Fig 7.8: how far each drive frequency's C_e–x curve lies from Γ, and how warm the stack was.
+
+    ``runs``: {run: ripple series (time, C_e, x_laser, U) plus "frequency" [Hz], "warmup" [s]
+    and the middle thermometer "T_time", "T_mid"}. Position is zeroed at the series' first
+    window, as Γ's data were (:func:`..ch5.gamma_data`), and the warm-up hold is left out.
+    The distance x − Γ(C_e) is averaged per position bin and per branch, so the table measures
+    the curve (offset, bending, loop opening) rather than the ripple estimator's window noise; a
+    bin with fewer than ``min_windows`` windows is left out (at 300 Hz the 4 kHz windows fall
+    on a few drive phases, leaving some bins one or two windows, whose mean is that noise).
+    ``g`` (Γ_T's temperature coefficient [µm/K]) turns each run's mean temperature, relative to
+    the ``reference`` run's (the one Γ was fitted on), into the offset self-heating alone would
+    give: what is left beyond it is the frequency's effect.
+    Returns the table and the curves for :func:`figure_7_8`.
+    """
+    rows, curves = [], {}
+    for name, r in sorted(runs.items(), key=lambda item: item[1]["frequency"]):
+        driven = r["time"] >= r["warmup"]
+        x, C = (r["x_laser"] - r["x_laser"][0])[driven], r["C_e"][driven]
+        ok = np.isfinite(x) & np.isfinite(C)
+        x, C, U = x[ok], C[ok], r["U"][driven][ok]
+        centres, rising, falling = branch_means(x, x - gamma.predict(C), direction(U), bins, min_windows)
+        curve = np.concatenate([rising, falling])
+        stroke = float(np.ptp(x))
+        on = r["T_time"] >= r["warmup"]
+        t, T = r["T_time"][on], r["T_mid"][on]
+        rows.append({"frequency [Hz]": r["frequency"], "run": name, "windows": int(x.size), "stroke [µm]": 1e6 * stroke,
+                     "mean x − Γ(C_e) [µm]": 1e6 * float(np.nanmean(curve)),
+                     "max |x − Γ(C_e)| [µm]": 1e6 * float(np.nanmax(np.abs(curve))),
+                     "rms x − Γ(C_e) [µm]": 1e6 * float(np.sqrt(np.nanmean(curve ** 2))),
+                     "max [% of stroke]": 100 * float(np.nanmax(np.abs(curve))) / stroke,
+                     "rms [% of stroke]": 100 * float(np.sqrt(np.nanmean(curve ** 2))) / stroke,
+                     "T mean [°C]": float(np.mean(T)), "T rise [K]": _rise(t, T),
+                     "note": "Γ fitted on this run" if name == reference else ""})
+        curves[f"{r['frequency']:g} Hz"] = {"x": x, "C_e": C, "centres": centres, "rising": rising, "falling": falling}
+    table = pd.DataFrame(rows)
+    T_ref = table.loc[table["run"] == reference, "T mean [°C]"].iloc[0]
+    table.insert(table.columns.get_loc("note"), "offset from temperature g·(T − T_Γ) [µm]", g * (table["T mean [°C]"] - T_ref))
+    return table, curves
+
+
+def _rise(t: np.ndarray, T: np.ndarray) -> float:
+    """Warming over a run from a straight line through its temperatures: a run lasts seconds
+    against τ ≈ 100 s, and the line sees through thermometer noise that max − min would report."""
+    return float(np.polyfit(t, T, 1)[0] * np.ptp(t)) if t.size > 1 else float("nan")
+
+
+def figure_7_8(curves: Mapping[str, Mapping[str, np.ndarray]], gamma: GammaPolynomial):
+    """Fig 7.8 from :func:`frequency_effect`'s curves, with Γ drawn over the measured C_e range."""
+    from .. import figures  # here: the streaming jobs that import this module need no matplotlib
+
+    C = np.concatenate([c["C_e"] for c in curves.values()])
+    grid = np.linspace(np.min(C), np.max(C), 200)
+    return figures.frequency_effect(curves, (grid, gamma.predict(grid)))
+
+
+def figure_7_9(gamma_t: GammaPolynomial, order: int, gains: HPOGains, thermal: Mapping, k_over_alpha: float,
+               plan: SamplingPlan, interval: float = COUPLING_INTERVAL):
+    """Fig 7.9 as the pipeline runs it (:func:`coupled_estimation`), annotated with its identified values.
+
+    (a) the self-heating model fed by the observer: P = (U − (k/α)x̂)·I averaged per interval,
+    ΔT = γP/(τs+1) discretised exactly (ZOH), T_SH(HPO) = T_amb + ΔT; (b) the observer whose Γ_T
+    reads that temperature, held for the next interval (the loop closes through this one-interval
+    delay). ``thermal`` is the thermal stage's model record; when it holds no identified model
+    the diagram says why. Returns the figure and the values it shows.
+    """
+    from .. import figures
+
+    if thermal["identified"]:
+        heat = f"τ = {thermal['tau']:.1f} s, γ = {thermal['gamma']:.1f} K/W"
+        ambient = f"T_amb = {thermal['T_amb']:.1f} °C"
+    else:
+        heat = "τ, γ not identified:\n" + "\n".join(textwrap.wrap(thermal["reason"], 28))
+        ambient = "T_amb: not identified"
+    shown = {"tau [s]": thermal.get("tau"), "gamma [K/W]": thermal.get("gamma"), "T_amb [°C]": thermal.get("T_amb"),
+             "k/alpha [V/m]": k_over_alpha, "Gamma_T order": order, "g [µm/K]": gamma_t.g, "a0 [C/m]": gains.a0,
+             "omega_S [rad/s]": gains.omega_s, "zeta_S": gains.zeta_s, "L_P": gains.LP, "L_I": gains.LI,
+             "np": plan.n_periods, "C_e rate [Hz]": plan.fr_folded, "interval [s]": interval}
+    heating = {
+        "x": {"xy": (5, 12), "text": "x̂ from (b)", "kind": "port", "size": (9, 4)},
+        "U": {"xy": (5, 30), "text": "U\n(drive voltage)", "kind": "port", "size": (9, 6)},
+        "I": {"xy": (44, 8), "text": "I (drive current,\nas measured)", "kind": "port", "size": (14, 6)},
+        "gain": {"xy": (20, 12), "text": f"k/α\n{k_over_alpha * 1e-6:.3g} V/µm\n(Case 2 k, α; Ch 4)", "kind": "box",
+                 "size": (14, 9)},
+        "sum": {"xy": (30, 30), "kind": "sum"},
+        "mul": {"xy": (44, 30), "kind": "mul"},
+        "mean": {"xy": (59, 30), "text": f"mean over\n{interval:g} s", "kind": "box", "size": (11, 8)},
+        "model": {"xy": (78, 30), "text": f"γ / (τs + 1)\n{heat}\nexact ZOH at {interval:g} s", "kind": "box",
+                  "size": (20, 13 if thermal["identified"] else 16)},
+        "amb": {"xy": (92, 12), "text": ambient, "kind": "port", "size": (16, 4)},
+        "tsum": {"xy": (92, 30), "kind": "sum"},
+        "T": {"xy": (100, 40), "text": "T_SH(HPO)\nto Γ_T (b)", "kind": "port", "size": (9, 6)},
+    }
+    heating_wires = [
+        ("x", "gain", r"$\hat{x}$", (), None), ("gain", "sum", r"$U_\mathrm{P}$", ((30, 12),), "−"),
+        ("U", "sum", "$U$", (), "+"), ("sum", "mul", r"$U_\mathrm{H}$", (), None), ("I", "mul", "$I$", (), None),
+        ("mul", "mean", r"$P_\mathrm{loss}$", (), None), ("mean", "model", r"$\bar{P}$", (), None),
+        ("model", "tsum", r"$\Delta T$", (), "+"), ("amb", "tsum", "", (), "+"), ("tsum", "T", "", ((100, 30),), None),
+    ]
+    observer = {
+        "ripple": {"xy": (5, 30), "text": "U_r, I_r\n(ripple)", "kind": "port", "size": (8, 6)},
+        "ce": {"xy": (20, 30), "text": f"C_e (Eq 3.12)\nnp = {plan.n_periods} folded periods,\n"
+                                        f"one per {1e3 / plan.fr_folded:g} ms", "kind": "box", "size": (17, 9)},
+        "T": {"xy": (42, 43), "text": f"T_SH(HPO) from (a), held {interval:g} s", "kind": "port", "size": (26, 3)},
+        "gamma": {"xy": (42, 30), "text": f"Γ_T(C_e, T) (Eq 7.13)\norder {order}, g = {gamma_t.g:.3g} µm/K\n"
+                                          "held to the next window", "kind": "box", "size": (19, 9)},
+        "s1": {"xy": (60, 30), "kind": "sum"},
+        "L": {"xy": (76, 30), "text": f"L(s) = L_P + L_I / s\nL_P = {gains.LP:.4g} A/m\n"
+                                      f"L_I = {gains.LI:.4g} A/(m s)", "kind": "box", "size": (18, 9)},
+        "I": {"xy": (56, 8), "text": "I (drive current)", "kind": "port", "size": (12, 3)},
+        "s2": {"xy": (76, 8), "kind": "sum"},
+        "int": {"xy": (89, 8), "text": f"1 / (a0 s)\na0 = {gains.a0:.3g} C/m", "kind": "box", "size": (12, 7)},
+        "node": {"xy": (98, 8), "kind": "node"},
+        "out": {"xy": (98, 20), "text": "x̂ to (a)", "kind": "port", "size": (8, 3)},
+    }
+    observer_wires = [
+        ("ripple", "ce", "", (), None), ("ce", "gamma", r"$C_\mathrm{e}$", (), None), ("T", "gamma", "$T$", (), None),
+        ("gamma", "s1", r"$x_\mathrm{CP}$", (), "−"), ("s1", "L", "", (), None), ("L", "s2", r"$\hat{I}_0$", (), "−"),
+        ("I", "s2", "$I$", (), "+"), ("s2", "int", "", (), None), ("int", "node", "", (), None),
+        ("node", "s1", r"$\hat{x}$", ((102, 8), (102, 38), (60, 38)), "+"), ("node", "out", "", (), None),
+    ]
+    fig = figures.block_diagram([
+        ("(a) Self-heat generation model with HPO input (Eq 7.10–7.12)", heating, heating_wires),
+        (f"(b) Temperature-compensated HPO (Eq 5.5–5.9, 7.13), Tustin at {plan.fs / 1e3:g} kHz; "
+         f"T and x̂ exchanged every {interval:g} s",
+         observer, observer_wires),
+    ])
+    return fig, shown

@@ -1,0 +1,63 @@
+"""Rule `frequency_effect`: Figure 7.8 — the C_e–x relationship at each Chapter 5 drive frequency
+against Γ, with each run's temperature, so the frequency's effect is seen apart from self-heating.
+
+Alone: python workflow/scripts/frequency_effect.py raw/pi_p885 results/pi_p885 out_dir \\
+           ch5_sine_0p1hz=0.1 ch5_sine_10hz=10 ch5_sine_100hz=100 --reference ch5_sine_0p1hz
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from selfsense.capture import open_capture, read_series
+from selfsense.chapters import ch7
+from selfsense.gamma import GammaPolynomial
+from selfsense.provenance import save_figure, script_logging, write_table
+
+
+def _run(series, capture, frequency):
+    """The ripple series with the drive frequency, the warm-up and the middle thermometer."""
+    with open_capture(capture, require=("T_mid",)) as cap:
+        T = cap.read(["T_mid"], dim="time_slow")["T_mid"]
+        rate = cap.n_slow / cap.duration  # the thermometers span the capture at their own rate
+        warmup = float(cap.attrs.get("warmup_s", 0.0))
+    return read_series(series) | {"frequency": frequency, "warmup": warmup, "T_time": np.arange(T.size) / rate,
+                                  "T_mid": T}
+
+
+def main(series, captures, frequencies, gamma, gamma_t, reference, table, figure, bins=20, min_windows=10, log=None):
+    """series / captures / frequencies: {run: ripple series path / capture path / drive frequency [Hz]}."""
+    logger = script_logging(log)
+    g = json.loads(Path(gamma).read_text())
+    gamma_poly = GammaPolynomial(tuple(g["coefficients"]), g["g"])
+    runs = {run: _run(series[run], captures[run], frequencies[run]) for run in series}
+    g_T = json.loads(Path(gamma_t).read_text())["g"]
+    result, curves = ch7.frequency_effect(runs, gamma_poly, g_T, reference, bins, min_windows)
+    inputs = [*series.values(), *captures.values(), gamma, gamma_t]
+    config = {"bins": bins, "min_windows": min_windows, "reference": reference}
+    write_table(result, table, inputs=inputs, config=config)
+    save_figure(ch7.figure_7_8(curves, gamma_poly), figure, inputs=inputs, config=config)
+    logger.info("\n%s", result.to_string())
+
+
+if "snakemake" in globals():
+    i, p = snakemake.input, snakemake.params
+    main(dict(zip(p.runs, i.series)), dict(zip(p.runs, i.captures)), dict(zip(p.runs, p.frequencies)), i.gamma,
+         i.gamma_t, p.reference, snakemake.output.table, snakemake.output.figure, p.bins, p.min_windows,
+         snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    cli.add_argument("raw", type=Path)
+    cli.add_argument("results", type=Path)
+    cli.add_argument("out_dir", type=Path)
+    cli.add_argument("runs", nargs="+", help="experiment=drive frequency [Hz]")
+    cli.add_argument("--reference", default="ch5_sine_0p1hz", help="the run Γ was fitted on")
+    cli.add_argument("--bins", type=int, default=20)
+    cli.add_argument("--min-windows", type=int, default=10)
+    a = cli.parse_args()
+    freqs = {run: float(f) for run, f in (r.split("=") for r in a.runs)}
+    main({r: a.results / "ripple" / f"{r}.nc" for r in freqs}, {r: a.raw / f"{r}.nc" for r in freqs}, freqs,
+         a.results / "ch5/gamma.json", a.results / "ch7/gamma_t.json", a.reference, a.out_dir / "frequency_effect.csv",
+         a.out_dir / "fig_7_8.png", a.bins, a.min_windows)
