@@ -1,5 +1,5 @@
 # Stage "observer" (thesis Chapter 5): charge self-sensing a0, the hybrid position observer,
-# Tables 5.3–5.4, Figures 5.1–5.14.
+# Tables 5.3–5.4, Figures 5.1–5.14, and the frequency response x/q of Fig 5.3.
 
 CH5_FIGURES = ["fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
                "fig_5_13", "fig_5_14"]
@@ -19,8 +19,16 @@ def observer_datasets():
             and len(observed_sines(d)) == len(TABLE_5_4_HZ)]
 
 
+def frequency_response_datasets():
+    """Datasets with the identified model (Chapter 4) and the stepped-sine sweep ch5_sweep."""
+    return [d for d in identify_datasets() if EXPERIMENTS[d].get("ch5_sweep") is not None]
+
+
 def observer_outputs():
     out = []
+    for d in frequency_response_datasets():
+        out += [f"results/{d}/ch5/{t}.csv" for t in ("frequency_response", "resonance")]
+        out += [f"figures/{d}/fig_5_3.png"]
     for d in observer_datasets():
         out += [f"results/{d}/ch5/{t}.csv" for t in ("charge_sensing", "table_5_3", "table_5_4", "creep",
                                                      "observer_study")]
@@ -158,3 +166,30 @@ rule ch5_figures:
         runtime=10,
     script:
         "../scripts/ch5_figures.py"
+
+
+rule frequency_response:
+    """Fig 5.3: G(s) = x/q (Eq 5.2) from the stepped-sine sweep against the identified model."""
+    input:
+        capture=RAW / "{dataset}" / "ch5_sweep.nc",
+        model="results/{dataset}/ch4/model.json",
+    output:
+        table=report("results/{dataset}/ch5/frequency_response.csv", caption="../report/frequency_response.rst",
+                     category="{dataset}", subcategory="Chapter 5"),
+        peaks=report("results/{dataset}/ch5/resonance.csv", caption="../report/resonance.rst",
+                     category="{dataset}", subcategory="Chapter 5"),
+        figure=report("figures/{dataset}/fig_5_3.png", caption="../report/fig_5_3.rst", category="{dataset}",
+                      subcategory="Chapter 5"),
+    params:
+        protocol=lambda w: EXPERIMENTS[w.dataset]["ch5_sweep"].protocol,
+        settle_s=config["observer"]["sweep_settle_s"],
+    log:
+        "logs/{dataset}/frequency_response.log",
+    benchmark:
+        "benchmarks/out/{dataset}/frequency_response.tsv"
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    script:
+        "../scripts/frequency_response.py"
