@@ -3,8 +3,10 @@
 import netCDF4
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from selfsense.capture import (CaptureError, CaptureWriter, channel_spec, folded_fs, open_capture,
+from selfsense.capture import (FILL, CaptureError, CaptureWriter, channel_spec, folded_fs, open_capture,
                                scan_capture)
 
 FS = 48000.0
@@ -167,3 +169,12 @@ def test_fs_that_violates_the_folding_equation(tmp_path):
 @pytest.mark.parametrize("ns,nf,fs", [(4, 0, 400e3), (4, 2, 80e3), (4, 12, 16e3), (12, 0, 1200e3), (12, 4, 48e3)])
 def test_folding_equation_matches_table_3_1(ns, nf, fs):
     assert folded_fs(100e3, ns, nf) == pytest.approx(fs)
+
+
+@settings(max_examples=50, deadline=None)
+@given(values=st.lists(st.one_of(st.floats(-30.0, 30.0), st.just(float("nan"))), min_size=1, max_size=50))
+def test_quantize_equals_unpacking_the_packed_codes(values):
+    spec = channel_spec("U", -20.0, 20.0)
+    codes, _ = spec.pack(np.array(values))
+    unpacked = np.where(codes == FILL, np.nan, codes * spec.scale_factor + spec.add_offset)
+    np.testing.assert_array_equal(spec.quantize(np.array(values)), unpacked)

@@ -185,3 +185,14 @@ def test_slow_process_interpolation_is_exact_to_1e4_of_peak_and_chunk_invariant(
     assert np.max(np.abs(whole - process.exact(t))) < 1.3e-4
     # to rounding: numpy's vectorised sin may differ in the last bit with the array's length
     np.testing.assert_allclose(np.concatenate([process(t[:split]), process(t[split:])]), whole, rtol=0, atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(durations=st.lists(st.floats(0.0, 0.01), min_size=1, max_size=8),
+       levels=st.lists(st.floats(-50.0, 150.0), min_size=8, max_size=8), block=st.integers(1, 40))
+def test_drive_in_short_blocks_equals_the_whole_span(durations, levels, block):
+    """The closed loop evaluates the drive 12 samples at a time, touching only nearby segments."""
+    drive = Drive("voltage", tuple(Segment(d, 100.0 * (k % 2), 0.0, levels[k]) for k, d in enumerate(durations)))
+    t = np.arange(int(drive.duration * 48000) + 30) / 48000.0
+    blocks = np.concatenate([drive(t[s:s + block]) for s in range(0, len(t), block)])
+    np.testing.assert_array_equal(blocks, drive(t))

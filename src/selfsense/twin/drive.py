@@ -7,7 +7,9 @@ position segments give a reference x_R that open-loop runs turn into U = x_R·k/
 
 from __future__ import annotations
 
+import bisect
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Mapping
 
 import numpy as np
@@ -48,13 +50,24 @@ class Drive:
     def duration(self) -> float:
         return float(sum(s.duration for s in self.segments))
 
+    @cached_property
+    def starts(self) -> tuple[float, ...]:
+        """Each segment's start time [s], and the end of the last."""
+        starts = [0.0]
+        for seg in self.segments:
+            starts.append(starts[-1] + seg.duration)
+        return tuple(starts)
+
     def __call__(self, t: np.ndarray) -> np.ndarray:
         out = np.zeros_like(t, dtype=float)
-        start = 0.0
-        for seg in self.segments:
-            sel = (t >= start) & (t < start + seg.duration)
-            out[sel] = seg.value(t[sel] - start)
-            start += seg.duration
+        start = self.starts[-1]
+        if len(t):
+            # only the segments t touches: the closed loop asks for 12 samples at a time
+            first = max(0, bisect.bisect_right(self.starts, float(np.min(t))) - 1)
+            last = bisect.bisect_right(self.starts, float(np.max(t)))
+            for seg, begin in zip(self.segments[first:last], self.starts[first:last]):
+                sel = (t >= begin) & (t < begin + seg.duration)
+                out[sel] = seg.value(t[sel] - begin)
         if self.segments:
             last = self.segments[-1]
             sel = t >= start
