@@ -2,10 +2,6 @@
 # given and never written (this rule is constrained to simulated datasets only).
 
 
-def acquire_outputs():
-    return [f"results/{d}/qc/captures.csv" for d in DATASETS]
-
-
 if SIMULATED:
 
     rule simulate:

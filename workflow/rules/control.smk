@@ -1,25 +1,6 @@
 # Stage "control" (thesis Chapter 6): closed-loop runs on the twin with the real-time HPO, the
 # audit of the logged estimate, Tables 6.1–6.2, Figures 6.2–6.8.
 
-CH6_TABLES = ["table_6_1", "table_6_2", "p3", "tracking"]
-CH6_FIGURES = ["fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8"]
-
-
-def ch6_runs(dataset):
-    return [e for e in EXPERIMENTS[dataset] if e.startswith("ch6_")]
-
-
-def control_datasets():
-    return [d for d in observer_datasets() if closed_loop(d) and d in identify_datasets()]
-
-
-def control_outputs():
-    out = []
-    for d in control_datasets():
-        out += [f"results/{d}/ch6/{t}.csv" for t in CH6_TABLES + ["audit"]]
-        out += [f"figures/{d}/{f}.png" for f in CH6_FIGURES]
-    return out
-
 
 if SIMULATED:
 

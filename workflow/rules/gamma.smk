@@ -1,17 +1,5 @@
 # Stage "gamma" (thesis Chapter 5): capacitance self-sensing Γ, Tables 5.1–5.2.
 
-GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
-                "coefficients": "table_5_2_coefficients.csv", "basis": "gamma_basis.csv"}
-GAMMA_RUN = "ch5_sine_0p1hz"  # Γ is fitted on the 0.1 Hz run (Tables 5.1, 5.2)
-
-
-def gamma_datasets():
-    return [d for d in ripple_datasets() if GAMMA_RUN in EXPERIMENTS[d]]
-
-
-def gamma_outputs():
-    return [f"results/{d}/ch5/{f}" for d in gamma_datasets() for f in list(GAMMA_TABLES.values()) + ["gamma.json"]]
-
 
 rule gamma_fit:
     """Γ of orders 3–6 and ln on the 0.1 Hz data; ANOVA and coefficients (statsmodels)."""

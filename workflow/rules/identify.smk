@@ -1,28 +1,5 @@
 # Stage "identify" (thesis Chapter 4): Case 1 / Case 2 model identification, Tables 4.1–4.3.
 
-CH4_FIGURES = ["fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_8"]
-CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
-
-
-def ch4_sets(dataset):
-    return [e for e in EXPERIMENTS[dataset] if e.startswith("ch4_sine_")]
-
-
-def identify_datasets():
-    """Datasets with the ripple channels, the Chapter 4 sets and the static stiffness test."""
-    return [d for d in ripple_datasets() if ch4_sets(d)
-            and {"ch4_static_free", "ch4_static_blocked"} <= set(EXPERIMENTS[d])]
-
-
-def identify_outputs():
-    out = []
-    for d in identify_datasets():
-        out += [f"results/{d}/ch4/{t}.csv" for t in CH4_TABLES + ["static_stiffness"]]
-        out += [f"results/{d}/ch4/model.json"] + [f"figures/{d}/{f}.png" for f in CH4_FIGURES]
-        if "twin" in DATASETS[d]:
-            out.append(f"results/{d}/twin/model_recovery.csv")
-    return out
-
 
 rule static_stiffness:
     """k from the blocked force over the free stroke at U_max (Eq 4.16)."""

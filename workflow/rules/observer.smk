@@ -1,40 +1,6 @@
 # Stage "observer" (thesis Chapter 5): charge self-sensing a0, the hybrid position observer,
 # Tables 5.3–5.4, Figures 5.1–5.14, and the frequency response x/q of Fig 5.3.
 
-CH5_FIGURES = ["fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
-               "fig_5_13", "fig_5_14"]
-TABLE_5_4_HZ = (0.01, 0.1, 1.0, 10.0, 50.0, 100.0)
-
-
-def charge_sines(dataset):
-    return {f: e for f, e in sines(dataset, "ch5_sine_").items() if f >= 10}
-
-
-def observed_sines(dataset):
-    return {f: e for f, e in sines(dataset, "ch5_sine_").items() if f in TABLE_5_4_HZ}
-
-
-def observer_datasets():
-    return [d for d in gamma_datasets() if charge_sines(d) and "ch5_creep" in EXPERIMENTS[d]
-            and len(observed_sines(d)) == len(TABLE_5_4_HZ)]
-
-
-def frequency_response_datasets():
-    """Datasets with the identified model (Chapter 4) and the stepped-sine sweep ch5_sweep."""
-    return [d for d in identify_datasets() if EXPERIMENTS[d].get("ch5_sweep") is not None]
-
-
-def observer_outputs():
-    out = []
-    for d in frequency_response_datasets():
-        out += [f"results/{d}/ch5/{t}.csv" for t in ("frequency_response", "resonance")]
-        out += [f"figures/{d}/fig_5_3.png"]
-    for d in observer_datasets():
-        out += [f"results/{d}/ch5/{t}.csv" for t in ("charge_sensing", "table_5_3", "table_5_4", "creep",
-                                                     "observer_study")]
-        out += [f"figures/{d}/{f}.png" for f in CH5_FIGURES + ["fig_5_observer_study"]]
-    return out
-
 
 rule charge_sensing:
     """a0 from q–x over 10–300 Hz (Eq 5.3) and the observer gains of Table 5.3 (Eq 5.9)."""

@@ -3,48 +3,6 @@
 # voltage control (Section 7, Figures 2–11). Datasets take part when their DAQ records the
 # current drive and they run the Ronkanen catalogue; the others skip the stage.
 
-POWERLOSS = "results/{dataset}/powerloss"
-RONKANEN_FIGURES = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}  # paper figure: file name
-#: the open-loop comparison: {kind: {control: experiment}}
-RONKANEN_PAIRS = {kind: {control: f"rk_{kind}_{control}" for control in ("current", "voltage")}
-                  for kind in ("decay", "repeat", "drift")}
-#: Fig 3, 4, 5 (and 6): the ±300 nA ramps with too large, too small and ideal compensation
-RONKANEN_VELOCITY_RAMPS = ["rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300na_2g"]
-
-
-def powerloss_datasets():
-    """Datasets whose DAQ records the current drive and that run the Ronkanen catalogue."""
-    return [d for d in DATASETS
-            if has_channels(d, "U", "I", "i_cmd", "x_disp") and "ronkanen" in DATASETS[d]["protocols"]]
-
-
-def powerloss_outputs():
-    out = []
-    for d in powerloss_datasets():
-        out += [f"results/{d}/powerloss/{t}.csv"
-                for t in ("ramps", "table_1", "identified", "table_2", "performance", "repeatability")]
-        out += [f"figures/{d}/{name}.png" for name in RONKANEN_FIGURES.values()]
-        if "twin" in DATASETS[d]:
-            out.append(f"results/{d}/powerloss/recovery.csv")
-    return out
-
-
-def first_segment_end(dataset, experiment):
-    """When an experiment's first segment ends [s]: where the hold starts (Figs 2, 11)."""
-    protocol = EXPERIMENTS[dataset][experiment].protocol
-    return float(protocol.get("warmup", 0.0)) + float(protocol["segments"][0]["duration"])
-
-
-def pair_captures(wildcards):
-    """{"<kind>_<control>": capture} of the current-vs-voltage comparison runs."""
-    return {f"{kind}_{control}": str(RAW / wildcards.dataset / f"{e}.nc")
-            for kind, pair in RONKANEN_PAIRS.items() for control, e in pair.items()}
-
-
-def ronkanen_report(path, caption):
-    return report(path, caption=f"../report/ronkanen_{caption}.rst", category="{dataset}",
-                  subcategory="Ronkanen 2002")
-
 
 rule powerloss_identify:
     """R from the static hold (Section 4), X and a from every ramp (Table 1, Section 5)."""

@@ -1,34 +1,5 @@
 # Stage "ripple" (thesis Chapter 3): folded-sampling plan, C_e and R_e from the ripple channels.
 
-CH3_SERIES = {"10 Hz": "ch3_sine_10hz", "1 Hz": "ch3_sine_1hz", "0.1 Hz": "ch3_sine_0p1hz"}
-CH3_FIGURES = ["fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_3_12",
-               "fig_3_13", "fig_3_14"]
-
-
-def ripple_datasets():
-    """Datasets whose DAQ records the ripple channels (the others skip this stage)."""
-    return [d for d in DATASETS if has_channels(d, "Ur", "Ir", "U", "I", "x_laser") and "ripple" in DATASETS[d]["daq"]]
-
-
-def ch3_datasets():
-    return [d for d in ripple_datasets() if set(CH3_SERIES.values()) <= set(EXPERIMENTS[d])]
-
-
-def ch3_figure_names(dataset):
-    return CH3_FIGURES + (["fig_3_2", "fig_3_np_study"] if "twin" in DATASETS[dataset] else [])
-
-
-def ripple_outputs():
-    out = []
-    for d in ripple_datasets():
-        out += [f"results/{d}/ch3/table_3_1.csv", f"results/{d}/ch3/table_3_2.csv"]
-    for d in ch3_datasets():
-        out += [f"results/{d}/ch3/hysteresis.csv"]
-        out += [f"figures/{d}/{name}.png" for name in ch3_figure_names(d)]
-        if "twin" in DATASETS[d]:
-            out += [f"results/{d}/twin/ce_recovery.csv", f"results/{d}/twin/ce_np_study.csv"]
-    return out
-
 
 rule extract_ripple:
     """C_e and R_e per folded period (Eq 3.6–3.13) plus window means of U, x, I, q."""

@@ -1,28 +1,6 @@
 # Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
 # 7.3), the frequency effect on C_e–x, the coupled observer/thermal estimation, Figures 7.1–7.12.
 
-CH7_COUPLED = ["ch7_freq_100hz", "ch7_freq_50hz", "ch7_mixed_ae"]
-CH7_CHECKS = ["ch7_heat_cool", "ch7_mixed_voltage"]
-THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
-GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
-                  "coefficients": "table_7_3_coefficients.csv"}
-
-
-def thermal_datasets():
-    return [d for d in observer_datasets() if d in identify_datasets() and sines(d, "ch7_freq_")
-            and {"ch7_volt_150hz", *CH7_CHECKS, *CH7_COUPLED} <= set(EXPERIMENTS[d]) and has_channels(d, "T_mid")]
-
-
-def thermal_outputs():
-    out = []
-    for d in thermal_datasets():
-        out += [f"results/{d}/ch7/{t}.csv" for t in THERMAL_TABLES + ["coupled", "frequency_effect"]]
-        out += [f"results/{d}/ch7/{v}" for v in GAMMA_T_TABLES.values()]
-        out += [f"figures/{d}/fig_7_{n}.png" for n in (1, 2, 3, 5, 6, 7, 8, 9, 10, 11, 12)]
-        if "twin" in DATASETS[d]:
-            out.append(f"results/{d}/twin/thermal_recovery.csv")
-    return out
-
 
 rule thermal_extract:
     """Loss power per 0.1 s with the IR temperatures, and C_e/x samples for Γ_T (streamed)."""
