@@ -1,12 +1,13 @@
 """Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
-    .venv/bin/python benchmarks/run.py [--seconds 20] [--skip-hot] [--skip-dag] [--skip-stream]
+    .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
 - hot paths: the twin kernel (samples/s per core), a whole simulated capture (samples/s), capture
   write and read throughput with and without zlib, ripple extraction and HPO throughput with their
   ratio to just reading the channels they consume;
-- the DAG: `snakemake --cores 2` on the small configuration in a scratch copy of the repository,
+- the DAG: `snakemake --cores 2` on the small and on the full configuration, each from scratch in
+  a scratch copy of the repository,
   its wall time and the peak memory of its whole process tree, the rules' own figures from their
   `benchmark:` files (summed and per rule: seconds, max_rss), and a no-op `snakemake -n` on the
   up-to-date tree;
@@ -194,7 +195,7 @@ def rule_of(tsv, out):
 
 
 def bench_dag(config):
-    """The whole DAG on the small configuration in a scratch copy, then a no-op dry run."""
+    """The whole DAG on one configuration in a scratch copy, then a no-op dry run."""
     snakemake = [sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", config]
     with tempfile.TemporaryDirectory() as tmp:
         repo = Path(tmp) / "repo"
@@ -230,7 +231,8 @@ def bench_dag(config):
 def main():
     cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     cli.add_argument("--seconds", type=float, default=20.0, help="capture length for throughput and memory")
-    cli.add_argument("--config", default="tests/config/smoke.yaml", help="configfile of the DAG part")
+    cli.add_argument("--configs", nargs="+", default=["tests/config/smoke.yaml", "config.yaml"],
+                     help="configfiles of the DAG part, each run from scratch (default: small, then full)")
     cli.add_argument("--skip-hot", action="store_true", help="skip the hot-path throughputs")
     cli.add_argument("--skip-dag", action="store_true", help="skip the whole-DAG run")
     cli.add_argument("--skip-stream", action="store_true", help="skip the streaming peak memories")
@@ -244,7 +246,8 @@ def main():
             path = bench_capture(args.seconds, Path(tmp))
             bench_ripple_and_hpo(path)
     if not args.skip_dag:
-        bench_dag(args.config)
+        for config in args.configs:
+            bench_dag(config)
     if not args.skip_stream:
         with tempfile.TemporaryDirectory() as tmp:
             bench_streaming(args.seconds, Path(tmp))

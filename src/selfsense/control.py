@@ -14,10 +14,15 @@ from typing import TYPE_CHECKING, Callable, Mapping
 import numpy as np
 import pandas as pd
 
+from .gamma import GammaPolynomial
+from .observer import HPOGains
+from .ripple import SamplingPlan
+from .selfsensing import SelfSensingChain
+
 if TYPE_CHECKING:
     import control as ct
 
-from .selfsensing import SelfSensingChain
+    from .twin import DaqPlan, Drive
 
 
 @dataclass(frozen=True)
@@ -106,3 +111,17 @@ class HPOIntegralController:
         u_cmd = self.last_command if len(self.last_command) == len(t) else np.zeros(len(t))
         self.last_command = np.zeros(0)
         return {"x_ref": x_ref, "x_hpo_rt": x_hat, "u_cmd": u_cmd}
+
+
+def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int,
+                        realtime: Mapping) -> HPOIntegralController:
+    """The bench's real-time loop (Chapter 6) from the identified Γ, a0 and k/α.
+
+    ``realtime`` holds ``gamma`` (coefficients, g), ``a0``, ``omega_s``, ``zeta_s``,
+    ``k_over_alpha`` and ``omega_c``: what the bench's loop was configured with.
+    """
+    plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
+    gamma = GammaPolynomial(tuple(realtime["gamma"]["coefficients"]), realtime["gamma"]["g"])
+    chain = SelfSensingChain(plan, gamma, HPOGains(realtime["a0"], realtime["omega_s"], realtime["zeta_s"]), daq.fs)
+    gains = IntegralController(realtime["omega_c"], realtime["k_over_alpha"])
+    return HPOIntegralController(chain, gains, drive, daq.fs, plan.ns, warmup)

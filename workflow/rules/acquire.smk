@@ -9,6 +9,7 @@ if SIMULATED:
         input:
             manifest=RAW / "{dataset}" / "dataset.yaml",
             protocol=lambda w: protocol_file(w.dataset, w.experiment),
+            library=library_sources("simulate"),
         output:
             capture=RAW / "{dataset}" / "{experiment}.nc",
         params:
@@ -34,6 +35,7 @@ rule check_capture:
     """Validate one capture and count its NaN and clipped samples (streamed once)."""
     input:
         capture=RAW / "{dataset}" / "{experiment}.nc",
+        library=library_sources("check_capture"),
     output:
         report="results/{dataset}/qc/{experiment}.json",
     log:
@@ -52,6 +54,7 @@ rule capture_summary:
     """One table of every capture of a dataset: duration, channels, NaN and clipped counts."""
     input:
         reports=lambda w: [f"results/{w.dataset}/qc/{e}.json" for e in EXPERIMENTS[w.dataset]],
+        library=library_sources("capture_summary"),
     output:
         table=report("results/{dataset}/qc/captures.csv", caption="../report/captures.rst",
                      category="{dataset}", subcategory="Captures"),

@@ -1,4 +1,6 @@
 # Config and manifest validation in one place, and the lookups every rule file uses.
+import ast
+from functools import cache
 from pathlib import Path
 
 from snakemake.utils import validate
@@ -9,6 +11,48 @@ from selfsense.manifest import expand_protocols, load_dataset, validate_config
 # --configfile files override config.yaml; Snakemake lists them before it in workflow.configfiles
 validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config")
 validate(config, "../schemas/config.schema.yaml")
+
+#: where the selfsense package's source lives (the README's install is editable: this is the code
+#: that runs)
+LIBRARY = Path("src")
+
+
+@cache
+def _imported_files(path):
+    """The selfsense package's files that the Python file at path imports, anywhere in its code
+    (function-level imports too), each with the __init__.py of the packages on the way."""
+    path = Path(path)
+    package = path.parent.relative_to(LIBRARY).parts if path.is_relative_to(LIBRARY) else ()
+    dotted = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            dotted += [tuple(a.name.split(".")) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else ()
+            source = base + (tuple(node.module.split(".")) if node.module else ())
+            dotted += [source] + [source + (a.name,) for a in node.names]  # a name may be a submodule
+    files = set()
+    for parts in (d for d in dotted if d[:1] == ("selfsense",)):
+        for k in range(1, len(parts) + 1):
+            where = LIBRARY.joinpath(*parts[:k])
+            if (where / "__init__.py").exists():
+                files.add(where / "__init__.py")
+            elif where.with_suffix(".py").exists():
+                files.add(where.with_suffix(".py"))
+    return files
+
+
+def library_sources(script):
+    """Every selfsense file a rule's script runs, found by following imports from
+    workflow/scripts/<script>.py: as rule inputs, an edit to the library reruns exactly the rules
+    whose code it changes (Snakemake's code trigger sees only the script itself)."""
+    seen, todo = set(), [Path("workflow/scripts") / f"{script}.py"]
+    while todo:
+        for f in _imported_files(todo.pop()) - seen:
+            seen.add(f)
+            todo.append(f)
+    return sorted(str(f) for f in seen)
+
 
 RAW = Path(config["raw_dir"])
 DATASETS = {name: load_dataset(RAW, name) for name in config["datasets"]}

@@ -12,6 +12,7 @@ if SIMULATED:
             gamma="results/{dataset}/ch5/gamma.json",
             observer="results/{dataset}/ch5/observer.json",
             model="results/{dataset}/ch4/model.json",
+            library=library_sources("simulate_closed_loop"),
         output:
             capture=RAW / "{dataset}" / "{experiment}.nc",
         params:
@@ -39,6 +40,7 @@ rule audit_realtime:
         capture=RAW / "{dataset}" / "{experiment}.nc",
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
+        library=library_sources("audit_realtime"),
     output:
         report="results/{dataset}/audit/{experiment}.json",
     params:
@@ -59,6 +61,7 @@ rule audit_summary:
     """One row per closed-loop run: max |offline − logged| HPO estimate."""
     input:
         reports=lambda w: [f"results/{w.dataset}/audit/{e}.json" for e in closed_loop(w.dataset)],
+        library=library_sources("audit_summary"),
     output:
         table=report("results/{dataset}/ch6/audit.csv", caption="../report/audit.rst", category="{dataset}",
                      subcategory="Chapter 6"),
@@ -79,6 +82,7 @@ rule ch6_results:
     input:
         captures=lambda w: [str(RAW / w.dataset / f"{e}.nc") for e in ch6_runs(w.dataset)],
         model="results/{dataset}/ch4/model.json",
+        library=library_sources("ch6_results"),
     output:
         **{t: report(f"results/{{dataset}}/ch6/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
                      subcategory="Chapter 6") for t in CH6_TABLES},

@@ -5,6 +5,7 @@ rule gamma_fit:
     """Γ of orders 3–6 and ln on the 0.1 Hz data; ANOVA and coefficients (statsmodels)."""
     input:
         series=f"results/{{dataset}}/ripple/{GAMMA_RUN}.nc",
+        library=library_sources("gamma_fit"),
     output:
         **{k: report(f"results/{{dataset}}/ch5/{v}", caption=f"../report/{k}.rst", category="{dataset}",
                      subcategory="Chapter 5") for k, v in GAMMA_TABLES.items()},

@@ -6,6 +6,7 @@ rule static_stiffness:
     input:
         free=RAW / "{dataset}" / "ch4_static_free.nc",
         blocked=RAW / "{dataset}" / "ch4_static_blocked.nc",
+        library=library_sources("static_stiffness"),
     output:
         table=report("results/{dataset}/ch4/static_stiffness.csv", caption="../report/static_stiffness.rst",
                      category="{dataset}", subcategory="Chapter 4"),
@@ -29,6 +30,7 @@ rule identify:
         series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in ch4_sets(w.dataset)],
         static="results/{dataset}/ch4/static_stiffness.csv",
         manifest=RAW / "{dataset}" / "dataset.yaml",
+        library=library_sources("identify"),
     output:
         **{t: report(f"results/{{dataset}}/ch4/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
                      subcategory="Chapter 4") for t in CH4_TABLES},
@@ -52,6 +54,7 @@ rule ch4_figures:
         per_set="results/{dataset}/ch4/sets.csv",
         force=RAW / "{dataset}" / "ch4_sine_50hz_s1.nc",
         drive=RAW / "{dataset}" / "ch4_sine_10hz_s1.nc",
+        library=library_sources("ch4_figures"),
     output:
         [report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
                 subcategory="Chapter 4") for f in CH4_FIGURES],
@@ -74,6 +77,7 @@ rule model_recovery:
     input:
         per_set="results/{dataset}/ch4/sets.csv",
         capture=RAW / "{dataset}" / "ch4_sine_10hz_s1.nc",
+        library=library_sources("model_recovery"),
     output:
         table=report("results/{dataset}/twin/model_recovery.csv", caption="../report/model_recovery.rst",
                      category="{dataset}", subcategory="Twin validation"),

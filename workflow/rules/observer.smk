@@ -6,6 +6,7 @@ rule charge_sensing:
     """a0 from q–x over 10–300 Hz (Eq 5.3) and the observer gains of Table 5.3 (Eq 5.9)."""
     input:
         series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in charge_sines(w.dataset).values()],
+        library=library_sources("charge_sensing"),
     output:
         charge_sensing=report("results/{dataset}/ch5/charge_sensing.csv", caption="../report/charge_sensing.rst",
                               category="{dataset}", subcategory="Chapter 5"),
@@ -34,6 +35,7 @@ rule observe:
         capture=RAW / "{dataset}" / "{experiment}.nc",
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
+        library=library_sources("observe"),
     output:
         traces="results/{dataset}/observer/{experiment}.nc",
         stats="results/{dataset}/observer/{experiment}.json",
@@ -56,6 +58,7 @@ rule ch5_tables:
     input:
         stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in observed_sines(w.dataset).values()],
         creep="results/{dataset}/observer/ch5_creep.nc",
+        library=library_sources("ch5_tables"),
     output:
         table=report("results/{dataset}/ch5/table_5_4.csv", caption="../report/table_5_4.rst",
                      category="{dataset}", subcategory="Chapter 5"),
@@ -84,6 +87,7 @@ rule observer_study:
         capture=RAW / "{dataset}" / "ch5_sine_1hz.nc",
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
+        library=library_sources("observer_study"),
     output:
         table=report("results/{dataset}/ch5/observer_study.csv", caption="../report/observer_study.rst",
                      category="{dataset}", subcategory="Chapter 5"),
@@ -113,6 +117,7 @@ rule ch5_figures:
         traces=lambda w: [f"results/{w.dataset}/observer/{e}.nc" for e in observed_sines(w.dataset).values()],
         creep="results/{dataset}/observer/ch5_creep.nc",
         observer="results/{dataset}/ch5/observer.json",
+        library=library_sources("ch5_figures"),
     output:
         [report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
                 subcategory="Chapter 5") for f in CH5_FIGURES],
@@ -139,6 +144,7 @@ rule frequency_response:
     input:
         capture=RAW / "{dataset}" / "ch5_sweep.nc",
         model="results/{dataset}/ch4/model.json",
+        library=library_sources("frequency_response"),
     output:
         table=report("results/{dataset}/ch5/frequency_response.csv", caption="../report/frequency_response.rst",
                      category="{dataset}", subcategory="Chapter 5"),

@@ -9,6 +9,7 @@ rule powerloss_identify:
     input:
         hold=RAW / "{dataset}" / "rk_static_hold.nc",
         ramps=lambda w: captures(w.dataset, "rk_ramp_"),
+        library=library_sources("powerloss_identify"),
     output:
         ramps=ronkanen_report(f"{POWERLOSS}/ramps.csv", "ramps"),
         table_1=ronkanen_report(f"{POWERLOSS}/table_1.csv", "table_1"),
@@ -33,6 +34,7 @@ rule powerloss_table_2:
     input:
         table_1=f"{POWERLOSS}/table_1.csv",
         identified=f"{POWERLOSS}/identified.csv",
+        library=library_sources("powerloss_table_2"),
     output:
         table=ronkanen_report(f"{POWERLOSS}/table_2.csv", "table_2"),
     log:
@@ -52,6 +54,7 @@ rule powerloss_performance:
     input:
         unpack(pair_captures),
         identified=f"{POWERLOSS}/identified.csv",
+        library=library_sources("powerloss_performance"),
     output:
         performance=ronkanen_report(f"{POWERLOSS}/performance.csv", "performance"),
         repeatability=ronkanen_report(f"{POWERLOSS}/repeatability.csv", "repeatability"),
@@ -79,6 +82,7 @@ rule powerloss_figures:
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
         identified=f"{POWERLOSS}/identified.csv",
+        library=library_sources("powerloss_figures"),
     output:
         figures=[ronkanen_report(f"figures/{{dataset}}/{name}.png", f"fig_{n}") for n, name in RONKANEN_FIGURES.items()],
     params:
@@ -104,6 +108,7 @@ rule powerloss_recovery:
         identified=f"{POWERLOSS}/identified.csv",
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
+        library=library_sources("powerloss_recovery"),
     output:
         table=ronkanen_report(f"{POWERLOSS}/recovery.csv", "recovery"),
     log:

@@ -8,6 +8,7 @@ rule scorecard:
         registry=SCORECARD_REGISTRY,
         manifest=RAW / "{dataset}" / "dataset.yaml",
         tables=lambda w: scorecard_tables(w.dataset),
+        library=library_sources("scorecard"),
     output:
         table=report("results/{dataset}/scorecard.csv", caption="../report/scorecard.rst",
                      category="{dataset}", subcategory="Scorecard"),
@@ -31,6 +32,7 @@ rule scorecard_summary:
     """The summary that opens the report: counts per dataset, what is out of band and why."""
     input:
         cards=[f"results/{d}/scorecard.csv" for d in DATASETS],
+        library=library_sources("scorecard_summary"),
     output:
         summary=report("results/scorecard_summary.rst", caption="../report/scorecard_summary.rst",
                        category="Scorecard", subcategory="All datasets"),

@@ -6,6 +6,7 @@ rule extract_ripple:
     input:
         capture=RAW / "{dataset}" / "{experiment}.nc",
         qc="results/{dataset}/qc/{experiment}.json",
+        library=library_sources("extract_ripple"),
     output:
         series="results/{dataset}/ripple/{experiment}.nc",
     params:
@@ -26,6 +27,7 @@ rule ch3_tables:
     """Tables 3.1 and 3.2 from the folding equations (Eq 3.4, 3.5, 3.8, 3.9)."""
     input:
         manifest=RAW / "{dataset}" / "dataset.yaml",
+        library=library_sources("ch3_tables"),
     output:
         table_31=report("results/{dataset}/ch3/table_3_1.csv", caption="../report/table_3_1.rst",
                         category="{dataset}", subcategory="Chapter 3"),
@@ -51,6 +53,7 @@ rule ch3_hysteresis:
     """Loop widths C–U, C–x, R–C, x–U at 100 V, 10 Hz beside the thesis's percentages."""
     input:
         series="results/{dataset}/ripple/ch3_sine_10hz.nc",
+        library=library_sources("ch3_hysteresis"),
     output:
         table=report("results/{dataset}/ch3/hysteresis.csv", caption="../report/hysteresis.rst",
                      category="{dataset}", subcategory="Chapter 3"),
@@ -74,6 +77,7 @@ rule ch3_figures:
         capture=RAW / "{dataset}" / "ch3_sine_10hz.nc",
         series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
         manifest=RAW / "{dataset}" / "dataset.yaml",
+        library=library_sources("ch3_figures"),
     output:
         figures=[report(f"figures/{{dataset}}/{name}.png", caption=f"../report/{name}.rst",
                         category="{dataset}", subcategory="Chapter 3") for name in CH3_FIGURES],
@@ -97,6 +101,7 @@ rule ch3_model_figure:
     """Figure 3.2: ripple-driven velocity, free vs clamped (needs the stack's mechanics)."""
     input:
         manifest=RAW / "{dataset}" / "dataset.yaml",
+        library=library_sources("ch3_model_figure"),
     output:
         figure=report("figures/{dataset}/fig_3_2.png", caption="../report/fig_3_2.rst",
                       category="{dataset}", subcategory="Chapter 3"),
@@ -117,6 +122,7 @@ rule ce_recovery:
     input:
         captures=[RAW / "{dataset}" / f"{e}.nc" for e in CH3_SERIES.values()],
         series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
+        library=library_sources("ce_recovery"),
     output:
         table=report("results/{dataset}/twin/ce_recovery.csv", caption="../report/ce_recovery.rst",
                      category="{dataset}", subcategory="Twin validation"),
@@ -138,6 +144,7 @@ rule ce_np_study:
     """C_e error against np and ripple-frequency wander (why np = 4), on the twin."""
     input:
         manifest=RAW / "{dataset}" / "dataset.yaml",
+        library=library_sources("ce_np_study"),
     output:
         table=report("results/{dataset}/twin/ce_np_study.csv", caption="../report/ce_np_study.rst",
                      category="{dataset}", subcategory="Twin validation"),

@@ -6,6 +6,7 @@ rule stage_plan:
     """Which analyses run for a dataset and, for the skipped ones, what they would need."""
     input:
         manifest=RAW / "{dataset}" / "dataset.yaml",
+        library=library_sources("stage_plan"),
     output:
         table=report("results/{dataset}/stages.csv", caption="../report/stages.rst", category="{dataset}",
                      subcategory="Stages"),

@@ -7,6 +7,7 @@ rule thermal_extract:
     input:
         capture=RAW / "{dataset}" / "{experiment}.nc",
         model="results/{dataset}/ch4/model.json",
+        library=library_sources("thermal_extract"),
     output:
         power="results/{dataset}/thermal/{experiment}.nc",
         samples="results/{dataset}/thermal/{experiment}_gamma.nc",
@@ -34,6 +35,7 @@ rule thermal_identify:
         check_series=[f"results/{{dataset}}/thermal/{e}.nc" for e in CH7_CHECKS],
         manifest=RAW / "{dataset}" / "dataset.yaml",
         model="results/{dataset}/ch4/model.json",
+        library=library_sources("thermal_identify"),
     output:
         **{t: report(f"results/{{dataset}}/ch7/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
                      subcategory="Chapter 7") for t in THERMAL_TABLES},
@@ -62,6 +64,7 @@ rule gamma_t_fit:
     input:
         samples="results/{dataset}/thermal/ch7_freq_50hz_gamma.nc",
         power="results/{dataset}/thermal/ch7_freq_50hz.nc",
+        library=library_sources("gamma_t_fit"),
     output:
         **{k: report(f"results/{{dataset}}/ch7/{v}", caption=f"../report/{k}_t.rst", category="{dataset}",
                      subcategory="Chapter 7") for k, v in GAMMA_T_TABLES.items()},
@@ -90,6 +93,7 @@ rule frequency_effect:
         captures=lambda w: [RAW / w.dataset / f"{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
         gamma="results/{dataset}/ch5/gamma.json",
         gamma_t="results/{dataset}/ch7/gamma_t.json",
+        library=library_sources("frequency_effect"),
     output:
         table=report("results/{dataset}/ch7/frequency_effect.csv", caption="../report/frequency_effect.rst",
                      category="{dataset}", subcategory="Chapter 7"),
@@ -120,6 +124,7 @@ rule estimator_diagram:
         observer="results/{dataset}/ch5/observer.json",
         thermal_model="results/{dataset}/ch7/thermal_model.json",
         model="results/{dataset}/ch4/model.json",
+        library=library_sources("estimator_diagram"),
     output:
         figure=report("figures/{dataset}/fig_7_9.png", caption="../report/fig_7_9.rst", category="{dataset}",
                       subcategory="Chapter 7"),
@@ -149,6 +154,7 @@ rule coupled:
         observer="results/{dataset}/ch5/observer.json",
         thermal_model="results/{dataset}/ch7/thermal_model.json",
         model="results/{dataset}/ch4/model.json",
+        library=library_sources("coupled"),
     output:
         traces="results/{dataset}/ch7/coupled/{experiment}.nc",
         stats="results/{dataset}/ch7/coupled/{experiment}.json",
@@ -173,6 +179,7 @@ rule ch7_summary:
         traces=[f"results/{{dataset}}/ch7/coupled/{e}.nc" for e in CH7_COUPLED],
         table_7_1="results/{dataset}/ch7/table_7_1.csv",
         truth_capture=RAW / "{dataset}" / "ch7_freq_100hz.nc",
+        library=library_sources("ch7_summary"),
     output:
         coupled=report("results/{dataset}/ch7/coupled.csv", caption="../report/coupled.rst", category="{dataset}",
                        subcategory="Chapter 7"),

@@ -9,6 +9,7 @@ import argparse
 import json
 from pathlib import Path
 
+from selfsense.control import realtime_controller
 from selfsense.manifest import load_config
 from selfsense.provenance import script_logging
 from selfsense.twin import simulate_experiment
@@ -24,7 +25,9 @@ def realtime(gamma, observer, model, omega_c):
 def main(dataset, experiment, gamma, observer, model, config, output=None, log=None):
     logger = script_logging(log)
     rt = realtime(gamma, observer, model, config["control"]["omega_c"])
-    path = simulate_experiment(config["raw_dir"], dataset, experiment, config, output, realtime=rt)
+    n_periods = config["ripple"]["n_periods"]
+    path = simulate_experiment(config["raw_dir"], dataset, experiment, config, output,
+                               controller_for=lambda daq, drive, warmup: realtime_controller(daq, drive, warmup, n_periods, rt))
     logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", path, rt["k_over_alpha"], rt["a0"])
 
 

@@ -8,14 +8,9 @@ drive, and writes that experiment's capture.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Mapping
+from typing import Callable, Mapping
 
-from ..control import HPOIntegralController, IntegralController
-from ..gamma import GammaPolynomial
 from ..manifest import ManifestError, expand_protocols, load_dataset
-from ..observer import HPOGains
-from ..ripple import SamplingPlan
-from ..selfsensing import SelfSensingChain
 from . import bender
 from .bench import Bench, Controller, DaqPlan, simulate_capture
 from .drive import Drive, drive_from_protocol
@@ -37,10 +32,14 @@ def daq_plan(manifest: Mapping) -> DaqPlan:
 
 
 def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
-                        output: str | Path | None = None, realtime: Mapping | None = None) -> Path:
+                        output: str | Path | None = None,
+                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None) -> Path:
     """Make raw/<dataset>/<experiment>.nc with the twin, as configured.
 
-    Closed-loop experiments also need ``realtime``: see :func:`realtime_controller`.
+    Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
+    bench's real-time loop (:func:`selfsense.control.realtime_controller`). It is passed in rather
+    than imported so that the open-loop twin does not depend on the self-sensing code it is
+    there to test.
     """
     manifest = load_dataset(raw_dir, dataset)
     where = Path(raw_dir) / dataset / "dataset.yaml"
@@ -63,23 +62,11 @@ def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, conf
     drive = drive_from_protocol(exp.protocol)
     controller = None
     if exp.control == "closed_loop":
-        if realtime is None:
+        if controller_for is None:
             raise ManifestError(f"{where}: experiment {experiment} needs the real-time controller's Γ, a0 and k/α")
-        controller = realtime_controller(daq, drive, warmup, config["ripple"]["n_periods"], realtime)
+        controller = controller_for(daq, drive, warmup)
     return simulate_capture(
         path, params, daq, drive, attrs, manifest.get("seed", 0), experiment,
         load_stiffness=exp.load_stiffness, controller=controller, chunk_len=cap["chunk_len"],
         truth_decimation=cap["truth_decimation"], zlib=cap["zlib"], complevel=cap["complevel"])
 
-
-def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int, realtime: Mapping):
-    """The bench's real-time loop (Chapter 6) from the identified Γ, a0 and k/α.
-
-    ``realtime`` holds ``gamma`` (coefficients, g), ``a0``, ``omega_s``, ``zeta_s``,
-    ``k_over_alpha`` and ``omega_c``: what the bench's loop was configured with.
-    """
-    plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
-    gamma = GammaPolynomial(tuple(realtime["gamma"]["coefficients"]), realtime["gamma"]["g"])
-    chain = SelfSensingChain(plan, gamma, HPOGains(realtime["a0"], realtime["omega_s"], realtime["zeta_s"]), daq.fs)
-    gains = IntegralController(realtime["omega_c"], realtime["k_over_alpha"])
-    return HPOIntegralController(chain, gains, drive, daq.fs, plan.ns, warmup)
