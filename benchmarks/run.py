@@ -134,9 +134,13 @@ def bench_ripple_and_hpo(path):
 
 
 def peak_rss_mb(code):
-    """Peak RSS [MB] of a fresh interpreter running code (run.py importable as `run`)."""
-    code = (f"import sys, resource; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import run; {code}; "
-            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+    """Peak RSS [MB] of a fresh interpreter running code (run.py importable as `run`).
+
+    Read as VmHWM from /proc, which starts afresh at exec; getrusage's ru_maxrss does not (Linux
+    carries it across fork and exec), so it would report this process's own size when that is larger.
+    """
+    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import run; {code}; "
+            "print(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmHWM:')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return int(out.stdout.split()[-1]) / 1024
 

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.chapters.ch5 import choose_order, table_5_3
+from selfsense.chapters.ch5 import charge_estimate_figure, choose_order, table_5_3
 from selfsense.gamma import GammaPolynomial, fit_gamma
 from selfsense.observer import HPOGains
 from selfsense.ripple import SamplingPlan, extract_impedance
@@ -75,3 +75,16 @@ def test_table_5_3_applies_eq_5_9_and_flags_the_slip():
     assert t.loc["L_P", "reproduced"] == pytest.approx(213.628, rel=1e-4)
     assert t.loc["L_I", "reproduced"] == pytest.approx(671.13, rel=1e-4)
     assert t.loc["L_I", "thesis Table 5.3"] == 641
+
+
+def test_fig_5_4_charge_estimate_drifts_with_the_offset_and_its_compensation_is_exact():
+    # q = a0·x + q0 + I0·t exactly: the raw q/a0 drifts by I0·T/a0, the compensated estimate is x
+    a0, I0, q0 = 17.0, 2e-6, 3e-6
+    t = np.arange(0, 1, 1e-4)
+    x = 15e-6 * (1 - np.cos(2 * np.pi * 10 * t))
+    fig = charge_estimate_figure({"time": t, "x_laser": x, "q": a0 * x + q0 + I0 * t}, a0)
+    laser, raw, compensated = (line.get_ydata() for line in fig.axes[0].lines)
+    error = fig.axes[1].lines[0].get_ydata()
+    assert np.max(np.abs(error)) < 1e-6  # µm
+    np.testing.assert_allclose(compensated, laser, atol=1e-6)
+    assert raw[-1] - laser[-1] == pytest.approx(I0 * t[-1] / a0 * 1e6, rel=1e-6)

@@ -120,7 +120,7 @@ def test_chapter_5_outputs(smoke_run):
     t54 = pd.read_csv(res / "table_5_4.csv")
     assert list(t54["frequency [Hz]"]) == [0.01, 0.1, 1, 10, 50, 100]
     assert t54["max error [µm]"].notna().all()
-    for f in ("fig_5_1", "fig_5_3", "fig_5_10", "fig_5_13", "fig_5_observer_study"):
+    for f in ("fig_5_1", "fig_5_3", "fig_5_4", "fig_5_6", "fig_5_10", "fig_5_13", "fig_5_observer_study"):
         assert (smoke_run / f"figures/pi_p885/{f}.png").exists()
     assert (smoke_run / "figures/pi_p885/fig_5_3.pdf").exists()
 

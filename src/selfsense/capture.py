@@ -68,10 +68,12 @@ class ChannelSpec:
         """The values as the ADC reports them: on the int16 grid, clipped to range, NaN kept.
 
         Equal to unpacking :meth:`pack`'s codes, without the int16 round trip: the closed-loop
-        twin calls it for every 12-sample block.
+        twin calls it for every 12-sample block (hence two ufuncs rather than np.clip, whose
+        dispatch costs more than the arithmetic on 12 samples; both keep NaN).
         """
-        codes = np.rint((np.asarray(values, dtype=np.float64) - self.add_offset) / self.scale_factor)
-        return np.clip(codes, -INT16_FULL, INT16_FULL) * self.scale_factor + self.add_offset
+        scale, offset = self.scale_factor, self.add_offset
+        codes = np.rint((np.asarray(values, dtype=np.float64) - offset) / scale)
+        return np.minimum(np.maximum(codes, -INT16_FULL), INT16_FULL) * scale + offset
 
 
 #: Units and meaning of every channel the bench can record (DESIGN.md). Ranges are the

@@ -34,11 +34,15 @@ def loop(x, y, xlabel, ylabel, title, labels=None):
     return fig
 
 
-def time_traces(t, traces: list[tuple[np.ndarray, str]], title):
-    """Stacked traces sharing a time axis [s]; each trace is (values, axis label with unit)."""
+def time_traces(t, traces: list[tuple[np.ndarray | dict[str, np.ndarray], str]], title):
+    """Stacked panels sharing a time axis [s]; each is (values, axis label with unit), values an
+    array or {legend: array} for several traces in one panel."""
     fig, axes = _fig(len(traces), 1, sharex=True)
     for ax, (values, label) in zip(np.atleast_1d(axes), traces):
-        ax.plot(t, values, lw=0.8)
+        for name, v in (values.items() if isinstance(values, dict) else [(None, values)]):
+            ax.plot(t, v, lw=0.8, label=name)
+        if isinstance(values, dict):
+            ax.legend(fontsize=7)
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     np.atleast_1d(axes)[0].set_title(title)

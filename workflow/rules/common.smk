@@ -197,7 +197,7 @@ def gamma_outputs():
 
 
 # ---------------------------------------------------------------- stage observer (its rules: observer.smk)
-CH5_FIGURES = ["fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
+CH5_FIGURES = ["fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
                "fig_5_13", "fig_5_14"]
 
 

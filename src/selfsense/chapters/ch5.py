@@ -163,6 +163,24 @@ def observer_study(chunks_factory, plan, gamma, a0: float, fs: float, settle_s: 
     return pd.DataFrame(rows)
 
 
+def charge_estimate_figure(series, a0: float):
+    """Fig 5.4: position from charge, x_I = q/a0 (Eq 5.3), against the laser.
+
+    q is the running integral of the measured current, so the probe's offset I0 makes x_I drift;
+    the second estimate removes q0 + I0·t fitted over the run (as the HPO learns Î0), which
+    leaves the hysteresis between q and x as the error.
+    """
+    from .. import figures
+
+    t, x, q = series["time"], series["x_laser"] - series["x_laser"][0], series["q"]
+    fit = fit_charge_position(t, x, q, quadratic=False)
+    raw, compensated = (q - q[0]) / a0, (q - fit.q0 - fit.I0 * t) / a0
+    return figures.time_traces(t, [({"laser": x * 1e6, "q/a0": raw * 1e6, "(q − q0 − I0·t)/a0": compensated * 1e6},
+                                    "x [µm]"),
+                                   ((compensated - x) * 1e6, "x_I − x [µm]")],
+                               f"Position from charge (a0 = {a0:.3g} C/m), I0 = {fit.I0 * 1e6:.3g} µA fitted")
+
+
 def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep, gains) -> dict:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14 from the chapter's series and observer traces."""
     from .. import figures
@@ -185,14 +203,15 @@ def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep
         qs.append((s["q"] - fit.q0 - fit.I0 * s["time"]) * 1e6)
     out["fig_5_2"] = figures.loop(xs, qs, "x [µm]", "q [µC]", "Charge against position, 10–300 Hz",
                                   labels=[f"{f:g} Hz" for f in fs_sorted if f >= 10])
+    out["fig_5_4"] = charge_estimate_figure(series_by_f[min(f for f in fs_sorted if f >= 10)], gains.a0)
     low = [f for f in fs_sorted if f <= 1]
-    out["fig_5_4"] = figures.loop([warm[f]["x_laser"] * 1e6 for f in low], [warm[f]["C_e"] * 1e6 for f in low],
+    out["fig_5_5"] = figures.loop([warm[f]["x_laser"] * 1e6 for f in low], [warm[f]["C_e"] * 1e6 for f in low],
                                   "x [µm]", "C_e [µF]", "Capacitance against position at low frequencies",
                                   labels=[f"{f:g} Hz" for f in low])
     C, x = gamma_data(gamma_series, n_periods)
     fits = {str(j): fit_gamma(C, x, j) for j in orders} | {"ln": fit_log_gamma(C, x)}
     grid = np.linspace(C.min(), C.max(), 200)
-    out["fig_5_5"] = figures.loop([C * 1e6] + [grid * 1e6] * len(fits), [x * 1e6] + [f.predict(grid) * 1e6 for f in fits.values()],
+    out["fig_5_6"] = figures.loop([C * 1e6] + [grid * 1e6] * len(fits), [x * 1e6] + [f.predict(grid) * 1e6 for f in fits.values()],
                                   "C_e [µF]", "x [µm]", "Γ fits of the 0.1 Hz data",
                                   labels=["measured"] + [f"order {k}" if k != "ln" else "ln" for k in fits])
     out["fig_5_7"] = figures.loop([x * 1e6] * len(fits), [f.residuals_um for f in fits.values()], "x [µm]",

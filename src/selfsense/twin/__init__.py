@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from ..manifest import ManifestError, expand_protocols, load_dataset
-from . import bender
 from .bench import Bench, Controller, DaqPlan, simulate_capture
 from .drive import Drive, drive_from_protocol
 from .params import TwinParams
@@ -55,6 +54,8 @@ def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, conf
              "description": manifest["description"].strip(), "warmup_s": warmup, "control": exp.control}
     path = output or Path(raw_dir) / dataset / f"{experiment}.nc"
     if manifest["model"] == "bender":
+        from . import bender  # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
+
         return bender.simulate_experiment(path, manifest["twin"], daq_plan(manifest), exp, attrs,
                                           manifest.get("seed", 0), cap, f"{where}: twin")
     params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")

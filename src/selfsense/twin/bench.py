@@ -84,27 +84,45 @@ class Bench:
         self.offset_drift = SlowProcess(rng, ins.I_offset_drift, 0.05)
         self.laser_drift = SlowProcess(rng, ins.laser_drift, 0.005)
 
-    def step(self, t: np.ndarray, U: np.ndarray, F_ext: np.ndarray | None = None):
-        """Advance over the samples at times t with drive U; returns (measured, truth) dicts."""
-        ins, n = self.p.instruments, len(t)
+    def time_signals(self, t: np.ndarray) -> dict[str, np.ndarray]:
+        """What the instruments add that depends on time alone: the ripple's frequency and voltage
+        and the high-pass's response to it, the probe offset, the laser's drift and the channels'
+        noise, in this order of random draws. The closed loop makes them once per chunk and
+        steps the bench through it block by block (:meth:`step`'s ``signals``)."""
+        ins, n, gauss = self.p.instruments, len(t), self.noise_rng.standard_normal
+        f_r, u = self.ripple.carrier(t)
+        return {"f_r": f_r, "u_ripple": u, "h": self.hp_u.response(f_r),
+                "I_offset": ins.I_offset + self.offset_drift(t), "laser_drift": self.laser_drift(t),
+                **{f"noise_{c}": scale * gauss(n) for c, scale in (
+                    ("U", ins.U_noise), ("I", ins.I_noise), ("Ur", ins.ripple_noise_U),
+                    ("Ir", ins.ripple_noise_I), ("x_laser", ins.laser_noise), ("F", ins.F_noise))}}
+
+    def step(self, t: np.ndarray, U: np.ndarray, F_ext: np.ndarray | None = None,
+             signals: Mapping[str, np.ndarray] | None = None):
+        """Advance over the samples at times t with drive U; returns (measured, truth) dicts.
+
+        ``signals``: :meth:`time_signals` of exactly these samples, made beforehand (by default
+        they are made here).
+        """
+        n = len(t)
         F_ext = np.zeros(n) if F_ext is None else F_ext
+        sig = self.time_signals(t) if signals is None else signals
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         x, v, a, q, U_P, U_H, T, I, C_P = out.T
-        u_r, i_r, ur_seen, ir_seen = self.ripple(t, C_P, self.hp_u)
-        I0 = ins.I_offset + self.offset_drift(t)
-        gauss = self.noise_rng.standard_normal
+        u, h = sig["u_ripple"], sig["h"]
+        i = self.ripple.current(sig["f_r"], u, C_P)
         measured = {
-            "U": U + u_r + ins.U_noise * gauss(n),
-            "I": I + i_r + I0 + ins.I_noise * gauss(n),
-            "Ur": ur_seen + self.hp_u.leak(U) + ins.ripple_noise_U * gauss(n),
-            "Ir": ir_seen + self.hp_i.leak(I) + ins.ripple_noise_I * gauss(n),
-            "x_laser": x + self.laser_drift(t) + ins.laser_noise * gauss(n),
-            "F": (ins.F_preload + (self.p.stack.k_spring + self.load_stiffness) * x
-                  + self.p.stack.m * a + ins.F_noise * gauss(n)),
+            "U": U + u.real + sig["noise_U"],
+            "I": I + i.real + sig["I_offset"] + sig["noise_I"],
+            "Ur": (u * h).real + self.hp_u.leak(U) + sig["noise_Ur"],
+            "Ir": (i * h).real + self.hp_i.leak(I) + sig["noise_Ir"],
+            "x_laser": x + sig["laser_drift"] + sig["noise_x_laser"],
+            "F": (self.p.instruments.F_preload + (self.p.stack.k_spring + self.load_stiffness) * x
+                  + self.p.stack.m * a + sig["noise_F"]),
         }
         measured = {c: self.adc[c].quantize(v) if c in self.adc else v for c, v in measured.items()}
         truth = {"x": x, "q": q, "U_P": U_P, "U_H": U_H, "T": T, "C_P": C_P,
-                 "R_e": effective_resistance(C_P, self.p.ripple), "I_offset": I0, "U_drive": U}
+                 "R_e": effective_resistance(C_P, self.p.ripple), "I_offset": sig["I_offset"], "U_drive": U}
         return measured, truth
 
     def temperatures(self, T: np.ndarray) -> dict[str, np.ndarray]:
@@ -180,9 +198,10 @@ def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
     if idle:  # loop still open: one step for the whole stretch, the controller only observes
         measured, truth = bench.step(t[:idle], np.zeros(idle))
         parts.append((measured, truth, controller.observe(t[:idle], measured)))
-    b = controller.block_len
-    for s in range(idle, len(t), b):
-        tb = t[s:s + b]
-        measured, truth = bench.step(tb, controller.command(tb))
+    b, rest = controller.block_len, t[idle:]
+    signals = bench.time_signals(rest)  # once for the chunk: per 12-sample block they cost a third of a step
+    for s in range(0, len(rest), b):
+        tb = rest[s:s + b]
+        measured, truth = bench.step(tb, controller.command(tb), signals={k: v[s:s + b] for k, v in signals.items()})
         parts.append((measured, truth, controller.observe(tb, measured)))
     return tuple({k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3))

@@ -83,14 +83,15 @@ class RippleSource:
         self.wander = SlowProcess(rng, rp.wander, rp.wander_bandwidth)
         self.phase = rng.uniform(0, 2 * np.pi)
 
-    def __call__(self, t: np.ndarray, C_e: np.ndarray, highpass: HighPass):
-        """Ripple voltage and current at the actuator, and as seen after the high-pass filters."""
+    def carrier(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ripple frequency [Hz] and complex ripple voltage at times t; the phase carries from
+        one call to the next, so t must follow the previous call's."""
         f_r = self.rp.f_nominal + self.wander(t)
         phi = self.phase + 2 * np.pi * np.cumsum(f_r) / self.fs - 2 * np.pi * f_r / self.fs
         self.phase = float((phi[-1] + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi)) if len(t) else self.phase
-        w = 2 * np.pi * f_r
-        admittance = 1.0 / (effective_resistance(C_e, self.rp) + 1.0 / (1j * w * C_e))
-        u = self.rp.amplitude * np.exp(1j * phi)
-        i = u * admittance
-        h = highpass.response(f_r)
-        return u.real, i.real, (u * h).real, (i * h).real
+        return f_r, self.rp.amplitude * np.exp(1j * phi)
+
+    def current(self, f_r: np.ndarray, u: np.ndarray, C_e: np.ndarray) -> np.ndarray:
+        """Complex ripple current of voltage u through the actuator's series R–C at C_e."""
+        admittance = 1.0 / (effective_resistance(C_e, self.rp) + 1.0 / (1j * 2 * np.pi * f_r * C_e))
+        return u * admittance
