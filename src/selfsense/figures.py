@@ -8,6 +8,10 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")
+# Agg rasterises a line path in one piece by default, and its memory grows with the path's length
+# in pixels: a 12 000-point C_e–x scribble (Fig 7.7 of a 600 s run) took 300 MB to save as PNG,
+# so a longer capture made a bigger figure job. Chunks of 1000 vertices bound it (≈ 40 MB).
+matplotlib.rcParams["agg.path.chunksize"] = 1000
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
