@@ -198,6 +198,31 @@ def rule_of(tsv, out):
     return parts[1] if len(parts) == 3 else tsv.stem
 
 
+def print_rss_by_capture_length(repo, out, rules=("simulate", "check_capture", "extract_ripple", "observe",
+                                                   "thermal_extract", "coupled")):
+    """max_rss of the per-capture rules against the length (in samples) of the capture each job
+    streamed: the shortest and the longest capture of each rule, from the benchmark files.
+
+    Jobs under a second are left out: Snakemake samples a job's memory every 0.5 s (every 30 s
+    after the first 15 s), so their max_rss is whatever the first sample caught.
+    """
+    import netCDF4
+
+    print("  peak memory against capture length (benchmark files; per-capture rules, jobs ≥ 1 s):")
+    for rule in rules:
+        jobs = []
+        for tsv in out.glob(f"*/{rule}/*.tsv"):
+            capture = repo / "raw" / tsv.parent.parent.name / f"{tsv.stem}.nc"
+            with tsv.open() as f, netCDF4.Dataset(capture) as nc:
+                row = next(csv.DictReader(f, delimiter="\t"))
+                if float(row["s"]) >= 1.0:
+                    jobs.append((nc.dimensions["time"].size / 1e6, float(row["max_rss"])))
+        if len(jobs) > 1:
+            (short, rss_short), (long, rss_long) = min(jobs), max(jobs)
+            print(f"    {rule:22s} {rss_short:5.0f} MB at {short:6.2f} M samples, {rss_long:5.0f} MB at {long:6.1f} M "
+                  f"(largest of {len(jobs)} jobs {max(j[1] for j in jobs):5.0f} MB)")
+
+
 def bench_dag(config):
     """The whole DAG on one configuration in a scratch copy, then a no-op dry run."""
     snakemake = [sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", config]
@@ -221,6 +246,7 @@ def bench_dag(config):
         for rule, js in sorted(rules.items(), key=lambda kv: -sum(j[0] for j in kv[1])):
             print(f"  {rule:24s} {len(js):4d} {sum(j[0] for j in js):8.1f} {max(j[0] for j in js):8.1f} "
                   f"{max(j[1] for j in js):10.0f}")
+        print_rss_by_capture_length(repo, out)
         times = []
         for _ in range(3):
             t0 = time.perf_counter()
