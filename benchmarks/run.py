@@ -212,10 +212,10 @@ def print_rss_by_capture_length(repo, out, rules=("simulate", "check_capture", "
     for rule in rules:
         jobs = []
         for tsv in out.glob(f"*/{rule}/*.tsv"):
-            capture = repo / "raw" / tsv.parent.parent.name / f"{tsv.stem}.nc"
-            with tsv.open() as f, netCDF4.Dataset(capture) as nc:
+            with tsv.open() as f:
                 row = next(csv.DictReader(f, delimiter="\t"))
-                if float(row["s"]) >= 1.0:
+            if float(row["s"]) >= 1.0:
+                with netCDF4.Dataset(repo / "raw" / tsv.parent.parent.name / f"{tsv.stem}.nc") as nc:
                     jobs.append((nc.dimensions["time"].size / 1e6, float(row["max_rss"])))
         if len(jobs) > 1:
             (short, rss_short), (long, rss_long) = min(jobs), max(jobs)

@@ -52,6 +52,14 @@ def fit_chosen_gamma(C: np.ndarray, x: np.ndarray, orders: Iterable[int]):
     return table, order, fit_gamma(C, x, order)
 
 
+def offset_compensated_charge(series):
+    """Position from its start and the integrated current with q0 + I0·t fitted out (Fig 5.2, 5.4):
+    returns (x [m], q [C], the fit)."""
+    x = series["x_laser"] - series["x_laser"][0]
+    fit = fit_charge_position(series["time"], x, series["q"], quadratic=False)
+    return x, series["q"] - fit.q0 - fit.I0 * series["time"], fit
+
+
 def charge_sensing(series_by_f: Mapping[float, Mapping[str, np.ndarray]]) -> pd.DataFrame:
     """a0 = q/x (Eq 5.3) per drive frequency and the position error of x_I = q/a0 (Fig 5.2).
 
@@ -60,9 +68,7 @@ def charge_sensing(series_by_f: Mapping[float, Mapping[str, np.ndarray]]) -> pd.
     """
     rows = []
     for f, s in sorted(series_by_f.items()):
-        x = s["x_laser"] - s["x_laser"][0]
-        fit = fit_charge_position(s["time"], x, s["q"], quadratic=False)
-        q = s["q"] - fit.q0 - fit.I0 * s["time"]
+        x, q, fit = offset_compensated_charge(s)
         err = q / fit.a1 - x
         stroke = float(np.ptp(x))
         rows.append({"frequency [Hz]": f, "a0 [C/m]": fit.a1, "max error [µm]": float(np.max(np.abs(err))) * 1e6,
@@ -172,9 +178,9 @@ def charge_estimate_figure(series, a0: float):
     """
     from .. import figures
 
-    t, x, q = series["time"], series["x_laser"] - series["x_laser"][0], series["q"]
-    fit = fit_charge_position(t, x, q, quadratic=False)
-    raw, compensated = (q - q[0]) / a0, (q - fit.q0 - fit.I0 * t) / a0
+    t, q = series["time"], series["q"]
+    x, q_compensated, fit = offset_compensated_charge(series)
+    raw, compensated = (q - q[0]) / a0, q_compensated / a0
     return figures.time_traces(t, [({"laser": x * 1e6, "q/a0": raw * 1e6, "(q − q0 − I0·t)/a0": compensated * 1e6},
                                     "x [µm]"),
                                    ((compensated - x) * 1e6, "x_I − x [µm]")],
@@ -196,11 +202,9 @@ def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep
                                   "U [V]", "x [µm]", "Rate-dependent hysteresis (0.01–300 Hz)", labels=labels)
     xs, qs = [], []
     for f in (f for f in fs_sorted if f >= 10):
-        s = series_by_f[f]
-        x = s["x_laser"] - s["x_laser"][0]
-        fit = fit_charge_position(s["time"], x, s["q"], quadratic=False)
+        x, q, _ = offset_compensated_charge(series_by_f[f])
         xs.append(x * 1e6)
-        qs.append((s["q"] - fit.q0 - fit.I0 * s["time"]) * 1e6)
+        qs.append(q * 1e6)
     out["fig_5_2"] = figures.loop(xs, qs, "x [µm]", "q [µC]", "Charge against position, 10–300 Hz",
                                   labels=[f"{f:g} Hz" for f in fs_sorted if f >= 10])
     out["fig_5_4"] = charge_estimate_figure(series_by_f[min(f for f in fs_sorted if f >= 10)], gains.a0)

@@ -109,8 +109,8 @@ class Bench:
         sig = self.time_signals(t) if signals is None else signals
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         x, v, a, q, U_P, U_H, T, I, C_P = out.T
-        u, h = sig["u_ripple"], sig["h"]
-        i = self.ripple.current(sig["f_r"], u, C_P)
+        u, h, R_e = sig["u_ripple"], sig["h"], effective_resistance(C_P, self.p.ripple)
+        i = self.ripple.current(sig["f_r"], u, C_P, R_e)
         measured = {
             "U": U + u.real + sig["noise_U"],
             "I": I + i.real + sig["I_offset"] + sig["noise_I"],
@@ -122,7 +122,7 @@ class Bench:
         }
         measured = {c: self.adc[c].quantize(v) if c in self.adc else v for c, v in measured.items()}
         truth = {"x": x, "q": q, "U_P": U_P, "U_H": U_H, "T": T, "C_P": C_P,
-                 "R_e": effective_resistance(C_P, self.p.ripple), "I_offset": sig["I_offset"], "U_drive": U}
+                 "R_e": R_e, "I_offset": sig["I_offset"], "U_drive": U}
         return measured, truth
 
     def temperatures(self, T: np.ndarray) -> dict[str, np.ndarray]:

@@ -91,7 +91,9 @@ class RippleSource:
         self.phase = float((phi[-1] + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi)) if len(t) else self.phase
         return f_r, self.rp.amplitude * np.exp(1j * phi)
 
-    def current(self, f_r: np.ndarray, u: np.ndarray, C_e: np.ndarray) -> np.ndarray:
-        """Complex ripple current of voltage u through the actuator's series R–C at C_e."""
-        admittance = 1.0 / (effective_resistance(C_e, self.rp) + 1.0 / (1j * 2 * np.pi * f_r * C_e))
+    @staticmethod
+    def current(f_r: np.ndarray, u: np.ndarray, C_e: np.ndarray, R_e: np.ndarray) -> np.ndarray:
+        """Complex ripple current of voltage u through the actuator's series R_e–C_e
+        (R_e from :func:`effective_resistance`, which the caller also records)."""
+        admittance = 1.0 / (R_e + 1.0 / (1j * 2 * np.pi * f_r * C_e))
         return u * admittance
