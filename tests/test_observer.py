@@ -26,7 +26,7 @@ from selfsense.observer import (
     transfer_functions,
 )
 
-FS = 48_000.0  # stack DAQ rate (REFERENCE.md)
+FS = 48_000.0  # stack DAQ rate (docs/sources.md, Table 3.2)
 XCP_EVERY = 12  # one new capacitance-PSS value per 12 samples
 METHODS = ["tustin", "zoh"]
 

@@ -149,7 +149,7 @@ def registry():
     return parse_registry(load_yaml(REGISTRY), str(REGISTRY))
 
 
-# number of published numbers per source table of REFERENCE.md: guards against entries lost in edits
+# number of published numbers per source table of docs/sources.md: guards against entries lost in edits
 EXPECTED = {("stack", "Table 3.1"): 10, ("stack", "Table 3.2"): 12, ("stack", "Table 4.2"): 11,
             ("stack", "Table 4.3"): 20, ("stack", "Table 5.1"): 14, ("stack", "Table 5.2"): 22,
             ("stack", "Table 5.3"): 3, ("stack", "Table 5.4"): 18, ("stack", "Table 6.1"): 72,

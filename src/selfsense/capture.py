@@ -1,4 +1,4 @@
-"""The raw-capture contract: one netCDF4 file per DAQ run (DESIGN.md, "The capture contract").
+"""The raw-capture contract: one netCDF4 file per DAQ run (docs/design.md, "The capture contract").
 
 This is the only module that reads or writes captures. Channels are stored as the DAQ records
 them, packed 16-bit integers (``scale_factor``/``add_offset``, CF conventions) chunked along
@@ -76,7 +76,7 @@ class ChannelSpec:
         return np.minimum(np.maximum(codes, -INT16_FULL), INT16_FULL) * scale + offset
 
 
-#: Units and meaning of every channel the bench can record (DESIGN.md). Ranges are the
+#: Units and meaning of every channel the bench can record (docs/design.md). Ranges are the
 #: instrument's; the manifest may override them.
 CHANNEL_UNITS: dict[str, tuple[str, str]] = {
     "U": ("V", "drive voltage at the actuator (1:100 divider undone)"),

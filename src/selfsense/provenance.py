@@ -1,4 +1,4 @@
-"""Outputs that appear atomically, with a provenance sidecar (DESIGN.md, "Conventions").
+"""Outputs that appear atomically, with a provenance sidecar (docs/design.md, "Conventions").
 
 Every table is a CSV plus ``<name>.csv.json`` holding the sha256 of its inputs, the config
 subset it used, the code version (git describe, dirty flag), package versions and seed. Files

@@ -1,4 +1,4 @@
-"""The digital twin of the test bench (DESIGN.md, "The digital twin").
+"""The digital twin of the test bench (docs/design.md, "The digital twin").
 
 :func:`simulate_experiment` is the one entry point the workflow uses: it resolves a dataset's
 manifest and an experiment of the catalogue into the twin's parameters, the DAQ plan and the
