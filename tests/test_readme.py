@@ -20,3 +20,10 @@ def test_every_dependency_is_pinned():
     wanted = project["dependencies"] + project["optional-dependencies"]["test"]
     missing = [d for d in wanted if d.lower().replace("_", "-") not in pins]
     assert not missing, missing
+
+
+def test_readme_is_an_entrance_of_at_most_150_lines():
+    """Everything beyond what it reproduces, the two commands, what you get and where to go next
+    lives in docs/ (`wc -l README.md` counts newline characters)."""
+    lines = (ROOT / "README.md").read_bytes().count(b"\n")
+    assert lines <= 150, f"README.md has {lines} lines; move material to docs/"
