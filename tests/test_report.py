@@ -1,11 +1,18 @@
 """The report, the scorecard, provenance and re-runs, on the smoke DAG (run once per session)."""
 
+import base64
 import html
+import io
 import json
 import os
 import re
 import shutil
+from collections import namedtuple
+from pathlib import Path
+from types import SimpleNamespace
 
+import docutils.core
+import jinja2
 import pandas as pd
 import pytest
 import yaml
@@ -34,12 +41,21 @@ def datasets(repo):
 
 @pytest.fixture(scope="module")
 def report(smoke_run):
-    """`snakemake --report` on the smoke run; the report's embedded JSON (results, categories, description)."""
+    """`snakemake --report` on the smoke run; the report's embedded JSON (results, categories,
+    description) and the build's stderr."""
     run = snakemake(smoke_run, "--report", "report.html")
     assert run.returncode == 0, run.stderr[-3000:]
     page = (smoke_run / "report.html").read_text(encoding="utf-8")
     blocks = dict(re.findall(r'<script id="([\w-]+)">\s*var \w+ = (.*?);\s*</script>', page, re.S))
-    return {name: json.loads(blocks[name]) for name in ("workflow-desc", "results", "categories")}
+    found = {name: json.loads(blocks[name]) for name in ("workflow-desc", "results", "categories")}
+    return found | {"stderr": run.stderr}
+
+
+def embedded(report, path):
+    """The text of a result embedded in the report (a base64 data URI)."""
+    head, _, data = report["results"][path]["data_uri"].partition(",")
+    assert head.endswith(";base64"), head
+    return base64.b64decode(data).decode("utf-8")
 
 
 # --- the report -----------------------------------------------------------------------------------
@@ -73,13 +89,68 @@ def test_report_opens_with_the_scorecard_summary(smoke_run, report):
     description = html.unescape(report["workflow-desc"])
     assert "summary is missing" not in description
     assert description.index("Scorecard") < description.index("How the results are organised")
+    out_of_band = html.unescape(embedded(report, "results/scorecard_out_of_band.html"))
+    not_yet = html.unescape(embedded(report, "results/scorecard_not_yet.html"))
     for dataset in datasets(smoke_run):
         card = pd.read_csv(smoke_run / f"results/{dataset}/scorecard.csv")
         reproduced = card["verdict"].isin([WITHIN, OUT]).sum()
         if reproduced:
-            assert f"{(card['verdict'] == WITHIN).sum()} of {reproduced} reproduced numbers within band" in description
+            tally = f"{(card['verdict'] == WITHIN).sum()} of {reproduced} reproduced numbers within band"
+            assert tally in description and tally in out_of_band and tally in not_yet
         for quantity in card.loc[card["verdict"] == OUT, "quantity"]:
-            assert quantity in description  # every number out of band is named, with its note
+            assert quantity in out_of_band  # every number out of band is named, with its note
+        for source in card.loc[card["verdict"] == NOT_YET, "source"]:
+            assert source in not_yet
+    # the long lists are report items of their own, linked from the opening, not part of it
+    assert "Out of band, by source" not in description and "by chapter and source (" not in description
+    for page in ("results/scorecard_out_of_band.html", "results/scorecard_not_yet.html"):
+        assert report["results"][page]["caption"]
+        assert f"app.showResultInfo('{page.replace('/', '%2F')}')" in description, page
+
+
+# --- docutils: no caption, landing text or page shows a "problematic" marker ----------------------
+
+DOCUTILS_MESSAGE = re.compile(r"\((?:WARNING/2|ERROR/3|SEVERE/4)\)")
+
+
+def docutils_messages(text):
+    """Every docutils warning or error of rendering reStructuredText, as the report renders it."""
+    stream = io.StringIO()
+    docutils.core.publish_parts(text, writer_name="html", settings_overrides={
+        "report_level": 2, "halt_level": 5, "warning_stream": stream, "_disable_config": True})
+    return stream.getvalue()
+
+
+def test_every_caption_and_the_landing_text_render_without_a_docutils_message(smoke_run, report):
+    """Each workflow/report/*.rst through Jinja and docutils as `snakemake --report` does (with the
+    link targets it appends: categories and result file names)."""
+    Category = namedtuple("Category", "name")
+    categories = {Category(c): subs for c, subs in report["categories"].items()}
+    files = [SimpleNamespace(name=Path(p).name, path=smoke_run / p) for p in report["results"]]
+    targets = ["Workflow", "Statistics", *report["categories"], *dict.fromkeys(f.name for f in files)]
+    links = "\n\n" + "\n".join(f".. _{t}: javascript:void(0)" for t in targets) + "\n"
+    config = load_yaml(smoke_run / SMOKE) | {"campaign": "smoke"}
+    snake = SimpleNamespace(config=config, wildcards=SimpleNamespace(dataset="pi_p885"))
+    env = jinja2.Environment(trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined)
+    failures = {}
+    for caption in sorted((smoke_run / "workflow/report").glob("*.rst")):
+        text = env.from_string(caption.read_text() + links).render(snakemake=snake, categories=categories, files=files)
+        if messages := docutils_messages(text):
+            failures[caption.name] = messages
+    assert not failures, failures
+    assert not docutils_messages((smoke_run / "results/scorecard_summary.rst").read_text())
+
+
+def test_built_report_shows_no_docutils_message(smoke_run, report):
+    page = (smoke_run / "report.html").read_text(encoding="utf-8")
+    assert "System Message" not in page and "system-message" not in page
+    rendered = [report["workflow-desc"], *(r["caption"] for r in report["results"].values())]
+    rendered += [embedded(report, p) for p in ("results/scorecard_out_of_band.html", "results/scorecard_not_yet.html")]
+    assert not [text for text in rendered if re.search(r"problematic|system-message|System Message", text)]
+
+
+def test_report_build_prints_no_docutils_message(report):
+    assert not DOCUTILS_MESSAGE.search(report["stderr"]), report["stderr"][-3000:]
 
 
 # --- the scorecard --------------------------------------------------------------------------------

@@ -270,38 +270,106 @@ def counts(card: pd.DataFrame) -> dict[str, int]:
 # --- renderings ---------------------------------------------------------------------------------
 
 def summary_rst(cards: Mapping[str, pd.DataFrame]) -> str:
-    """reStructuredText that opens the report: counts per dataset, then every number out of band
+    """reStructuredText of the whole summary: counts per dataset, then every number out of band
     (with the registry's note saying why), numbers missing from their tables, and what is to come."""
+    cards = _filled(cards)
+    lines = _table(cards)
+    for dataset, card in cards.items():
+        lines += ["", _tally(dataset, card), ""]
+        lines += _out_of_band(card) + _missing(card) + _pending(card)
+    return "\n".join(lines) + "\n"
+
+
+def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
+    """The short summary that opens the report: the counts table and one line per dataset. The
+    long lists are pages of their own (`out_of_band_rst`, `pending_rst`): the report's landing
+    text is centred vertically, so a long one starts above the top of the window, out of reach."""
+    cards = _filled(cards)
+    lines = _table(cards)
+    for dataset, card in cards.items():
+        lines += ["", _tally(dataset, card)]
+    return "\n".join(lines) + "\n"
+
+
+def out_of_band_rst(cards: Mapping[str, pd.DataFrame]) -> str:
+    """A page: per dataset, every number out of band by source (with the registry's note saying
+    why) and every number missing from its table."""
+    return _lists_page(cards, "Numbers out of band, and missing from their tables",
+                       lambda card: _out_of_band(card) + _missing(card), "None: every reproduced number is within band.")
+
+
+def pending_rst(cards: Mapping[str, pd.DataFrame]) -> str:
+    """A page: per dataset, the numbers no stage reproduces yet, by chapter and source."""
+    return _lists_page(cards, "Numbers not reproduced yet", _pending, "None: every number is reproduced.")
+
+
+def rst_html(text: str) -> str:
+    """A self-contained HTML page of reStructuredText; a docutils warning or error raises (so a
+    page never shows a "problematic" marker)."""
+    from docutils.core import publish_string
+
+    return publish_string(text, writer_name="html5", settings_overrides={
+        "halt_level": 2, "report_level": 2, "output_encoding": "unicode", "embed_stylesheet": True,
+        "_disable_config": True})
+
+
+def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
     # a scorecard read back from CSV has NaN where a text cell was empty
-    cards = {d: c.fillna({"unit": "", "note": "", "read from": ""}) for d, c in cards.items()}
+    return {d: c.fillna({"unit": "", "note": "", "read from": ""}) for d, c in cards.items()}
+
+
+def _table(cards: Mapping[str, pd.DataFrame]) -> list[str]:
     lines = [".. list-table::", "   :header-rows: 1", "",
              "   * - dataset", "     - section", "     - numbers", *(f"     - {v}" for v in VERDICTS)]
     for dataset, card in cards.items():
         for section, part in card.groupby("section", sort=False):
             lines += [f"   * - {_rst(dataset)}", f"     - {section}", f"     - {len(part)}",
                       *(f"     - {n}" for n in counts(part).values())]
-    for dataset, card in cards.items():
-        tally = counts(card)
-        lines += ["", f"**{_rst(dataset)}**: {tally[WITHIN]} of {tally[WITHIN] + tally[OUT]} reproduced numbers "
-                      f"within band, {tally[OUT]} out of band, {tally[NOT_YET]} not reproduced yet.", ""]
-        out = card[card["verdict"] == OUT]
-        if len(out):
-            unexplained = int((out["note"] == "").sum())
-            lines.append(f"- Out of band, by source ({unexplained} without a note in workflow/scorecard.yaml "
-                         "saying why):" if unexplained else "- Out of band, by source:")
-            lines += _by_source(out, lambda row: f"{_describe(row)}." + (f" Why: {_rst(row['note'])}" if row["note"] else ""))
-        missing = card[card["verdict"] == MISSING]
-        if len(missing):
-            lines.append("- Missing from their tables (a locator to fix):")
-            lines += _by_source(missing, lambda row: f"{_rst(row['quantity'])}: {_rst(row['note'])}")
-        pending = card[card["verdict"] == NOT_YET]
-        if len(pending):
-            lines += [f"- Not reproduced yet, by chapter and source ({len(pending)} numbers):", ""]
-            for chapter, part in pending.groupby("chapter", sort=False):
-                per_source = part.groupby("source", sort=False).size()
-                lines.append(f"  - {_chapter(chapter)}: "
-                             + ", ".join(f"{_rst(src)} ({n})" for src, n in per_source.items()))
-            lines.append("")
+    return lines
+
+
+def _tally(dataset: str, card: pd.DataFrame) -> str:
+    tally = counts(card)
+    return (f"**{_rst(dataset)}**: {tally[WITHIN]} of {tally[WITHIN] + tally[OUT]} reproduced numbers "
+            f"within band, {tally[OUT]} out of band, {tally[NOT_YET]} not reproduced yet.")
+
+
+def _out_of_band(card: pd.DataFrame) -> list[str]:
+    out = card[card["verdict"] == OUT]
+    if not len(out):
+        return []
+    unexplained = int((out["note"] == "").sum())
+    return [f"- Out of band, by source ({unexplained} without a note in workflow/scorecard.yaml "
+            "saying why):" if unexplained else "- Out of band, by source:",
+            *_by_source(out, lambda row: f"{_describe(row)}." + (f" Why: {_rst(row['note'])}" if row["note"] else ""))]
+
+
+def _missing(card: pd.DataFrame) -> list[str]:
+    missing = card[card["verdict"] == MISSING]
+    if not len(missing):
+        return []
+    return ["- Missing from their tables (a locator to fix):",
+            *_by_source(missing, lambda row: f"{_rst(row['quantity'])}: {_rst(row['note'])}")]
+
+
+def _pending(card: pd.DataFrame) -> list[str]:
+    pending = card[card["verdict"] == NOT_YET]
+    if not len(pending):
+        return []
+    lines = [f"- Not reproduced yet, by chapter and source ({len(pending)} numbers):", ""]
+    for chapter, part in pending.groupby("chapter", sort=False):
+        per_source = part.groupby("source", sort=False).size()
+        lines.append(f"  - {_chapter(chapter)}: " + ", ".join(f"{_rst(src)} ({n})" for src, n in per_source.items()))
+    return lines + [""]
+
+
+def _lists_page(cards: Mapping[str, pd.DataFrame], title: str, lists, empty: str) -> str:
+    """reStructuredText of a page: its title, then per dataset a section with its tally and lists."""
+    lines = [title, "=" * len(title), ""]
+    for dataset, card in _filled(cards).items():
+        head = _rst(dataset)
+        lines += [head, "-" * len(head), "", _tally(dataset, card), ""]
+        lines += lists(card) or [empty, ""]
     return "\n".join(lines) + "\n"
 
 
