@@ -24,14 +24,14 @@ include: "workflow/rules/report.smk"
 
 rule all:
     input:
-        acquire_outputs(),
-        ripple_outputs(),
-        identify_outputs(),
-        gamma_outputs(),
-        observer_outputs(),
-        control_outputs(),
-        thermal_outputs(),
-        powerloss_outputs(),
-        [f"results/{d}/stages.csv" for d in DATASETS],
-        report_outputs(),
+        ACQUIRE_OUTPUTS,
+        RIPPLE_OUTPUTS,
+        IDENTIFY_OUTPUTS,
+        GAMMA_OUTPUTS,
+        OBSERVER_OUTPUTS,
+        CONTROL_OUTPUTS,
+        THERMAL_OUTPUTS,
+        POWERLOSS_OUTPUTS,
+        STAGE_PLAN_OUTPUTS,
+        REPORT_OUTPUTS,
     default_target: True

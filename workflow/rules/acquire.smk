@@ -25,7 +25,7 @@ if SIMULATED:
             "benchmarks/out/{dataset}/simulate/{experiment}.tsv"
         threads: 1
         resources:
-            mem_mb=config["resources"].get("simulate_mem_mb", 1000),
+            mem_mb=config["resources"]["simulate_mem_mb"],
             runtime=60,
         script:
             "../scripts/simulate.py"
@@ -68,3 +68,6 @@ rule capture_summary:
         runtime=5,
     script:
         "../scripts/capture_summary.py"
+
+
+ACQUIRE_OUTPUTS = expand(rules.capture_summary.output, dataset=DATASETS)

@@ -1,6 +1,19 @@
 # Stage "control" (thesis Chapter 6): closed-loop runs on the twin with the real-time HPO, the
 # audit of the logged estimate, Tables 6.1–6.2, Figures 6.2–6.8.
 
+CH6_TABLES = ["table_6_1", "table_6_2", "p3", "tracking"]
+
+CH6_FIGURES = ["fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8"]
+
+#: the closed-loop experiments of each dataset (audited against the estimate their loop logged)
+CLOSED_LOOP = {d: [e for e, x in EXPERIMENTS[d].items() if x is not None and x.control == "closed_loop"]
+               for d in DATASETS}
+
+#: the Chapter 6 runs of each dataset, open and closed loop
+CH6_RUNS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch6_")] for d in DATASETS}
+
+CONTROL_DATASETS = [d for d in OBSERVER_DATASETS if CLOSED_LOOP[d] and d in IDENTIFY_DATASETS]
+
 
 if SIMULATED:
 
@@ -19,6 +32,7 @@ if SIMULATED:
             campaign=config["campaign"],
             capture=config["capture"],
             omega_c=config["control"]["omega_c"],
+            n_periods=config["ripple"]["n_periods"],
         wildcard_constraints:
             dataset="|".join(SIMULATED),
             experiment=r"[A-Za-z0-9_]*_closed[A-Za-z0-9_]*",
@@ -37,7 +51,7 @@ if SIMULATED:
 rule audit_realtime:
     """Offline HPO from the raw capture against the real-time estimate the loop logged."""
     input:
-        capture=RAW / "{dataset}" / "{experiment}.nc",
+        unpack(lambda w: captures(w.dataset, capture=w.experiment)),
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("audit_realtime"),
@@ -60,7 +74,7 @@ rule audit_realtime:
 rule audit_summary:
     """One row per closed-loop run: max |offline − logged| HPO estimate."""
     input:
-        reports=lambda w: [f"results/{w.dataset}/audit/{e}.json" for e in closed_loop(w.dataset)],
+        reports=lambda w: [f"results/{w.dataset}/audit/{e}.json" for e in CLOSED_LOOP[w.dataset]],
         library=library_sources("audit_summary"),
     output:
         table=report("results/{dataset}/ch6/audit.csv", caption="../report/audit.rst", category="{dataset}",
@@ -80,7 +94,7 @@ rule audit_summary:
 rule ch6_results:
     """Tables 6.1–6.2, P3, the loop's tracking prediction, Figures 6.2–6.8."""
     input:
-        captures=lambda w: [str(RAW / w.dataset / f"{e}.nc") for e in ch6_runs(w.dataset)],
+        unpack(lambda w: captures(w.dataset, captures=CH6_RUNS[w.dataset])),
         model="results/{dataset}/ch4/model.json",
         library=library_sources("ch6_results"),
     output:
@@ -89,8 +103,8 @@ rule ch6_results:
         figures=[report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
                         subcategory="Chapter 6") for f in CH6_FIGURES],
     params:
-        protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in ch6_runs(w.dataset)},
-        controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in ch6_runs(w.dataset)},
+        protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in CH6_RUNS[w.dataset]},
+        controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in CH6_RUNS[w.dataset]},
         omega_c=config["control"]["omega_c"],
         out_dir=lambda w: f"figures/{w.dataset}",
     log:
@@ -103,3 +117,7 @@ rule ch6_results:
         runtime=30,
     script:
         "../scripts/ch6_results.py"
+
+
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+CONTROL_OUTPUTS = expand([*rules.ch6_results.output, *rules.audit_summary.output], dataset=CONTROL_DATASETS)

@@ -1,5 +1,12 @@
 # Stage "gamma" (thesis Chapter 5): capacitance self-sensing Γ, Tables 5.1–5.2.
 
+GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
+                "coefficients": "table_5_2_coefficients.csv", "basis": "gamma_basis.csv"}
+
+GAMMA_RUN = "ch5_sine_0p1hz"  # Γ is fitted on the 0.1 Hz run (Tables 5.1, 5.2)
+
+GAMMA_DATASETS = [d for d in RIPPLE_DATASETS if GAMMA_RUN in EXPERIMENTS[d]]
+
 
 rule gamma_fit:
     """Γ of orders 3–6 and ln on the 0.1 Hz data; ANOVA and coefficients (statsmodels)."""
@@ -23,3 +30,7 @@ rule gamma_fit:
         runtime=10,
     script:
         "../scripts/gamma_fit.py"
+
+
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+GAMMA_OUTPUTS = expand(rules.gamma_fit.output, dataset=GAMMA_DATASETS)

@@ -1,11 +1,21 @@
 # Stage "identify" (thesis Chapter 4): Case 1 / Case 2 model identification, Tables 4.1–4.3.
 
+CH4_FIGURES = ["fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_8"]
+
+CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
+
+#: the Chapter 4 sine sets of each dataset
+CH4_SETS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch4_sine_")] for d in DATASETS}
+
+#: datasets with the ripple channels, the Chapter 4 sets and the static stiffness tests
+IDENTIFY_DATASETS = [d for d in RIPPLE_DATASETS if CH4_SETS[d]
+                     and {"ch4_static_free", "ch4_static_blocked"} <= set(EXPERIMENTS[d])]
+
 
 rule static_stiffness:
     """k from the blocked force over the free stroke at U_max (Eq 4.16)."""
     input:
-        free=RAW / "{dataset}" / "ch4_static_free.nc",
-        blocked=RAW / "{dataset}" / "ch4_static_blocked.nc",
+        unpack(lambda w: captures(w.dataset, free="ch4_static_free", blocked="ch4_static_blocked")),
         library=library_sources("static_stiffness"),
     output:
         table=report("results/{dataset}/ch4/static_stiffness.csv", caption="../report/static_stiffness.rst",
@@ -27,7 +37,7 @@ rule static_stiffness:
 rule identify:
     """Case 1 and Case 2 for every set (Eq 4.15–4.25); Tables 4.1–4.3 and the model for later stages."""
     input:
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in ch4_sets(w.dataset)],
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CH4_SETS[w.dataset]],
         static="results/{dataset}/ch4/static_stiffness.csv",
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("identify"),
@@ -50,10 +60,9 @@ rule identify:
 rule ch4_figures:
     """Figures 4.2–4.8."""
     input:
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in ch4_sets(w.dataset)],
+        unpack(lambda w: captures(w.dataset, force="ch4_sine_50hz_s1", drive="ch4_sine_10hz_s1")),
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CH4_SETS[w.dataset]],
         per_set="results/{dataset}/ch4/sets.csv",
-        force=RAW / "{dataset}" / "ch4_sine_50hz_s1.nc",
-        drive=RAW / "{dataset}" / "ch4_sine_10hz_s1.nc",
         library=library_sources("ch4_figures"),
     output:
         [report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
@@ -75,8 +84,8 @@ rule ch4_figures:
 rule model_recovery:
     """Identified parameters against the twin's truth (parameter recovery)."""
     input:
+        unpack(lambda w: captures(w.dataset, capture="ch4_sine_10hz_s1")),
         per_set="results/{dataset}/ch4/sets.csv",
-        capture=RAW / "{dataset}" / "ch4_sine_10hz_s1.nc",
         library=library_sources("model_recovery"),
     output:
         table=report("results/{dataset}/twin/model_recovery.csv", caption="../report/model_recovery.rst",
@@ -91,3 +100,11 @@ rule model_recovery:
         runtime=5,
     script:
         "../scripts/model_recovery.py"
+
+
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+IDENTIFY_OUTPUTS = (
+    expand([*rules.static_stiffness.output, *rules.identify.output, *rules.ch4_figures.output],
+           dataset=IDENTIFY_DATASETS)
+    + expand(rules.model_recovery.output, dataset=[d for d in IDENTIFY_DATASETS if "twin" in DATASETS[d]])
+)

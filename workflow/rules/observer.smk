@@ -1,11 +1,28 @@
 # Stage "observer" (thesis Chapter 5): charge self-sensing a0, the hybrid position observer,
 # Tables 5.3–5.4, Figures 5.1–5.14, and the frequency response x/q of Fig 5.3.
 
+CH5_FIGURES = ["fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
+               "fig_5_13", "fig_5_14"]
+
+TABLE_5_4_HZ = (0.01, 0.1, 1.0, 10.0, 50.0, 100.0)
+
+#: {frequency [Hz]: experiment} of the 10–300 Hz sines a0 is fitted on (Eq 5.3)
+CHARGE_SINES = {d: {f: e for f, e in sines(d, "ch5_sine_").items() if f >= 10} for d in DATASETS}
+
+#: {frequency [Hz]: experiment} of the sines the observer is evaluated on (Table 5.4)
+OBSERVED_SINES = {d: {f: e for f, e in sines(d, "ch5_sine_").items() if f in TABLE_5_4_HZ} for d in DATASETS}
+
+OBSERVER_DATASETS = [d for d in GAMMA_DATASETS if CHARGE_SINES[d] and "ch5_creep" in EXPERIMENTS[d]
+                     and len(OBSERVED_SINES[d]) == len(TABLE_5_4_HZ)]
+
+#: datasets with the identified model (Chapter 4) and the stepped-sine sweep ch5_sweep
+FREQUENCY_RESPONSE_DATASETS = [d for d in IDENTIFY_DATASETS if EXPERIMENTS[d].get("ch5_sweep") is not None]
+
 
 rule charge_sensing:
     """a0 from q–x over 10–300 Hz (Eq 5.3) and the observer gains of Table 5.3 (Eq 5.9)."""
     input:
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in charge_sines(w.dataset).values()],
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CHARGE_SINES[w.dataset].values()],
         library=library_sources("charge_sensing"),
     output:
         charge_sensing=report("results/{dataset}/ch5/charge_sensing.csv", caption="../report/charge_sensing.rst",
@@ -14,7 +31,7 @@ rule charge_sensing:
                          category="{dataset}", subcategory="Chapter 5"),
         observer="results/{dataset}/ch5/observer.json",
     params:
-        frequencies=lambda w: list(charge_sines(w.dataset)),
+        frequencies=lambda w: list(CHARGE_SINES[w.dataset]),
         omega_s=config["observer"]["omega_s"],
         zeta_s=config["observer"]["zeta_s"],
     log:
@@ -32,7 +49,7 @@ rule charge_sensing:
 rule observe:
     """The self-sensing chain (ripple → Γ → HPO) over one capture, streamed."""
     input:
-        capture=RAW / "{dataset}" / "{experiment}.nc",
+        unpack(lambda w: captures(w.dataset, capture=w.experiment)),
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("observe"),
@@ -56,7 +73,7 @@ rule observe:
 rule ch5_tables:
     """Table 5.4 (open-loop observer error) and the creep run's errors."""
     input:
-        stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in observed_sines(w.dataset).values()],
+        stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in OBSERVED_SINES[w.dataset].values()],
         creep="results/{dataset}/observer/ch5_creep.nc",
         library=library_sources("ch5_tables"),
     output:
@@ -65,9 +82,8 @@ rule ch5_tables:
         creep=report("results/{dataset}/ch5/creep.csv", caption="../report/creep.rst",
                      category="{dataset}", subcategory="Chapter 5"),
     params:
-        frequencies=lambda w: list(observed_sines(w.dataset)),
-        step_at=lambda w: float(expand_protocols(DATASETS[w.dataset]["protocols"], config["campaign"])
-                                ["ch5_creep"].protocol.get("warmup", 0.0)),
+        frequencies=lambda w: list(OBSERVED_SINES[w.dataset]),
+        step_at=lambda w: float(EXPERIMENTS[w.dataset]["ch5_creep"].protocol.get("warmup", 0.0)),
         transient_s=10.0,
     log:
         "logs/{dataset}/ch5_tables.log",
@@ -84,7 +100,7 @@ rule ch5_tables:
 rule observer_study:
     """Beyond the thesis: observer error against ω_S and the offset current (1 Hz capture)."""
     input:
-        capture=RAW / "{dataset}" / "ch5_sine_1hz.nc",
+        unpack(lambda w: captures(w.dataset, capture="ch5_sine_1hz")),
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("observer_study"),
@@ -114,7 +130,7 @@ rule ch5_figures:
     input:
         series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
         gamma_series="results/{dataset}/ripple/ch5_sine_0p1hz.nc",
-        traces=lambda w: [f"results/{w.dataset}/observer/{e}.nc" for e in observed_sines(w.dataset).values()],
+        traces=lambda w: [f"results/{w.dataset}/observer/{e}.nc" for e in OBSERVED_SINES[w.dataset].values()],
         creep="results/{dataset}/observer/ch5_creep.nc",
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("ch5_figures"),
@@ -123,7 +139,7 @@ rule ch5_figures:
                 subcategory="Chapter 5") for f in CH5_FIGURES],
     params:
         series_f=lambda w: list(sines(w.dataset, "ch5_sine_")),
-        traces_f=lambda w: list(observed_sines(w.dataset)),
+        traces_f=lambda w: list(OBSERVED_SINES[w.dataset]),
         out_dir=lambda w: f"figures/{w.dataset}",
         n_periods=config["ripple"]["n_periods"],
         orders=config["gamma"]["orders"],
@@ -142,7 +158,7 @@ rule ch5_figures:
 rule frequency_response:
     """Fig 5.3: G(s) = x/q (Eq 5.2) from the stepped-sine sweep against the identified model."""
     input:
-        capture=RAW / "{dataset}" / "ch5_sweep.nc",
+        unpack(lambda w: captures(w.dataset, capture="ch5_sweep")),
         model="results/{dataset}/ch4/model.json",
         library=library_sources("frequency_response"),
     output:
@@ -165,3 +181,11 @@ rule frequency_response:
         runtime=5,
     script:
         "../scripts/frequency_response.py"
+
+
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+OBSERVER_OUTPUTS = (
+    expand(rules.frequency_response.output, dataset=FREQUENCY_RESPONSE_DATASETS)
+    + expand([*rules.charge_sensing.output, *rules.ch5_tables.output, *rules.observer_study.output,
+              *rules.ch5_figures.output], dataset=OBSERVER_DATASETS)
+)

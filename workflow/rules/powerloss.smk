@@ -3,19 +3,41 @@
 # voltage control (Section 7, Figures 2–11). Datasets take part when their DAQ records the
 # current drive and they run the Ronkanen catalogue; the others skip the stage.
 
+POWERLOSS = "results/{dataset}/powerloss"
+
+RONKANEN_REPORT = {"category": "{dataset}", "subcategory": "Ronkanen 2002"}  # where the report files them
+
+RONKANEN_FIGURES = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}  # paper figure: file name
+
+#: the open-loop comparison: {"<kind>_<control>": experiment}
+RONKANEN_PAIRS = {f"{kind}_{control}": f"rk_{kind}_{control}"
+                  for kind in ("decay", "repeat", "drift") for control in ("current", "voltage")}
+
+#: Fig 3, 4, 5 (and 6): the ±300 nA ramps with too large, too small and ideal compensation
+RONKANEN_VELOCITY_RAMPS = ["rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300na_2g"]
+
+#: datasets whose DAQ records the current drive and that run the Ronkanen catalogue
+POWERLOSS_DATASETS = [d for d in DATASETS
+                      if has_channels(d, "U", "I", "i_cmd", "x_disp") and "ronkanen" in DATASETS[d]["protocols"]]
+
+#: when each run's first segment ends [s]: where its hold starts (Figs 2, 11)
+FIRST_SEGMENT_END = {d: {e: float(x.protocol.get("warmup", 0.0)) + float(x.protocol["segments"][0]["duration"])
+                         for e, x in EXPERIMENTS[d].items() if x is not None} for d in POWERLOSS_DATASETS}
+
 
 rule powerloss_identify:
     """R from the static hold (Section 4), X and a from every ramp (Table 1, Section 5)."""
     input:
-        hold=RAW / "{dataset}" / "rk_static_hold.nc",
-        ramps=lambda w: captures(w.dataset, "rk_ramp_"),
+        unpack(lambda w: captures(w.dataset, hold="rk_static_hold",
+                                  ramps=[e for e in EXPERIMENTS[w.dataset] if e.startswith("rk_ramp_")])),
         library=library_sources("powerloss_identify"),
     output:
-        ramps=ronkanen_report(f"{POWERLOSS}/ramps.csv", "ramps"),
-        table_1=ronkanen_report(f"{POWERLOSS}/table_1.csv", "table_1"),
-        identified=ronkanen_report(f"{POWERLOSS}/identified.csv", "identified"),
+        ramps=report(f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT),
+        table_1=report(f"{POWERLOSS}/table_1.csv", caption="../report/ronkanen_table_1.rst", **RONKANEN_REPORT),
+        identified=report(f"{POWERLOSS}/identified.csv", caption="../report/ronkanen_identified.rst",
+                          **RONKANEN_REPORT),
     params:
-        hold_start=lambda w: first_segment_end(w.dataset, "rk_static_hold"),
+        hold_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_static_hold"],
         velocity_window=2.0,
     log:
         "logs/{dataset}/powerloss_identify.log",
@@ -36,7 +58,7 @@ rule powerloss_table_2:
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_table_2"),
     output:
-        table=ronkanen_report(f"{POWERLOSS}/table_2.csv", "table_2"),
+        table=report(f"{POWERLOSS}/table_2.csv", caption="../report/ronkanen_table_2.rst", **RONKANEN_REPORT),
     log:
         "logs/{dataset}/powerloss_table_2.log",
     benchmark:
@@ -52,14 +74,16 @@ rule powerloss_table_2:
 rule powerloss_performance:
     """Hysteresis, drift, repeatability and max error: current vs open-loop voltage control."""
     input:
-        unpack(pair_captures),
+        unpack(lambda w: captures(w.dataset, **RONKANEN_PAIRS)),
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_performance"),
     output:
-        performance=ronkanen_report(f"{POWERLOSS}/performance.csv", "performance"),
-        repeatability=ronkanen_report(f"{POWERLOSS}/repeatability.csv", "repeatability"),
+        performance=report(f"{POWERLOSS}/performance.csv", caption="../report/ronkanen_performance.rst",
+                           **RONKANEN_REPORT),
+        repeatability=report(f"{POWERLOSS}/repeatability.csv", caption="../report/ronkanen_repeatability.rst",
+                             **RONKANEN_REPORT),
     params:
-        drift_start=lambda w: first_segment_end(w.dataset, RONKANEN_PAIRS["drift"]["current"]),
+        drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
         drift_duration=120.0,
     log:
         "logs/{dataset}/powerloss_performance.log",
@@ -76,19 +100,19 @@ rule powerloss_performance:
 rule powerloss_figures:
     """Figures 2–11 of the paper from the captures and the identified constants."""
     input:
-        unpack(pair_captures),
-        hold=RAW / "{dataset}" / "rk_static_hold.nc",
-        ramps=[RAW / "{dataset}" / f"{e}.nc" for e in RONKANEN_VELOCITY_RAMPS],
+        unpack(lambda w: captures(w.dataset, hold="rk_static_hold", ramps=RONKANEN_VELOCITY_RAMPS,
+                                  **RONKANEN_PAIRS)),
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_figures"),
     output:
-        figures=[ronkanen_report(f"figures/{{dataset}}/{name}.png", f"fig_{n}") for n, name in RONKANEN_FIGURES.items()],
+        figures=[report(f"figures/{{dataset}}/{name}.png", caption=f"../report/ronkanen_fig_{n}.rst", **RONKANEN_REPORT)
+                 for n, name in RONKANEN_FIGURES.items()],
     params:
         out_dir=lambda w: f"figures/{w.dataset}",
         velocity_window=2.0,
-        drift_start=lambda w: first_segment_end(w.dataset, RONKANEN_PAIRS["drift"]["current"]),
+        drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
     log:
         "logs/{dataset}/powerloss_figures.log",
     benchmark:
@@ -104,13 +128,13 @@ rule powerloss_figures:
 rule powerloss_recovery:
     """Identified R, a, X and c against the twin's true parameters (twin validation)."""
     input:
-        capture=RAW / "{dataset}" / "rk_static_hold.nc",
+        unpack(lambda w: captures(w.dataset, capture="rk_static_hold")),
         identified=f"{POWERLOSS}/identified.csv",
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
         library=library_sources("powerloss_recovery"),
     output:
-        table=ronkanen_report(f"{POWERLOSS}/recovery.csv", "recovery"),
+        table=report(f"{POWERLOSS}/recovery.csv", caption="../report/ronkanen_recovery.rst", **RONKANEN_REPORT),
     log:
         "logs/{dataset}/powerloss_recovery.log",
     benchmark:
@@ -121,3 +145,11 @@ rule powerloss_recovery:
         runtime=5,
     script:
         "../scripts/powerloss_recovery.py"
+
+
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+POWERLOSS_OUTPUTS = (
+    expand([*rules.powerloss_identify.output, *rules.powerloss_table_2.output, *rules.powerloss_performance.output,
+            *rules.powerloss_figures.output], dataset=POWERLOSS_DATASETS)
+    + expand(rules.powerloss_recovery.output, dataset=[d for d in POWERLOSS_DATASETS if "twin" in DATASETS[d]])
+)

@@ -1,11 +1,23 @@
 # Stage "ripple" (thesis Chapter 3): folded-sampling plan, C_e and R_e from the ripple channels.
 
+#: the Chapter 3 runs by drive frequency (Figures 3.9–3.14, hysteresis, C_e recovery)
+CH3_SERIES = {"10 Hz": "ch3_sine_10hz", "1 Hz": "ch3_sine_1hz", "0.1 Hz": "ch3_sine_0p1hz"}
+
+CH3_FIGURES = ["fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_3_12",
+               "fig_3_13", "fig_3_14"]
+
+#: datasets whose DAQ records the ripple channels (the others skip this stage)
+RIPPLE_DATASETS = [d for d in DATASETS
+                   if has_channels(d, "Ur", "Ir", "U", "I", "x_laser") and "ripple" in DATASETS[d]["daq"]]
+
+#: ripple datasets with the three Chapter 3 runs
+CH3_DATASETS = [d for d in RIPPLE_DATASETS if set(CH3_SERIES.values()) <= set(EXPERIMENTS[d])]
+
 
 rule extract_ripple:
     """C_e and R_e per folded period (Eq 3.6–3.13) plus window means of U, x, I, q."""
     input:
-        capture=RAW / "{dataset}" / "{experiment}.nc",
-        qc="results/{dataset}/qc/{experiment}.json",
+        unpack(lambda w: captures(w.dataset, capture=w.experiment)),
         library=library_sources("extract_ripple"),
     output:
         series="results/{dataset}/ripple/{experiment}.nc",
@@ -74,7 +86,7 @@ rule ch3_hysteresis:
 rule ch3_figures:
     """Figures 3.2–3.14 of the ripple impedance measurement."""
     input:
-        capture=RAW / "{dataset}" / "ch3_sine_10hz.nc",
+        unpack(lambda w: captures(w.dataset, capture="ch3_sine_10hz")),
         series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("ch3_figures"),
@@ -120,7 +132,7 @@ rule ch3_model_figure:
 rule ce_recovery:
     """C_e from the ripple against the twin's true clamped capacitance (parameter recovery)."""
     input:
-        captures=[RAW / "{dataset}" / f"{e}.nc" for e in CH3_SERIES.values()],
+        unpack(lambda w: captures(w.dataset, captures=list(CH3_SERIES.values()))),
         series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
         library=library_sources("ce_recovery"),
     output:
@@ -164,3 +176,12 @@ rule ce_np_study:
         runtime=10,
     script:
         "../scripts/ce_np_study.py"
+
+
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+RIPPLE_OUTPUTS = (
+    expand(rules.ch3_tables.output, dataset=RIPPLE_DATASETS)
+    + expand([*rules.ch3_hysteresis.output, *rules.ch3_figures.output], dataset=CH3_DATASETS)
+    + expand([*rules.ch3_model_figure.output, *rules.ce_recovery.output, *rules.ce_np_study.output],
+             dataset=[d for d in CH3_DATASETS if "twin" in DATASETS[d]])
+)

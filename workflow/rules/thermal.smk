@@ -1,11 +1,26 @@
 # Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
 # 7.3), the frequency effect on C_e–x, the coupled observer/thermal estimation, Figures 7.1–7.12.
 
+#: the runs the coupled observer/thermal estimation is evaluated on (Figures 7.10–7.12)
+CH7_COUPLED = ["ch7_freq_100hz", "ch7_freq_50hz", "ch7_mixed_ae"]
+
+#: the runs the thermal model's predictions are checked on (Figures 7.5, 7.6)
+CH7_CHECKS = ["ch7_heat_cool", "ch7_mixed_voltage"]
+
+THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
+
+GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
+                  "coefficients": "table_7_3_coefficients.csv"}
+
+THERMAL_DATASETS = [d for d in OBSERVER_DATASETS if d in IDENTIFY_DATASETS and sines(d, "ch7_freq_")
+                    and {"ch7_volt_150hz", *CH7_CHECKS, *CH7_COUPLED} <= set(EXPERIMENTS[d])
+                    and has_channels(d, "T_mid")]
+
 
 rule thermal_extract:
     """Loss power per 0.1 s with the IR temperatures, and C_e/x samples for Γ_T (streamed)."""
     input:
-        capture=RAW / "{dataset}" / "{experiment}.nc",
+        unpack(lambda w: captures(w.dataset, capture=w.experiment)),
         model="results/{dataset}/ch4/model.json",
         library=library_sources("thermal_extract"),
     output:
@@ -89,8 +104,8 @@ rule gamma_t_fit:
 rule frequency_effect:
     """Figure 7.8: C_e–x at each Chapter 5 drive frequency against Γ, beside each run's temperature."""
     input:
+        unpack(lambda w: captures(w.dataset, captures=list(sines(w.dataset, "ch5_sine_").values()))),
         series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
-        captures=lambda w: [RAW / w.dataset / f"{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
         gamma="results/{dataset}/ch5/gamma.json",
         gamma_t="results/{dataset}/ch7/gamma_t.json",
         library=library_sources("frequency_effect"),
@@ -148,7 +163,7 @@ rule estimator_diagram:
 rule coupled:
     """Temperature-compensated observer coupled with the thermal model over one run (Fig 7.9)."""
     input:
-        capture=RAW / "{dataset}" / "{experiment}.nc",
+        unpack(lambda w: captures(w.dataset, capture=w.experiment)),
         power="results/{dataset}/thermal/{experiment}.nc",
         gamma_t="results/{dataset}/ch7/gamma_t.json",
         observer="results/{dataset}/ch5/observer.json",
@@ -175,10 +190,10 @@ rule coupled:
 rule ch7_summary:
     """Coupled-estimation errors beside the thesis, Figures 7.10–7.12, thermal parameter recovery."""
     input:
+        unpack(lambda w: captures(w.dataset, truth_capture="ch7_freq_100hz")),
         stats=[f"results/{{dataset}}/ch7/coupled/{e}.json" for e in CH7_COUPLED],
         traces=[f"results/{{dataset}}/ch7/coupled/{e}.nc" for e in CH7_COUPLED],
         table_7_1="results/{dataset}/ch7/table_7_1.csv",
-        truth_capture=RAW / "{dataset}" / "ch7_freq_100hz.nc",
         library=library_sources("ch7_summary"),
     output:
         coupled=report("results/{dataset}/ch7/coupled.csv", caption="../report/coupled.rst", category="{dataset}",
@@ -200,3 +215,8 @@ rule ch7_summary:
         runtime=10,
     script:
         "../scripts/ch7_summary.py"
+
+
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+THERMAL_OUTPUTS = expand([*rules.thermal_identify.output, *rules.gamma_t_fit.output, *rules.frequency_effect.output,
+                          *rules.estimator_diagram.output, *rules.ch7_summary.output], dataset=THERMAL_DATASETS)

@@ -4,25 +4,29 @@ Alone: python workflow/scripts/simulate.py pi_p885 ch3_sine_10hz --config tests/
 """
 
 import argparse
+from pathlib import Path
 
 from selfsense.manifest import load_config
 from selfsense.provenance import script_logging
 from selfsense.twin import simulate_experiment
 
 
-def main(dataset, experiment, config, output=None, log=None):
+def main(raw_dir, dataset, experiment, campaign, capture, output=None, log=None):
     logger = script_logging(log)
-    path = simulate_experiment(config["raw_dir"], dataset, experiment, config, output)
-    logger.info("wrote %s (campaign %s)", path, config["campaign"])
+    path = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output)
+    logger.info("wrote %s (campaign %s)", path, campaign)
 
 
 if "snakemake" in globals():
-    main(snakemake.wildcards.dataset, snakemake.wildcards.experiment, snakemake.config,
-         snakemake.output.capture, snakemake.log[0])
+    p = snakemake.params
+    # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
+    main(Path(snakemake.input.manifest).parents[1], snakemake.wildcards.dataset, snakemake.wildcards.experiment,
+         p.campaign, p.capture, snakemake.output.capture, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("dataset")
     cli.add_argument("experiment")
     cli.add_argument("--config", default="config.yaml")
     args = cli.parse_args()
-    main(args.dataset, args.experiment, load_config(args.config))
+    config = load_config(args.config)
+    main(config["raw_dir"], args.dataset, args.experiment, config["campaign"], config["capture"])

@@ -22,23 +22,27 @@ def realtime(gamma, observer, model, omega_c):
             "omega_c": omega_c}
 
 
-def main(dataset, experiment, gamma, observer, model, config, output=None, log=None):
+def main(raw_dir, dataset, experiment, gamma, observer, model, campaign, capture, omega_c, n_periods,
+         output=None, log=None):
     logger = script_logging(log)
-    rt = realtime(gamma, observer, model, config["control"]["omega_c"])
-    n_periods = config["ripple"]["n_periods"]
-    path = simulate_experiment(config["raw_dir"], dataset, experiment, config, output,
+    rt = realtime(gamma, observer, model, omega_c)
+    path = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output,
                                controller_for=lambda daq, drive, warmup: realtime_controller(daq, drive, warmup, n_periods, rt))
     logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", path, rt["k_over_alpha"], rt["a0"])
 
 
 if "snakemake" in globals():
-    i = snakemake.input
-    main(snakemake.wildcards.dataset, snakemake.wildcards.experiment, i.gamma, i.observer, i.model,
-         snakemake.config, snakemake.output.capture, snakemake.log[0])
+    i, p = snakemake.input, snakemake.params
+    # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
+    main(Path(i.manifest).parents[1], snakemake.wildcards.dataset, snakemake.wildcards.experiment, i.gamma,
+         i.observer, i.model, p.campaign, p.capture, p.omega_c, p.n_periods, snakemake.output.capture,
+         snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("dataset", "experiment", "gamma", "observer", "model"):
         cli.add_argument(name)
     cli.add_argument("--config", default="config.yaml")
     a = cli.parse_args()
-    main(a.dataset, a.experiment, a.gamma, a.observer, a.model, load_config(a.config))
+    c = load_config(a.config)
+    main(c["raw_dir"], a.dataset, a.experiment, a.gamma, a.observer, a.model, c["campaign"], c["capture"],
+         c["control"]["omega_c"], c["ripple"]["n_periods"])
