@@ -102,10 +102,11 @@ def test_figure_7_9_shows_the_identified_values_or_says_why_not():
     def texts(fig):
         return " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
 
-    args = (GammaPolynomial((1.0, 2.0), g=0.203), 5, HPOGains(16.6, 2 * np.pi, 1.0))
+    args = (GammaPolynomial((1.0, 2.0, 0.0, 0.0, 0.0, 3.0), g=0.203), HPOGains(16.6, 2 * np.pi, 1.0))
     plan = plan_from_fs(48000.0, 1e5, 12, 4)
     fig, shown = ch7.figure_7_9(*args, {"identified": True, "tau": 106.9, "gamma": 50.4, "T_amb": 23.1}, 2.64e6, plan)
     assert "τ = 106.9 s, γ = 50.4 K/W" in texts(fig) and "g = 0.203 µm/K" in texts(fig) and "2.64 V/µm" in texts(fig)
+    assert "order 5" in texts(fig) and shown["Gamma_T order"] == 5
     assert shown["L_I"] == pytest.approx((2 * np.pi) ** 2 * 16.6) and shown["tau [s]"] == 106.9
     fig, shown = ch7.figure_7_9(*args, {"identified": False, "reason": "runs too short"}, 2.64e6, plan)
     assert "not identified" in texts(fig) and "runs too short" in texts(fig) and shown["tau [s]"] is None

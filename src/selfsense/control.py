@@ -121,7 +121,6 @@ def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: in
     ``k_over_alpha`` and ``omega_c``: what the bench's loop was configured with.
     """
     plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
-    gamma = GammaPolynomial(tuple(realtime["gamma"]["coefficients"]), realtime["gamma"]["g"])
-    chain = SelfSensingChain(plan, gamma, HPOGains(realtime["a0"], realtime["omega_s"], realtime["zeta_s"]), daq.fs)
+    chain = SelfSensingChain(plan, GammaPolynomial.from_record(realtime["gamma"]), HPOGains.from_record(realtime), daq.fs)
     gains = IntegralController(realtime["omega_c"], realtime["k_over_alpha"])
     return HPOIntegralController(chain, gains, drive, daq.fs, plan.ns, warmup)

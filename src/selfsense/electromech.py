@@ -17,11 +17,17 @@ estimated together with the model coefficients.
 
 from __future__ import annotations
 
+import json
 from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import minimize
 from scipy.signal import savgol_filter
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 EPS0 = 8.8541878128e-12  # vacuum permittivity [F/m]
 
@@ -260,3 +266,19 @@ def geometry_from_actuator(actuator: dict, where: str = "actuator") -> Geometry:
         return Geometry(area, actuator["layer_thickness_um"] * 1e-6, actuator["active_volume_mm3"] * 1e-9 / area)
     except KeyError as err:
         raise ValueError(f"{where}: missing key {err.args[0]} needed for the material properties") from None
+
+
+#: the model parameters later stages read from the identification's model record
+MODEL_KEYS = ("C_P0", "dC_x", "k", "alpha", "b", "m")
+
+
+def model_record(case2: "pd.DataFrame") -> dict[str, float]:
+    """The identified model for later stages: the mean of each parameter over the Case 2 sets,
+    and k/α [V/m], which splits the hysteresis voltage off the drive for the loss power (Eq 7.7–7.11)."""
+    model = {key: float(case2[key].mean()) for key in MODEL_KEYS}
+    return model | {"k_over_alpha": model["k"] / model["alpha"]}
+
+
+def load_k_over_alpha(path: str | Path) -> float:
+    """k/α [V/m] from a :func:`model_record` the identification stage wrote (``model.json``)."""
+    return json.loads(Path(path).read_text())["k_over_alpha"]

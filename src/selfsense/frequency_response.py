@@ -37,8 +37,12 @@ import pandas as pd
 import scipy.optimize
 import scipy.signal
 
+from . import figures
+
 #: Fig 5.3 / Chapter 5 text: "the electromechanical resonance frequency (700 Hz)"
 THESIS_RESONANCE_HZ = 700.0
+#: the capture channels a sweep is measured from
+CHANNELS = ("x_laser", "I")
 #: fewest whole periods a point's window may hold: the Hann window over fewer does not reject DC
 MIN_CYCLES = 2
 
@@ -205,3 +209,17 @@ def resonance_table(measured: Measured, G: control.TransferFunction) -> pd.DataF
         "peak |G| [µm/µC]": [g_meas, g_model],
         "thesis Fig 5.3 [Hz]": [THESIS_RESONANCE_HZ, THESIS_RESONANCE_HZ],
     })
+
+
+def measure_sweep(capture, segments: Sequence, settle_s: float) -> Measured:
+    """:func:`measure` over an open stepped-sine capture whose drive has ``segments``, one window at a time."""
+    plan = sweep_plan(segments, capture.fs, settle_s)
+    rest = capture.read(["x_laser"], *plan.rest)["x_laser"]
+    return measure(rest, ((p, capture.read(CHANNELS, p.start, p.stop)) for p in plan.points), capture.fs)
+
+
+def figure_5_3(table: pd.DataFrame, peaks: pd.DataFrame, G: control.TransferFunction):
+    """Fig 5.3: the measured points of :func:`response_table` over the model ``G`` on a fine grid."""
+    grid = np.geomspace(table["frequency [Hz]"].min(), table["frequency [Hz]"].max(), 600)
+    return figures.bode(table, grid, evaluate(G, grid), peaks, THESIS_RESONANCE_HZ,
+                        "Fig 5.3: frequency response of G(s) = x(s)/q(s)")

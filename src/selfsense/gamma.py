@@ -35,8 +35,10 @@ sequential per-term ANOVA such as ``statsmodels.stats.anova_lm`` produces.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+import json
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -49,6 +51,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "GammaFit",
+    "GammaPolynomial",
+    "load_gamma",
     "fit_gamma",
     "fit_log_gamma",
     "anova_table",
@@ -431,9 +435,28 @@ class GammaPolynomial:
         powers = tuple(float(coefs[f"b{i}"]) for i in range(sum(1 for n in coefs.index if n.startswith("b"))))
         return cls(powers, float(coefs.get("g", 0.0)))
 
+    @classmethod
+    def from_record(cls, record: Mapping) -> "GammaPolynomial":
+        """The Γ a :meth:`record` holds (e.g. read back from ``gamma.json``)."""
+        return cls(tuple(record["coefficients"]), record["g"])
+
+    @property
+    def order(self) -> int:
+        """Order j of the polynomial in C (Eq 5.4)."""
+        return len(self.coefficients) - 1
+
+    def record(self) -> dict:
+        """Plain data for a JSON artefact; :meth:`from_record` reads it back."""
+        return asdict(self) | {"order": self.order}
+
     def predict(self, C: ArrayLike, temperature: ArrayLike | None = None) -> np.ndarray:
         """x [m] from C [F] (and T [°C], used only when g ≠ 0)."""
         x_um = Polynomial(self.coefficients)(np.asarray(C, dtype=float) * _UF_PER_F)
         if self.g:
             x_um = x_um + self.g * np.asarray(temperature, dtype=float)
         return x_um / _UM_PER_M
+
+
+def load_gamma(path: str | Path) -> GammaPolynomial:
+    """The Γ (Eq 5.4) or Γ_T (Eq 7.13) a fitting stage wrote as ``record() | provenance``."""
+    return GammaPolynomial.from_record(json.loads(Path(path).read_text()))

@@ -39,7 +39,10 @@ Module contents
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
 import numba
@@ -58,6 +61,7 @@ __all__ = [
     "THESIS_OMEGA_S",
     "THESIS_ZETA_S",
     "HPOGains",
+    "load_gains",
     "transfer_functions",
     "magnitude_response",
     "peak_offset_gain",
@@ -121,6 +125,15 @@ class HPOGains:
         """Gains for a given charge–position gain ``a0`` [C/m] (e.g. one identified from data)."""
         return cls(a0=float(a0), omega_s=float(omega_s), zeta_s=float(zeta_s))
 
+    @classmethod
+    def from_record(cls, record: Mapping) -> "HPOGains":
+        """The gains a :meth:`record` holds (e.g. read back from ``observer.json``)."""
+        return cls(record["a0"], record["omega_s"], record["zeta_s"])
+
+    def record(self) -> dict:
+        """Plain data for a JSON artefact; :meth:`from_record` reads it back."""
+        return asdict(self)
+
     @property
     def LP(self) -> float:
         """Proportional gain LP = 2 ζS ωS a0 [C·rad/(s·m)] (Eq 5.9)."""
@@ -130,6 +143,11 @@ class HPOGains:
     def LI(self) -> float:
         """Integral gain LI = ωS² a0 [C·rad²/(s²·m)] (Eq 5.9)."""
         return self.omega_s**2 * self.a0
+
+
+def load_gains(path: str | Path) -> HPOGains:
+    """The observer gains (Table 5.3) the charge-sensing stage wrote as ``record() | provenance``."""
+    return HPOGains.from_record(json.loads(Path(path).read_text()))
 
 
 # ---------------------------------------------------------------------------------------------

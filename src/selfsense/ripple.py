@@ -164,6 +164,12 @@ def plan_from_fs(
     raise ValueError(f"{problem}; {hint}")
 
 
+def plan_from_capture(capture, n_periods: int) -> SamplingPlan:
+    """The plan an open :class:`~selfsense.capture.Capture` was sampled with, from its ``fs`` and its
+    ``fr_nominal``/``ns`` attributes, checked as :func:`plan_from_fs` checks it (Eq 3.3-3.5)."""
+    return plan_from_fs(capture.fs, float(capture.attrs["fr_nominal"]), int(capture.attrs["ns"]), int(n_periods))
+
+
 def table_3_1(fr: float = 100e3) -> pd.DataFrame:
     """Table 3.1: sampling and folded ripple frequency for (ns, nf) pairs (Eq 3.3-3.5)."""
     rows = [(4, 0), (4, 2), (4, 12), (12, 0), (12, 4)]

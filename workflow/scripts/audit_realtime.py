@@ -5,27 +5,22 @@ Alone: python workflow/scripts/audit_realtime.py raw/pi_p885/ch6_p2a_closed.nc g
 """
 
 import argparse
-import json
-from pathlib import Path
 
 import numpy as np
 
 from selfsense.capture import open_capture
-from selfsense.gamma import GammaPolynomial
-from selfsense.observer import HPOGains
+from selfsense.gamma import load_gamma
+from selfsense.observer import load_gains
 from selfsense.provenance import provenance, script_logging, write_json
-from selfsense.ripple import plan_from_fs
+from selfsense.ripple import plan_from_capture
 from selfsense.selfsensing import SelfSensingChain
 
 
 def main(capture, gamma, observer, report, n_periods, log=None):
     logger = script_logging(log)
-    g, o = json.loads(Path(gamma).read_text()), json.loads(Path(observer).read_text())
     worst = 0.0
     with open_capture(capture, require=("Ur", "Ir", "I", "x_hpo_rt")) as cap:
-        plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
-        chain = SelfSensingChain(plan, GammaPolynomial(tuple(g["coefficients"]), g["g"]),
-                                 HPOGains(o["a0"], o["omega_s"], o["zeta_s"]), cap.fs)
+        chain = SelfSensingChain(plan_from_capture(cap, n_periods), load_gamma(gamma), load_gains(observer), cap.fs)
         for _, d in cap.iter_chunks(("Ur", "Ir", "I", "x_hpo_rt")):
             offline = chain.process(d["Ur"], d["Ir"], d["I"])["x_hat"]
             worst = max(worst, float(np.max(np.abs(offline - d["x_hpo_rt"]))))

@@ -3,22 +3,20 @@
 Alone: run through Snakemake (`snakemake figures/pi_p885/fig_5_1.png`); the inputs are many.
 """
 
-import json
 from pathlib import Path
 
 from selfsense.capture import read_series
 from selfsense.chapters.ch5 import figures_ch5
-from selfsense.observer import HPOGains
+from selfsense.observer import load_gains
 from selfsense.provenance import save_figure, script_logging
 
 
 def main(series, gamma_series, traces, creep, observer, out_dir, n_periods, orders, log=None):
     """series / traces: {frequency [Hz]: path}."""
     logger = script_logging(log)
-    o = json.loads(Path(observer).read_text())
     built = figures_ch5({float(f): read_series(p) for f, p in series.items()}, read_series(gamma_series), n_periods,
                         orders, {float(f): read_series(p) for f, p in traces.items()}, read_series(creep),
-                        HPOGains(o["a0"], o["omega_s"], o["zeta_s"]))
+                        load_gains(observer))
     inputs = [*series.values(), *traces.values(), creep, observer]
     for name, fig in built.items():
         save_figure(fig, Path(out_dir) / f"{name}.png", inputs=inputs)

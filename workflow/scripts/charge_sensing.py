@@ -8,6 +8,7 @@ from pathlib import Path
 
 from selfsense.capture import read_series
 from selfsense.chapters.ch5 import charge_sensing, table_5_3
+from selfsense.observer import HPOGains
 from selfsense.provenance import provenance, script_logging, write_json, write_table
 
 
@@ -20,7 +21,7 @@ def main(series, out, omega_s, zeta_s, log=None):
     inputs = list(series.values())
     write_table(table, out["charge_sensing"], inputs=inputs)
     write_table(table_5_3(a0, omega_s, zeta_s), out["table_5_3"], inputs=inputs, config=cfg)
-    write_json({"a0": a0, "omega_s": omega_s, "zeta_s": zeta_s, "provenance": provenance(inputs, cfg)}, out["observer"])
+    write_json(HPOGains(a0, omega_s, zeta_s).record() | {"provenance": provenance(inputs, cfg)}, out["observer"])
     logger.info("a0 = %.3f C/m\n%s", a0, table.to_string())
 
 

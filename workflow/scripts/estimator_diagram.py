@@ -9,18 +9,17 @@ import json
 from pathlib import Path
 
 from selfsense.chapters import ch7
-from selfsense.gamma import GammaPolynomial
-from selfsense.observer import HPOGains
+from selfsense.electromech import load_k_over_alpha
+from selfsense.gamma import load_gamma
+from selfsense.observer import load_gains
 from selfsense.provenance import save_figure, script_logging
 from selfsense.ripple import plan_from_fs
 
 
 def main(gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods, log=None):
     logger = script_logging(log)
-    g, o = json.loads(Path(gamma_t).read_text()), json.loads(Path(observer).read_text())
-    fig, shown = ch7.figure_7_9(GammaPolynomial(tuple(g["coefficients"]), g["g"]), g["order"],
-                                HPOGains(o["a0"], o["omega_s"], o["zeta_s"]), json.loads(Path(thermal_model).read_text()),
-                                json.loads(Path(model).read_text())["k_over_alpha"], plan_from_fs(fs, fr, ns, n_periods))
+    fig, shown = ch7.figure_7_9(load_gamma(gamma_t), load_gains(observer), json.loads(Path(thermal_model).read_text()),
+                                load_k_over_alpha(model), plan_from_fs(fs, fr, ns, n_periods))
     # the sidecar records the numbers the diagram shows, for audits that cannot read a PNG
     save_figure(fig, figure, inputs=[gamma_t, observer, thermal_model, model], config={"n_periods": n_periods},
                 shown=shown)

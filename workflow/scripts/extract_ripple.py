@@ -7,7 +7,7 @@ import argparse
 
 from selfsense.capture import CaptureError, SeriesWriter, open_capture
 from selfsense.provenance import script_logging
-from selfsense.ripple import SERIES_UNITS, impedance_series, plan_from_fs
+from selfsense.ripple import SERIES_UNITS, impedance_series, plan_from_capture
 
 COMPANIONS = ("U", "x_laser", "I")
 
@@ -15,9 +15,8 @@ COMPANIONS = ("U", "x_laser", "I")
 def main(capture, series, n_periods, chunk_len=1 << 18, log=None):
     logger = script_logging(log)
     with open_capture(capture, require=("Ur", "Ir") + COMPANIONS) as cap:
-        a = cap.attrs
         try:  # also refuses a folded ripple inside the mechanical bandwidth
-            plan = plan_from_fs(cap.fs, float(a["fr_nominal"]), int(a["ns"]), int(n_periods))
+            plan = plan_from_capture(cap, n_periods)
         except ValueError as err:
             raise CaptureError(f"{capture}: {err}") from None
         chunks = cap.iter_chunks(("Ur", "Ir") + COMPANIONS, chunk_len)

@@ -6,35 +6,19 @@ Alone: python workflow/scripts/frequency_effect.py raw/pi_p885 results/pi_p885 o
 """
 
 import argparse
-import json
 from pathlib import Path
 
-import numpy as np
-
-from selfsense.capture import open_capture, read_series
 from selfsense.chapters import ch7
-from selfsense.gamma import GammaPolynomial
+from selfsense.gamma import load_gamma
 from selfsense.provenance import save_figure, script_logging, write_table
-
-
-def _run(series, capture, frequency):
-    """The ripple series with the drive frequency, the warm-up and the middle thermometer."""
-    with open_capture(capture, require=("T_mid",)) as cap:
-        T = cap.read(["T_mid"], dim="time_slow")["T_mid"]
-        rate = cap.n_slow / cap.duration  # the thermometers span the capture at their own rate
-        warmup = float(cap.attrs.get("warmup_s", 0.0))
-    return read_series(series) | {"frequency": frequency, "warmup": warmup, "T_time": np.arange(T.size) / rate,
-                                  "T_mid": T}
 
 
 def main(series, captures, frequencies, gamma, gamma_t, reference, table, figure, bins=20, min_windows=10, log=None):
     """series / captures / frequencies: {run: ripple series path / capture path / drive frequency [Hz]}."""
     logger = script_logging(log)
-    g = json.loads(Path(gamma).read_text())
-    gamma_poly = GammaPolynomial(tuple(g["coefficients"]), g["g"])
-    runs = {run: _run(series[run], captures[run], frequencies[run]) for run in series}
-    g_T = json.loads(Path(gamma_t).read_text())["g"]
-    result, curves = ch7.frequency_effect(runs, gamma_poly, g_T, reference, bins, min_windows)
+    gamma_poly = load_gamma(gamma)
+    runs = {run: ch7.frequency_run(series[run], captures[run], frequencies[run]) for run in series}
+    result, curves = ch7.frequency_effect(runs, gamma_poly, load_gamma(gamma_t).g, reference, bins, min_windows)
     inputs = [*series.values(), *captures.values(), gamma, gamma_t]
     config = {"bins": bins, "min_windows": min_windows, "reference": reference}
     write_table(result, table, inputs=inputs, config=config)

@@ -8,26 +8,18 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
-
-from selfsense import figures
 from selfsense import frequency_response as fr
 from selfsense.capture import open_capture
 from selfsense.manifest import expand_protocols
 from selfsense.provenance import save_figure, script_logging, write_table
 from selfsense.twin.drive import drive_from_protocol
 
-CHANNELS = ["x_laser", "I"]
-
-
 def main(capture, model, protocol, settle_s, out, log=None):
     """protocol: the sweep's catalogue entry (segments, warmup); out: {table, peaks, figure}."""
     logger = script_logging(log)
     params = json.loads(Path(model).read_text())
-    with open_capture(capture, require=CHANNELS) as cap:
-        plan = fr.sweep_plan(drive_from_protocol(protocol).segments, cap.fs, settle_s)
-        rest = cap.read(["x_laser"], *plan.rest)["x_laser"]
-        measured = fr.measure(rest, ((p, cap.read(CHANNELS, p.start, p.stop)) for p in plan.points), cap.fs)
+    with open_capture(capture, require=fr.CHANNELS) as cap:
+        measured = fr.measure_sweep(cap, drive_from_protocol(protocol).segments, settle_s)
     G = fr.transfer_function(params, measured.operating_position)
     table, peaks = fr.response_table(measured, G), fr.resonance_table(measured, G)
     cfg = {"settle_s": settle_s, "operating position [µm]": measured.operating_position * 1e6,
@@ -35,10 +27,7 @@ def main(capture, model, protocol, settle_s, out, log=None):
     inputs = [capture, model]
     write_table(table, out["table"], inputs=inputs, config=cfg)
     write_table(peaks, out["peaks"], inputs=inputs, config=cfg)
-    grid = np.geomspace(table["frequency [Hz]"].min(), table["frequency [Hz]"].max(), 600)
-    fig = figures.bode(table, grid, fr.evaluate(G, grid), peaks, fr.THESIS_RESONANCE_HZ,
-                       "Fig 5.3: frequency response of G(s) = x(s)/q(s)")
-    save_figure(fig, out["figure"], inputs=inputs, config=cfg)
+    save_figure(fr.figure_5_3(table, peaks, G), out["figure"], inputs=inputs, config=cfg)
     logger.info("operating position %.2f µm\n%s\n%s", measured.operating_position * 1e6, table.to_string(),
                 peaks.to_string())
 

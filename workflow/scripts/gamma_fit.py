@@ -4,7 +4,6 @@ Alone: python workflow/scripts/gamma_fit.py results/pi_p885/ripple/ch5_sine_0p1h
 """
 
 import argparse
-from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +29,7 @@ def main(series, out, n_periods, orders=(3, 4, 5, 6), log=None):
     write_table(anova_table(fit).reset_index(names="source"), out["anova"], inputs=[series], config=cfg)
     write_table(coefficient_table(fit).reset_index(names="coefficient"), out["coefficients"], inputs=[series], config=cfg)
     write_table(basis, out["basis"], inputs=[series], config=cfg)
-    write_json(asdict(GammaPolynomial.from_fit(fit)) | {"order": order, "provenance": provenance([series], cfg)},
+    write_json(GammaPolynomial.from_fit(fit).record() | {"provenance": provenance([series], cfg)},
                out["gamma"])
     logger.info("chosen order %d\n%s", order, table.to_string())
 

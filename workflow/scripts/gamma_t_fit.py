@@ -4,7 +4,6 @@ Alone: python workflow/scripts/gamma_t_fit.py samples.nc power.nc out_dir
 """
 
 import argparse
-from dataclasses import asdict
 from pathlib import Path
 
 from selfsense import figures
@@ -22,7 +21,7 @@ def main(samples, power, out, figure, orders=(4, 5, 6), order=5, log=None):
     write_table(t72, out["table_7_2"], inputs=[samples, power], config=cfg)
     write_table(anova, out["anova"], inputs=[samples, power], config=cfg)
     write_table(coefs, out["coefficients"], inputs=[samples, power], config=cfg)
-    write_json(asdict(GammaPolynomial.from_fit(fit)) | {"order": order, "provenance": provenance([samples, power], cfg)},
+    write_json(GammaPolynomial.from_fit(fit).record() | {"provenance": provenance([samples, power], cfg)},
                out["gamma_t"])
     save_figure(figures.loop([s["x_laser"] * 1e6], [s["C_e"] * 1e6], "x [µm]", "C_e [µF]",
                              "Capacitance against position while the stack heats (50 Hz)"), figure,

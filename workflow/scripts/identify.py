@@ -11,7 +11,7 @@ import pandas as pd
 
 from selfsense.capture import read_series
 from selfsense.chapters import ch4
-from selfsense.electromech import geometry_from_actuator
+from selfsense.electromech import geometry_from_actuator, model_record
 from selfsense.manifest import load_dataset
 from selfsense.provenance import script_logging, write_json, write_table, provenance
 
@@ -31,9 +31,8 @@ def main(series, static, manifest, out, log=None):
     write_table(ch4.table_4_2(per_set), out["table_4_2"], inputs=inputs)
     write_table(ch4.table_4_3(fits, geometry), out["table_4_3"], inputs=inputs)
     write_table(ch4.hysteresis_voltage(sets, fits)[0], out["hysteresis_voltage"], inputs=inputs)
-    case2 = per_set[per_set["case"] == 2]
-    model = {key: float(case2[key].mean()) for key in ("C_P0", "dC_x", "k", "alpha", "b", "m")}
-    write_json(model | {"k_over_alpha": model["k"] / model["alpha"], "provenance": provenance(inputs)}, out["model"])
+    model = model_record(per_set[per_set["case"] == 2])
+    write_json(model | {"provenance": provenance(inputs)}, out["model"])
     logger.info("Case 2 means: %s", json.dumps(model))
 
 

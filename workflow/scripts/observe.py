@@ -5,27 +5,22 @@ Alone: python workflow/scripts/observe.py raw/pi_p885/ch5_sine_1hz.nc results/pi
 """
 
 import argparse
-import json
-from pathlib import Path
 
 from selfsense.capture import SeriesWriter, open_capture
 from selfsense.chapters.ch5 import run_observer
-from selfsense.gamma import GammaPolynomial
-from selfsense.observer import HPOGains
+from selfsense.gamma import load_gamma
+from selfsense.observer import load_gains
 from selfsense.provenance import provenance, script_logging, write_json
-from selfsense.ripple import plan_from_fs
+from selfsense.ripple import plan_from_capture
 
 UNITS = {"time": "s", "x_laser": "m", "x_hat": "m", "x_cp": "m", "i0_hat": "A"}
 
 
 def main(capture, gamma, observer, traces, stats, n_periods, log=None):
     logger = script_logging(log)
-    g = json.loads(Path(gamma).read_text())
-    o = json.loads(Path(observer).read_text())
-    poly = GammaPolynomial(tuple(g["coefficients"]), g["g"])
-    gains = HPOGains(o["a0"], o["omega_s"], o["zeta_s"])
+    poly, gains = load_gamma(gamma), load_gains(observer)
     with open_capture(capture, require=("Ur", "Ir", "I", "x_laser")) as cap:
-        plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
+        plan = plan_from_capture(cap, n_periods)
         settle = float(cap.attrs.get("warmup_s", 0.0))
         result, trace = run_observer(cap.iter_chunks(("Ur", "Ir", "I", "x_laser")), plan, poly, gains, cap.fs, settle)
         nan = dict(cap.stats.nan)

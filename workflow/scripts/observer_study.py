@@ -4,31 +4,28 @@ Alone: python workflow/scripts/observer_study.py raw/pi_p885/ch5_sine_1hz.nc gam
 """
 
 import argparse
-import json
-from pathlib import Path
 
 from selfsense import figures
 from selfsense.capture import open_capture
 from selfsense.chapters.ch5 import observer_study
-from selfsense.gamma import GammaPolynomial
+from selfsense.gamma import load_gamma
+from selfsense.observer import load_gains
 from selfsense.provenance import save_figure, script_logging, write_table
-from selfsense.ripple import plan_from_fs
+from selfsense.ripple import plan_from_capture
 
 CHANNELS = ("Ur", "Ir", "I", "x_laser")
 
 
 def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, log=None):
     logger = script_logging(log)
-    g = json.loads(Path(gamma).read_text())
-    a0 = json.loads(Path(observer).read_text())["a0"]
+    a0 = load_gains(observer).a0
     with open_capture(capture, require=CHANNELS) as cap:
-        plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
+        plan = plan_from_capture(cap, n_periods)
         settle, fs = float(cap.attrs.get("warmup_s", 0.0)), cap.fs
     def chunks():
         with open_capture(capture) as cap:
             yield from cap.iter_chunks(CHANNELS)
-    result = observer_study(chunks, plan, GammaPolynomial(tuple(g["coefficients"]), g["g"]), a0, fs, settle,
-                            omegas, offsets)
+    result = observer_study(chunks, plan, load_gamma(gamma), a0, fs, settle, omegas, offsets)
     cfg = {"omegas": list(omegas), "offsets": list(offsets), "n_periods": n_periods}
     write_table(result, table, inputs=[capture, gamma, observer], config=cfg)
     save_figure(figures.observer_study(result), figure, inputs=[capture, gamma, observer], config=cfg)

@@ -12,26 +12,14 @@ import pandas as pd
 from selfsense.chapters import ronkanen
 from selfsense.provenance import save_figure, script_logging
 
-TITLES = {3: "too large", 4: "too small", 5: "the paper's ideal"}
-
-
 def main(hold, ramps, captures, table_1, table_2, identified, out_dir, drift_start, velocity_window=2.0, log=None):
     """ramps: the ±300 nA ramps compensated for too large, too small and ideal X (Figs 3, 4, 5–6);
     captures: {"<decay|repeat|drift>_<current|voltage>": path}."""
     logger = script_logging(log)
-    a_cmd = float(pd.read_csv(identified).set_index("key").loc["a_cmd", "value"])
     records = ronkanen.read_records([hold, *ramps, *captures.values()])
-    pair = {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in ("current", "voltage")}
-            for k in ("decay", "repeat", "drift")}
-    velocity = {n: records[Path(r).stem] for n, r in zip(TITLES, ramps)}
-    built = {2: ronkanen.figure_2(records[Path(hold).stem])}
-    for n, rec in velocity.items():
-        built[n] = ronkanen.velocity_figure(rec, velocity_window, f"Ramp velocity, compensation for "
-                                            f"{rec.X_trial / 1e9:g} GΩ ({TITLES[n]}) (Fig {n})")
-    built |= {6: ronkanen.figure_6(velocity[5]),
-              7: ronkanen.figure_7(pd.read_csv(table_1), pd.read_csv(table_2)),
-              8: ronkanen.figure_8(pair["decay"], a_cmd), 9: ronkanen.figure_9(pair["decay"], a_cmd),
-              10: ronkanen.figure_10(pair["repeat"], a_cmd), 11: ronkanen.figure_11(pair["drift"], drift_start)}
+    built = ronkanen.figures_paper(records[Path(hold).stem], [records[Path(r).stem] for r in ramps],
+                                   ronkanen.by_kind(records, captures), pd.read_csv(table_1), pd.read_csv(table_2),
+                                   ronkanen.load_a_cmd(identified), drift_start, velocity_window)
     inputs = [hold, *ramps, *captures.values(), table_1, table_2, identified]
     config = {"velocity_window": velocity_window, "drift_start": drift_start}
     for n, fig in built.items():
@@ -42,8 +30,7 @@ def main(hold, ramps, captures, table_1, table_2, identified, out_dir, drift_sta
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    pairs = {f"{k}_{c}": i[f"{k}_{c}"] for k in ("decay", "repeat", "drift") for c in ("current", "voltage")}
-    main(i.hold, list(i.ramps), pairs, i.table_1, i.table_2, i.identified, p.out_dir, p.drift_start,
+    main(i.hold, list(i.ramps), {k: i[k] for k in ronkanen.PAIRS}, i.table_1, i.table_2, i.identified, p.out_dir, p.drift_start,
          p.velocity_window, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)

@@ -5,23 +5,17 @@ Alone: python workflow/scripts/powerloss_performance.py identified.csv performan
 """
 
 import argparse
-from pathlib import Path
 
 import pandas as pd
 
 from selfsense.chapters import ronkanen
 from selfsense.provenance import script_logging, write_table
 
-KINDS = ("decay", "repeat", "drift")
-CONTROLS = ("current", "voltage")
-
-
 def main(captures, identified, performance, repeatability, drift_start, drift_duration=120.0, log=None):
     """captures: {"<decay|repeat|drift>_<current|voltage>": path}."""
     logger = script_logging(log)
-    a_cmd = float(pd.read_csv(identified).set_index("key").loc["a_cmd", "value"])
-    records = ronkanen.read_records(captures.values())
-    kind = {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
+    a_cmd = ronkanen.load_a_cmd(identified)
+    kind = ronkanen.by_kind(ronkanen.read_records(captures.values()), captures)
     table = ronkanen.performance(kind["decay"], kind["repeat"], kind["drift"], a_cmd, drift_start, drift_duration)
     cycles = pd.concat([ronkanen.cycles(rec, a_cmd).assign(control=c) for c, rec in kind["repeat"].items()])
     config = {"drift_start": drift_start, "drift_duration": drift_duration}
@@ -33,8 +27,7 @@ def main(captures, identified, performance, repeatability, drift_start, drift_du
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    pairs = {f"{k}_{c}": i[f"{k}_{c}"] for k in KINDS for c in CONTROLS}
-    main(pairs, i.identified, snakemake.output.performance, snakemake.output.repeatability,
+    main({k: i[k] for k in ronkanen.PAIRS}, i.identified, snakemake.output.performance, snakemake.output.repeatability,
          p.drift_start, p.drift_duration, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)

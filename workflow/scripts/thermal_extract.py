@@ -5,24 +5,23 @@ Alone: python workflow/scripts/thermal_extract.py raw/pi_p885/ch7_freq_50hz.nc r
 """
 
 import argparse
-import json
-from pathlib import Path
 
 import numpy as np
 
 from selfsense.capture import SeriesWriter, open_capture
 from selfsense.chapters.ch7 import extract
+from selfsense.electromech import load_k_over_alpha
 from selfsense.provenance import script_logging
-from selfsense.ripple import plan_from_fs
+from selfsense.ripple import plan_from_capture
 
 FAST = ("U", "I", "x_laser", "Ur", "Ir")
 
 
 def main(capture, model, power, samples, n_periods, interval=0.1, every=200, log=None):
     logger = script_logging(log)
-    k_over_alpha = json.loads(Path(model).read_text())["k_over_alpha"]
+    k_over_alpha = load_k_over_alpha(model)
     with open_capture(capture, require=FAST + ("T_mid",)) as cap:
-        plan = plan_from_fs(cap.fs, float(cap.attrs["fr_nominal"]), int(cap.attrs["ns"]), n_periods)
+        plan = plan_from_capture(cap, n_periods)
         parts = list(extract(cap.iter_chunks(FAST), cap.fs, plan, k_over_alpha, interval, every))
         slow = [c for c in ("T_top", "T_mid", "T_bot") if c in cap.channels]
         temps = cap.read(slow, dim="time_slow")

@@ -9,6 +9,7 @@ import pandas as pd
 from scipy import signal
 
 from .. import figures
+from ..capture import open_capture
 from ..metrics import direction, hysteresis_percent
 from ..ripple import SamplingPlan
 
@@ -21,6 +22,9 @@ LOOPS = (
 )
 LABEL = {"U": "U [V]", "C_e": "C_e [µF]", "R_e": "R_e [Ω]", "x_laser": "x [µm]"}
 SCALE = {"U": 1.0, "C_e": 1e6, "R_e": 1.0, "x_laser": 1e6}
+#: drive frequency [Hz] of the run most figures show, and the end of its capture Fig 3.3 shows [s]
+SHOWN_HZ = 10.0
+SHOWN_TAIL_S = 0.2
 
 
 def steady(series: Mapping[str, np.ndarray], skip: float) -> dict[str, np.ndarray]:
@@ -71,6 +75,29 @@ def figure_3_2(stack: Mapping[str, float], ripple_amplitude: float, fr: float):
         traces[label] = np.abs(h[0]) * alpha * ripple_amplitude * np.cos(2 * np.pi * fr * t + np.angle(h[0]))
     return figures.velocity_response(t, traces, f"Velocity driven by a {ripple_amplitude * 1e3:g} mV, "
                                                 f"{fr / 1e3:g} kHz ripple (model)")
+
+
+def figures_ch3(capture, series_by_label: Mapping[str, Mapping[str, np.ndarray]], fr: float, ns: int) -> dict:
+    """Figures 3.3, 3.4, 3.7 and 3.9–3.14: ``capture`` is the :data:`SHOWN_HZ` run, ``series_by_label``
+    the steady ripple series by label, that run's first; ``fr`` [Hz] and ``ns`` the DAQ's ripple plan."""
+    with open_capture(capture, require=("U", "I")) as cap:
+        start = max(0, cap.n - int(SHOWN_TAIL_S * cap.fs))
+        last = cap.read(("U", "I"), start)
+        t = (start + np.arange(len(last["U"]))) / cap.fs
+    shown = next(iter(series_by_label.values()))
+    one = {f"{SHOWN_HZ:g} Hz": shown}
+    return {
+        "fig_3_3": figure_3_3(t, last["U"], last["I"], SHOWN_HZ),
+        "fig_3_4": figure_3_4(shown, fr),
+        "fig_3_7": figure_3_7(fr, ns),
+        "fig_3_9": figure_3_9(shown),
+        "fig_3_10": loop_figure(one, "U", "C_e", "Effective capacitance against voltage"),
+        "fig_3_11": loop_figure(one, "x_laser", "C_e", "Effective capacitance against position"),
+        "fig_3_12": loop_figure(one, "U", "x_laser", "Position against voltage"),
+        "fig_3_13": loop_figure(series_by_label, "x_laser", "C_e",
+                                "Effective capacitance against position at several frequencies"),
+        "fig_3_14": loop_figure(one, "C_e", "R_e", "Effective resistance against effective capacitance"),
+    }
 
 
 def figure_3_3(t, u, i, f):

@@ -11,7 +11,18 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from ..capture import open_capture
+from ..control import IntegralController, tracking_prediction
+from ..ripple import WindowMeans, plan_from_capture
+from ..twin.drive import drive_from_protocol
+
 SEGMENTS = "abcdefgh"
+#: Drive frequencies [Hz] of the Chapter 6 profiles and their amplitude [m] (a 30 µm stroke, the
+#: stroke Table 6.2's "% of stroke" refers to), where the loop's tracking is predicted.
+TRACKING_FREQUENCIES_HZ = (10.0, 15.0, 40.0, 50.0, 75.0, 100.0, 125.0)
+TRACKING_AMPLITUDE = 15e-6
+#: Settling time after each reference step, in closed-loop time constants 1/ω_C.
+SETTLE_TIME_CONSTANTS = 5
 THESIS_TABLE_6_1 = {  # error: (max, mean, σ) per segment a–h [µm]
     "e_TOL": ((0.89, 3.08, 0.89, 1.75, 1.73, 1.62, 0.76, 1.85), (0.54, 2.69, 0.60, 1.38, 1.33, 1.34, 0.48, 1.52),
               (0.15, 0.16, 0.14, 0.14, 0.17, 0.15, 0.10, 0.17)),
@@ -26,6 +37,50 @@ THESIS_TABLE_6_2 = {  # profile: {error: (µm, % of stroke)}
     "P2c": {"e_OCL": (0.91, 3.04), "e_CCL": (2.32, 7.74), "e_TCL": (2.81, 9.29), "e_TOL": (4.52, 15.08)},
     "P2d": {"e_OCL": (0.89, 2.95), "e_CCL": (4.42, 14.74), "e_TCL": (4.74, 15.81), "e_TOL": (5.86, 19.54)},
 }
+
+
+def load_run(path, protocol: Mapping) -> dict[str, np.ndarray | None]:
+    """One run's means over one folded ripple period (the real-time loop's 4 kHz rate): U, x_laser
+    (zeroed at the start), x_R (logged, else the protocol's) and, in closed loop, the logged x̂."""
+    with open_capture(path, require=("U", "x_laser")) as cap:
+        names = [c for c in ("U", "x_laser", "x_ref", "x_hpo_rt") if c in cap.channels]
+        plan = plan_from_capture(cap, 1)
+        means = WindowMeans(plan, len(names))
+        parts = [means.process(*(d[c] for c in names)) for _, d in cap.iter_chunks(names)]
+        fs = cap.fs
+    index = np.concatenate([p[0] for p in parts])
+    values = dict(zip(names, np.concatenate([p[1] for p in parts], axis=1)))
+    t = (index - (plan.ns - 1) / 2) / fs
+    run = {"t": t, "U": values["U"], "x_laser": values["x_laser"] - values["x_laser"][0]}
+    run["x_ref"] = values["x_ref"] if "x_ref" in values else drive_from_protocol(protocol)(t)
+    run["x_hat"] = values.get("x_hpo_rt")
+    return run
+
+
+def results(runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str, Mapping],
+            controls: Mapping[str, str], k_over_alpha: float, omega_c: float) -> dict[str, pd.DataFrame]:
+    """Tables 6.1 (P1 tests), 6.2 (P2 profiles), the P3 summary and the loop's tracking prediction."""
+    settle = SETTLE_TIME_CONSTANTS / omega_c
+    p1 = {"e_TOL": [], "e_TCL": [], "e_OCL": []}
+    rows62 = []
+    for name, run in runs.items():
+        protocol, closed = protocols[name], controls[name] == "closed_loop"
+        warmup = float(protocol.get("warmup", 0.0))
+        errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
+        if name.startswith("ch6_p1_"):
+            ends = warmup + np.cumsum([s["duration"] for s in protocol["segments"]])
+            starts = np.concatenate([[warmup], ends[:-1]])
+            for key, maxima in segment_maxima(run["t"], errs, starts, ends, settle).items():
+                if key in p1:
+                    p1[key].append(maxima)
+        elif name.startswith("ch6_p2"):
+            profile = "P" + name.split("_")[1][1:]
+            rows62 += profile_errors(profile, run["t"], errs, float(np.ptp(run["x_ref"])), warmup + settle)
+    p3o, p3c, p3 = runs["ch6_p3_open"], runs["ch6_p3_closed"], protocols["ch6_p3_closed"]
+    hold = float(p3.get("warmup", 0.0)) + p3["segments"][0]["duration"]
+    return {"table_6_1": table_6_1(p1), "table_6_2": pd.DataFrame(rows62), "p3": p3_summary(p3c["t"], p3o, p3c, hold),
+            "tracking": tracking_prediction(IntegralController(omega_c, k_over_alpha), TRACKING_FREQUENCIES_HZ,
+                                            TRACKING_AMPLITUDE)}
 
 
 def errors(x_ref: np.ndarray, x_laser: np.ndarray, x_hat: np.ndarray | None, closed: bool) -> dict[str, np.ndarray]:

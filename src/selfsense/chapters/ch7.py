@@ -9,6 +9,7 @@ from typing import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
+from ..capture import open_capture, read_series
 from ..gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, gamma_t_table
 from ..metrics import branch_means, direction
 from ..observer import HPOGains
@@ -22,6 +23,11 @@ THESIS_TABLE_7_1 = {"tau [s]": 100.0, "k_T [W/(m² K)]": 28.0, "gamma [K/W]": 57
 #: How often the coupled estimation hands T_SH(HPO) to Γ_T and x̂ to the loss power [s]: the IR
 #: thermometers' rate, and fast enough for a temperature that changes over τ ≈ 100 s.
 COUPLING_INTERVAL = 0.1
+#: the thesis's coupled estimation over the mixed run (Fig 7.12)
+THESIS_COUPLED_MIXED = {"max observer error [µm]": 1.38, "max observer error [% of stroke]": 4.18,
+                        "max |T_SH_HPO − T| [K]": 1.45, "max |T_SH_PS − T| [K]": 1.45}
+#: the run the thesis reports the coupled estimation's errors for
+MIXED_RUN = "ch7_mixed_ae"
 THESIS_TABLE_7_2 = {"n=4": (0.998189, 0.998188, 0.474422), "n=5": (0.998194, 0.998193, 0.473808),
                     "n=6": (0.998194, 0.998193, 0.47377), "n=5 + C·T": (0.998193, 0.998193, 0.473825)}
 
@@ -77,6 +83,52 @@ def identify(series: Mapping[str, Mapping[str, np.ndarray]], props: ThermalPrope
 def _heating_power(P: np.ndarray) -> float:
     """Mean loss power while the drive heats (the cooling stretch at 0 V carries none)."""
     return float(np.mean(P[P > 0.5 * np.max(P)]))
+
+
+def thermal_identification(runs: Mapping[str, Mapping[str, np.ndarray]], freq_of: Mapping[str, float],
+                           volt: Mapping[str, np.ndarray], volt_segments, checks: Mapping[str, Mapping[str, np.ndarray]],
+                           props: ThermalProperties, k_over_alpha: float):
+    """τ, γ, k_T from the heating runs (Table 7.1), the trends against frequency and voltage
+    (Figs 7.2, 7.3) and the predictions of the check runs (Figs 7.5, 7.6).
+
+    ``runs``: {run: loss-power series} at 100 V and the frequencies ``freq_of`` [Hz]; ``volt``:
+    the 150 Hz voltage steps; ``checks``: the runs predicted with the identified model. When no
+    run is long enough to identify τ (e.g. the smoke campaign) the later tables and figures say
+    why. Returns ({table: DataFrame} incl. "per_run", the thermal model record, {figure: Figure}).
+    """
+    from .. import figures  # here: the streaming jobs that import this module need no matplotlib
+
+    per_run, _ = identify(runs, props, T_amb=None)
+    identified = per_run.dropna(subset=["tau [s]"]) if "tau [s]" in per_run else per_run.iloc[0:0]
+    built = {"fig_7_1": figures.loop([s["time"] for s in runs.values()], [s["T_mid"] for s in runs.values()],
+                                     "time [s]", "T [°C]", "Self-heating at 100 V, 20–200 Hz", labels=list(runs))}
+    later = ("table_7_1", "freq_trend", "volt_trend", "prediction")
+    if identified.empty:
+        reason = "no heating run long enough to identify τ and γ (see per_run.csv)"
+        tables = {key: pd.DataFrame([{"note": f"not computed: {reason}"}]) for key in later}
+        built |= {f"fig_7_{n}": figures.placeholder(f"Figure 7.{n}", reason) for n in (2, 3, 5, 6)}
+        return {"per_run": per_run} | tables, {"identified": False, "reason": reason}, built
+    model = ThermalModel(float(identified["tau [s]"].mean()), float(identified["gamma [K/W]"].mean()))
+    T_amb = float(identified["T_amb [°C]"].mean())
+    trend = steady_rise_trends(identified, freq_of)
+    vtrend = voltage_trend(volt, volt_segments, model)
+    tables = dict(zip(later, (table_7_1(identified, k_over_alpha, THESIS_TABLE_7_1["T_ref [°C]"]), trend, vtrend,
+                              prediction_errors(checks, model, T_amb))))
+    built["fig_7_2"] = figures.loop([trend["frequency [Hz]"]] * 2, [trend["steady rise [K]"],
+                                    trend["fit slope [K/Hz]"] * trend["frequency [Hz]"] + trend["fit intercept [K]"]],
+                                    "frequency [Hz]", "steady rise [K]",
+                                    f"Steady rise against frequency (linear fit R² = {trend['fit R²'].iloc[0]:.4f})",
+                                    labels=["identified γ·P", "linear fit"])
+    built["fig_7_3"] = figures.loop([vtrend["voltage [V]"] ** 2], [vtrend["steady rise [K]"]], "V² [V²]",
+                                    "steady rise [K]",
+                                    f"Steady rise against V² at 150 Hz (R² = {vtrend['fit R²'].iloc[0]:.4f})")
+    for n, (name, s) in zip((5, 6), checks.items()):
+        T_pred = predict_temperature(s["time"], s["P_PS"], model, T0=T_amb, T_amb=T_amb)
+        built[f"fig_7_{n}"] = figures.time_traces(s["time"], [(s["T_mid"], "T measured [°C]"),
+                                                              (T_pred, "T_SH(PS) [°C]"), (T_pred - s["T_mid"], "error [K]")],
+                                                  f"{name}: measured against predicted temperature")
+    record = {"identified": True, "tau": model.tau, "gamma": model.gamma, "T_amb": T_amb}
+    return {"per_run": per_run} | tables, record, built
 
 
 def table_7_1(per_run: pd.DataFrame, k_over_alpha: float, T_ref: float) -> pd.DataFrame:
@@ -172,6 +224,55 @@ def coupled_estimation(chunks, fs: float, plan: SamplingPlan, gamma: GammaPolyno
                  "max observer error [% of stroke]": 100 * err_max / stroke}
 
 
+def against_measured(traces: Mapping[str, np.ndarray], result: Mapping[str, float], measured: Mapping[str, np.ndarray]):
+    """:func:`coupled_estimation`'s traces beside the measured middle temperature, cut to their common
+    length, and the result with each estimate's max error against it."""
+    n = min(len(traces["time"]), len(measured["time"]))
+    out = {k: v[:n] for k, v in traces.items()} | {"T_mid": measured["T_mid"][:n]}
+    errors = {f"max |{key} − T| [K]": float(np.max(np.abs(out[key] - out["T_mid"]))) for key in ("T_SH_HPO", "T_SH_PS")}
+    return out, dict(result) | errors
+
+
+def coupled_table(stats: Mapping[str, Mapping]) -> pd.DataFrame:
+    """The coupled estimation's errors per run ({run: stats record}), the thesis's beside the mixed run."""
+    thesis = {f"thesis {k}": v for k, v in THESIS_COUPLED_MIXED.items()}
+    return pd.DataFrame([{"run": run} | {k: v for k, v in s.items() if k != "provenance"}
+                         | (thesis if run == MIXED_RUN else {}) for run, s in stats.items()])
+
+
+def figure_coupled(n: int, run: str, traces: Mapping[str, np.ndarray], stats: Mapping):
+    """Figs 7.10–7.12: measured T, T_SH(PS) and T_SH(HPO) over one run, or why they are missing."""
+    from .. import figures
+
+    if not len(traces["time"]):
+        return figures.placeholder(f"Figure 7.{n}", stats["note"])
+    return figures.time_traces(traces["time"], [(traces["T_mid"], "T measured [°C]"), (traces["T_SH_PS"], "T_SH(PS) [°C]"),
+                                                (traces["T_SH_HPO"], "T_SH(HPO) [°C]"),
+                                                (traces["T_SH_HPO"] - traces["T_mid"], "T_SH(HPO) − T [K]")],
+                               f"{run}: temperature from the laser and from the observer")
+
+
+def thermal_recovery(table_7_1: pd.DataFrame, truth: Mapping[str, float]) -> pd.DataFrame:
+    """τ, γ, k_T of Table 7.1 against the twin's truth (the capture's /truth attributes)."""
+    identified = table_7_1.set_index("parameter")["reproduced"] if "parameter" in table_7_1 else pd.Series(dtype=float)
+    return pd.DataFrame([
+        {"parameter": name, "truth": float(truth[attr]), "identified": float(identified.get(key, float("nan"))),
+         "error [%]": 100 * (float(identified.get(key, float("nan"))) / float(truth[attr]) - 1)}
+        for name, attr, key in (("tau [s]", "thermal_tau", "tau [s]"), ("gamma [K/W]", "thermal_gamma", "gamma [K/W]"),
+                                ("k_T [W/(m² K)]", "thermal_k_T", "k_T [W/(m² K)]"))])
+
+
+def frequency_run(series, capture, frequency: float) -> dict[str, np.ndarray | float]:
+    """One run for :func:`frequency_effect`: its ripple series with the drive frequency [Hz], the
+    warm-up and the middle thermometer."""
+    with open_capture(capture, require=("T_mid",)) as cap:
+        T = cap.read(["T_mid"], dim="time_slow")["T_mid"]
+        rate = cap.n_slow / cap.duration  # the thermometers span the capture at their own rate
+        warmup = float(cap.attrs.get("warmup_s", 0.0))
+    return read_series(series) | {"frequency": frequency, "warmup": warmup, "T_time": np.arange(T.size) / rate,
+                                  "T_mid": T}
+
+
 def frequency_effect(runs: Mapping[str, Mapping], gamma: GammaPolynomial, g: float, reference: str, bins: int = 20,
                      min_windows: int = 10):
     """Fig 7.8: how far each drive frequency's C_e–x curve lies from Γ, and how warm the stack was.
@@ -229,7 +330,7 @@ def figure_7_8(curves: Mapping[str, Mapping[str, np.ndarray]], gamma: GammaPolyn
     return figures.frequency_effect(curves, (grid, gamma.predict(grid)))
 
 
-def figure_7_9(gamma_t: GammaPolynomial, order: int, gains: HPOGains, thermal: Mapping, k_over_alpha: float,
+def figure_7_9(gamma_t: GammaPolynomial, gains: HPOGains, thermal: Mapping, k_over_alpha: float,
                plan: SamplingPlan, interval: float = COUPLING_INTERVAL):
     """Fig 7.9 as the pipeline runs it (:func:`coupled_estimation`), annotated with its identified values.
 
@@ -248,7 +349,7 @@ def figure_7_9(gamma_t: GammaPolynomial, order: int, gains: HPOGains, thermal: M
         heat = "τ, γ not identified:\n" + "\n".join(textwrap.wrap(thermal["reason"], 28))
         ambient = "T_amb: not identified"
     shown = {"tau [s]": thermal.get("tau"), "gamma [K/W]": thermal.get("gamma"), "T_amb [°C]": thermal.get("T_amb"),
-             "k/alpha [V/m]": k_over_alpha, "Gamma_T order": order, "g [µm/K]": gamma_t.g, "a0 [C/m]": gains.a0,
+             "k/alpha [V/m]": k_over_alpha, "Gamma_T order": gamma_t.order, "g [µm/K]": gamma_t.g, "a0 [C/m]": gains.a0,
              "omega_S [rad/s]": gains.omega_s, "zeta_S": gains.zeta_s, "L_P": gains.LP, "L_I": gains.LI,
              "np": plan.n_periods, "C_e rate [Hz]": plan.fr_folded, "interval [s]": interval}
     heating = {
@@ -277,7 +378,7 @@ def figure_7_9(gamma_t: GammaPolynomial, order: int, gains: HPOGains, thermal: M
         "ce": {"xy": (20, 30), "text": f"C_e (Eq 3.12)\nnp = {plan.n_periods} folded periods,\n"
                                         f"one per {1e3 / plan.fr_folded:g} ms", "kind": "box", "size": (17, 9)},
         "T": {"xy": (42, 43), "text": f"T_SH(HPO) from (a), held {interval:g} s", "kind": "port", "size": (26, 3)},
-        "gamma": {"xy": (42, 30), "text": f"Γ_T(C_e, T) (Eq 7.13)\norder {order}, g = {gamma_t.g:.3g} µm/K\n"
+        "gamma": {"xy": (42, 30), "text": f"Γ_T(C_e, T) (Eq 7.13)\norder {gamma_t.order}, g = {gamma_t.g:.3g} µm/K\n"
                                           "held to the next window", "kind": "box", "size": (19, 9)},
         "s1": {"xy": (60, 30), "kind": "sum"},
         "L": {"xy": (76, 30), "text": f"L(s) = L_P + L_I / s\nL_P = {gains.LP:.4g} A/m\n"

@@ -26,6 +26,12 @@ UM, NA, GOHM = 1e6, 1e9, 1e-9
 MAX_POINTS = 20000
 #: reversals smaller than this share of a record's range are not branch ends
 MIN_SWING = 0.05
+#: the positioning experiments (Section 7), each run under both controls: "<kind>_<control>" names them
+KINDS = ("decay", "repeat", "drift")
+CONTROLS = ("current", "voltage")
+PAIRS = tuple(f"{k}_{c}" for k in KINDS for c in CONTROLS)
+#: Figs 3–5: the ±300 nA ramps compensated for a too large, a too small and the paper's ideal X
+RAMP_FIGURES = {3: "too large", 4: "too small", 5: "the paper's ideal"}
 
 
 @dataclass(frozen=True)
@@ -80,6 +86,16 @@ def read_records(paths: Iterable[str | Path]) -> dict[str, Record]:
 # ---------------------------------------------------------------------------------------------
 # Section 4–5: R from the static hold, X from the ramps (Table 1), models (Table 2)
 # ---------------------------------------------------------------------------------------------
+def by_kind(records: Mapping[str, Record], captures: Mapping[str, str | Path]) -> dict[str, dict[str, Record]]:
+    """{kind: {control: Record}} of the positioning runs; ``captures``: {"<kind>_<control>": path}."""
+    return {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
+
+
+def load_a_cmd(path: str | Path) -> float:
+    """a_cmd [m/C] from the identified constants :func:`identify` returns, as written to CSV."""
+    return float(pd.read_csv(path).set_index("key").loc["a_cmd", "value"])
+
+
 def ramp_row(rec: Record, velocity_window: float) -> dict[str, object]:
     """X, a and the charging current of one ramp record (Section 5); the velocity spread is the
     paper's own test of a trial X (Figs 3–5)."""
@@ -240,6 +256,20 @@ def recovery(identified: pd.DataFrame, table1: pd.DataFrame, table2: pd.DataFram
 # ---------------------------------------------------------------------------------------------
 # Figures 2–11
 # ---------------------------------------------------------------------------------------------
+def figures_paper(hold: Record, ramps: Iterable[Record], pairs: Mapping[str, Mapping[str, Record]],
+                  table1: pd.DataFrame, table2: pd.DataFrame, a_cmd: float, drift_start: float,
+                  velocity_window: float) -> dict[int, object]:
+    """Figures 2–11 by number: ``ramps`` in the order of :data:`RAMP_FIGURES`, ``pairs`` from :func:`by_kind`."""
+    velocity = dict(zip(RAMP_FIGURES, ramps))
+    built = {2: figure_2(hold)}
+    for n, rec in velocity.items():
+        built[n] = velocity_figure(rec, velocity_window, f"Ramp velocity, compensation for "
+                                   f"{rec.X_trial / 1e9:g} GΩ ({RAMP_FIGURES[n]}) (Fig {n})")
+    return built | {6: figure_6(velocity[5]), 7: figure_7(table1, table2),
+                    8: figure_8(pairs["decay"], a_cmd), 9: figure_9(pairs["decay"], a_cmd),
+                    10: figure_10(pairs["repeat"], a_cmd), 11: figure_11(pairs["drift"], drift_start)}
+
+
 def _thin(*arrays: np.ndarray):
     step = max(1, len(arrays[0]) // MAX_POINTS)
     return tuple(a[::step] for a in arrays)

@@ -1,0 +1,55 @@
+"""Each stage artefact's loader reads back what its writer wrote."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from selfsense.capture import CaptureWriter, channel_spec, open_capture
+from selfsense.chapters import ronkanen
+from selfsense.electromech import MODEL_KEYS, load_k_over_alpha, model_record
+from selfsense.gamma import GammaPolynomial, fit_gamma, load_gamma
+from selfsense.observer import HPOGains, load_gains
+from selfsense.provenance import provenance, write_json, write_table
+from selfsense.ripple import SamplingPlan, plan_from_capture
+
+
+@pytest.mark.parametrize("with_t", [False, True])
+def test_gamma_round_trip(tmp_path, with_t):
+    rng = np.random.default_rng(0)
+    C = rng.uniform(2.1e-6, 3.2e-6, 200)
+    T = rng.uniform(20.0, 40.0, 200)
+    x = 1e-6 * (30.0 - 10.0 * (C * 1e6 - 2.1) ** 2 + (0.2 * T if with_t else 0.0))
+    poly = GammaPolynomial.from_fit(fit_gamma(C, x, 4, temperature=T if with_t else None))
+    write_json(poly.record() | {"provenance": provenance([])}, tmp_path / "gamma.json")
+    back = load_gamma(tmp_path / "gamma.json")
+    assert back == poly and back.order == 4
+    np.testing.assert_array_equal(back.predict(C, T), poly.predict(C, T))
+
+
+def test_gains_round_trip(tmp_path):
+    gains = HPOGains(16.6, 2 * np.pi, 0.8)
+    write_json(gains.record() | {"provenance": provenance([])}, tmp_path / "observer.json")
+    assert load_gains(tmp_path / "observer.json") == gains
+
+
+def test_k_over_alpha_round_trip(tmp_path):
+    case2 = pd.DataFrame({key: [1.0 + i, 2.0 + i] for i, key in enumerate(MODEL_KEYS)})
+    record = model_record(case2)
+    write_json(record | {"provenance": provenance([])}, tmp_path / "model.json")
+    assert load_k_over_alpha(tmp_path / "model.json") == record["k"] / record["alpha"] == 3.5 / 4.5
+
+
+@pytest.mark.parametrize("nf", [4, 5])
+def test_plan_from_capture_is_the_plan_the_capture_was_sampled_with(tmp_path, nf):
+    plan = SamplingPlan(1e5, 12, nf, 1)
+    attrs = {"fs": plan.fs, "fr_nominal": plan.fr, "ns": plan.ns, "nf": plan.nf}
+    with CaptureWriter(tmp_path / "c.nc", attrs, [channel_spec("U", -1.0, 1.0)], 24) as w:
+        w.write({"U": np.zeros(24)})
+    with open_capture(tmp_path / "c.nc") as cap:
+        assert plan_from_capture(cap, 4) == SamplingPlan(1e5, 12, nf, 4)
+
+
+def test_a_cmd_round_trip(tmp_path):
+    identified = pd.DataFrame([{"key": "R", "value": 2e9, "unit": "Ohm"}, {"key": "a_cmd", "value": 16.7, "unit": "m/C"}])
+    write_table(identified, tmp_path / "identified.csv")
+    assert ronkanen.load_a_cmd(tmp_path / "identified.csv") == 16.7
