@@ -6,13 +6,15 @@ import pytest
 from selfsense.chapters.ch6 import errors, segment_maxima, table_6_1
 from selfsense.control import HPOIntegralController, IntegralController, tracking_prediction
 
+from .tolerances import CLOSED_FORM
+
 
 def test_gain_and_loop_shape():
     g = IntegralController(2 * np.pi * 250, 2.68e6)
     assert g.K_I == pytest.approx(2 * np.pi * 250 * 2.68e6)
     T = g.tracking()
     assert abs(T(0)) == pytest.approx(1.0)  # Type-I: no steady error to a constant reference
-    assert abs(T(2j * np.pi * 250)) == pytest.approx(1 / np.sqrt(2), rel=1e-9)  # crossover at ω_C
+    assert abs(T(2j * np.pi * 250)) == pytest.approx(1 / np.sqrt(2), rel=CLOSED_FORM)  # crossover at ω_C
 
 
 def test_tracking_prediction_at_125_hz():

@@ -31,6 +31,8 @@ from selfsense.thermal import (
     zoh_coefficients,
 )
 
+from .tolerances import CLOSED_FORM, rtol, sums
+
 RHO, C, V, A = 7800.0, 350.0, 740e-9, 640e-6
 MODEL_28 = ThermalModel.from_k_T(28.0, P885_PROPERTIES)
 
@@ -41,23 +43,23 @@ MODEL_28 = ThermalModel.from_k_T(28.0, P885_PROPERTIES)
 def test_tau_gamma_from_properties_with_k_T_28():
     m = ThermalModel.from_k_T(K_T_TABLE_7_1, ThermalProperties(RHO, C, V, A))
     # Eq 7.5 / 7.6 evaluated independently here
-    assert m.tau == pytest.approx(RHO * V * C / (28.0 * A), rel=1e-12)
-    assert m.gamma == pytest.approx(1.0 / (28.0 * A), rel=1e-12)
+    assert m.tau == pytest.approx(RHO * V * C / (28.0 * A), rel=CLOSED_FORM)
+    assert m.gamma == pytest.approx(1.0 / (28.0 * A), rel=CLOSED_FORM)
     # thesis rounds these to 100 s and 57 K/W; the physical values are:
     assert m.tau == pytest.approx(112.7, abs=0.05)
     assert m.gamma == pytest.approx(55.80, abs=0.01)
-    assert m.implied_heat_capacity == pytest.approx(RHO * C * V, rel=1e-12)
+    assert m.implied_heat_capacity == pytest.approx(RHO * C * V, rel=CLOSED_FORM)
 
 
 def test_k_T_estimates_roundtrip_and_table_7_1_inconsistency():
     est = MODEL_28.k_T_estimates(P885_PROPERTIES)
-    assert est.from_tau == pytest.approx(28.0, rel=1e-12)
-    assert est.from_gamma == pytest.approx(28.0, rel=1e-12)
-    assert est.relative_mismatch == pytest.approx(0.0, abs=1e-12)
+    assert est.from_tau == pytest.approx(28.0, rel=CLOSED_FORM)
+    assert est.from_gamma == pytest.approx(28.0, rel=CLOSED_FORM)
+    assert est.relative_mismatch == pytest.approx(0.0, abs=CLOSED_FORM)
     # Table 7.1 (tau = 100 s, gamma = 57 K/W) over-determines k_T inconsistently
     t71 = TABLE_7_1.k_T_estimates(P885_PROPERTIES)
-    assert t71.from_tau == pytest.approx(RHO * V * C / (100.0 * A), rel=1e-12)  # ~31.6
-    assert t71.from_gamma == pytest.approx(1.0 / (57.0 * A), rel=1e-12)  # ~27.4
+    assert t71.from_tau == pytest.approx(RHO * V * C / (100.0 * A), rel=CLOSED_FORM)  # ~31.6
+    assert t71.from_gamma == pytest.approx(1.0 / (57.0 * A), rel=CLOSED_FORM)  # ~27.4
     assert t71.from_tau > 31 and t71.from_gamma < 28
     assert k_T_from_tau(100.0, P885_PROPERTIES) == t71.from_tau
     assert k_T_from_gamma(57.0, P885_PROPERTIES) == t71.from_gamma
@@ -84,11 +86,13 @@ def test_invalid_parameters_rejected(bad):
 def test_zoh_coefficients_match_scipy_and_control(dt):
     a, b = zoh_coefficients(MODEL_28, dt)
     num, den, _ = signal.cont2discrete(([MODEL_28.gamma], [MODEL_28.tau, 1.0]), dt, method="zoh")
-    assert -den[1] == pytest.approx(a, rel=1e-12)
-    assert np.ravel(num)[-1] == pytest.approx(b, rel=1e-10)
+    # b = γ(1 − e^(−dt/τ)) cancels digits for dt ≪ τ: κ ≈ τ/dt (≈ 1100 at dt = 0.1 s)
+    kappa_b = MODEL_28.tau / dt + 1
+    assert -den[1] == pytest.approx(a, rel=CLOSED_FORM)
+    assert np.ravel(num)[-1] == pytest.approx(b, rel=rtol(kappa_b))
     sysd = control.sample_system(control.tf([MODEL_28.gamma], [MODEL_28.tau, 1.0]), dt, method="zoh")
-    assert -sysd.den[0][0][1] / sysd.den[0][0][0] == pytest.approx(a, rel=1e-12)
-    assert sysd.num[0][0][-1] / sysd.den[0][0][0] == pytest.approx(b, rel=1e-10)
+    assert -sysd.den[0][0][1] / sysd.den[0][0][0] == pytest.approx(a, rel=CLOSED_FORM)
+    assert sysd.num[0][0][-1] / sysd.den[0][0][0] == pytest.approx(b, rel=rtol(kappa_b))
 
 
 @pytest.mark.parametrize("dt", [0.1, 5.0, 40.0])
@@ -97,8 +101,10 @@ def test_step_matches_analytic_solution_even_on_coarse_grid(dt):
     t = np.arange(0.0, 1000.0, dt)
     T = predict_temperature(t, np.full_like(t, P), MODEL_28, T_amb=T_amb)
     expected = T_amb + MODEL_28.gamma * P * (1.0 - np.exp(-t / MODEL_28.tau))
-    np.testing.assert_allclose(T, expected, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(MODEL_28.step_response(t, P), expected - T_amb, atol=1e-10)
+    # the recursion's roundings (each ≤ ε of ≈ 70 °C) decay as a = e^(−dt/τ): they add up to ε/(1 − a)
+    atol = float(rtol(1 / (1 - np.exp(-dt / MODEL_28.tau)))) * 70.0
+    np.testing.assert_allclose(T, expected, rtol=0, atol=atol)
+    np.testing.assert_allclose(MODEL_28.step_response(t, P), expected - T_amb, atol=atol)
     # an Euler step would be visibly wrong at dt = 40 s; make sure we are not it
     if dt >= 40.0:
         euler = T_amb + MODEL_28.gamma * P * (1 - (1 - dt / MODEL_28.tau) ** np.arange(t.size))
@@ -108,12 +114,12 @@ def test_step_matches_analytic_solution_even_on_coarse_grid(dt):
 def test_cooling_from_initial_temperature_and_steady_state():
     t = np.arange(0.0, 600.0, 0.5)
     T = predict_temperature(t, 0.0, MODEL_28, T0=60.0, T_amb=23.0)
-    np.testing.assert_allclose(T, 23.0 + 37.0 * np.exp(-t / MODEL_28.tau), atol=1e-10)
+    np.testing.assert_allclose(T, 23.0 + 37.0 * np.exp(-t / MODEL_28.tau), atol=float(rtol(1 / (1 - np.exp(-0.5 / MODEL_28.tau)))) * 60.0)
     assert MODEL_28.steady_state_rise(1.2) == pytest.approx(1.2 * MODEL_28.gamma)
     t = np.arange(0.0, 5000.0, 1.0)
     assert predict_temperature(t, 1.2, MODEL_28)[-1] - 23.0 == pytest.approx(
-        MODEL_28.steady_state_rise(1.2), rel=1e-12
-    )
+        MODEL_28.steady_state_rise(1.2), rel=float(rtol(1 / (1 - np.exp(-1.0 / MODEL_28.tau))))
+    )  # 5000 steps of a recursion whose roundings decay as e^(−dt/τ): ε/(1 − a) of the rise
 
 
 def test_predict_rejects_nonuniform_grid():
@@ -136,7 +142,7 @@ def test_capacitor_with_linear_position_has_no_loss():
     I = Cp * dU
     x = U / k_over_alpha  # x = (alpha/k) U: no hysteresis voltage
     p = power_loss(U, x, I, k_over_alpha)
-    assert np.max(np.abs(p)) < 1e-12
+    assert np.max(np.abs(p)) < CLOSED_FORM * np.max(np.abs(U)) * np.max(np.abs(I))  # U − U: roundings only
     # a mis-scaled position leaves a purely capacitive U_H: instantaneous
     # power is non-zero but averages to zero over whole cycles (reactive)
     p2 = power_loss(U, 0.8 * x, I, k_over_alpha)
@@ -150,7 +156,9 @@ def test_resistive_hysteresis_voltage_dissipates_R_Irms2():
     I = Cp * dU
     U = U_P + R * I  # hysteresis voltage in phase with current
     p = power_loss(U, U_P / k_over_alpha, I, k_over_alpha)
-    assert p.mean() == pytest.approx(R * np.mean(I**2), rel=1e-9)
+    # p = (U − U_P)·I: U − U_P cancels |U|/|R·I| of its digits, then n-term means
+    kappa = np.max(np.abs(U)) / np.max(np.abs(R * I))
+    assert p.mean() == pytest.approx(R * np.mean(I**2), rel=sums(U.size) * kappa)
     assert p.mean() > 0
 
 
@@ -167,7 +175,7 @@ def test_power_averager_is_chunk_invariant(n, n_per, cuts, seed):
     ref = PowerAverager(fs, n_per / fs)
     whole = ref.update(p)
     m = n // n_per
-    np.testing.assert_allclose(whole, p[: m * n_per].reshape(m, n_per).mean(axis=1), rtol=1e-13)
+    np.testing.assert_allclose(whole, p[: m * n_per].reshape(m, n_per).mean(axis=1), rtol=sums(n_per))
 
     avg = PowerAverager(fs, n_per / fs)
     edges = [0, *sorted(c for c in cuts if c <= n), n]
@@ -176,7 +184,7 @@ def test_power_averager_is_chunk_invariant(n, n_per, cuts, seed):
     np.testing.assert_array_equal(np.concatenate(pieces), whole)
     tail = avg.flush()
     if n % n_per:
-        np.testing.assert_allclose(tail, [p[m * n_per :].mean()], rtol=1e-13)
+        np.testing.assert_allclose(tail, [p[m * n_per :].mean()], rtol=sums(n_per))
     else:
         assert tail.size == 0
     assert avg.n_emitted == m + (1 if n % n_per else 0)
@@ -210,18 +218,22 @@ def test_self_heating_stream_equals_batch_and_is_chunk_invariant():
     out = self_heating_temperature(U, x, I, fs, model, k_over_alpha, interval=0.1, chunk_size=777)
     tt, P = average_power(power_loss(U, x, I, k_over_alpha), fs, 0.1)
     np.testing.assert_allclose(out.t, tt)
-    np.testing.assert_allclose(out.P, P, rtol=1e-12)
-    np.testing.assert_allclose(out.T, predict_temperature(tt, P, model), rtol=0, atol=1e-12)
+    # chunked vs whole: means of 480 samples whose loss term cancels |U|/|R·I| of its digits; the
+    # temperature recursion then carries ε/(1 − a) of its size
+    kappa = np.max(np.abs(U)) / np.max(np.abs(R * I))
+    np.testing.assert_allclose(out.P, P, rtol=sums(480) * kappa)
+    t_tol = float(rtol(1 / (1 - np.exp(-0.1 / model.tau)))) * np.max(np.abs(out.T))
+    np.testing.assert_allclose(out.T, predict_temperature(tt, P, model), rtol=0, atol=t_tol)
     assert out.T[-1] > 23.0 + 0.9 * model.gamma * R * np.mean(I**2) * (1 - np.exp(-19.9 / 5.0))
 
     big = self_heating_temperature(U, x, I, fs, model, k_over_alpha, interval=0.1, chunk_size=10**7)
-    np.testing.assert_allclose(big.T, out.T, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(big.T, out.T, rtol=0, atol=t_tol)
 
     est = SelfHeatingEstimator(fs, model, k_over_alpha, interval=0.1)
     est.update(U, x, I)
     # the state after the last complete interval is the next ZOH step
     a, b = zoh_coefficients(model, 0.1)
-    assert est.temperature == pytest.approx(23.0 + a * (out.T[-1] - 23.0) + b * out.P[-1], abs=1e-12)
+    assert est.temperature == pytest.approx(23.0 + a * (out.T[-1] - 23.0) + b * out.P[-1], abs=t_tol)
 
 
 # ------------------------------------------------------------ identification
@@ -307,15 +319,16 @@ def test_steady_state_rise_extrapolates_unfinished_record():
 def test_linear_fit_exact_data():
     f = np.array([20.0, 50.0, 100.0, 150.0])
     fit = linear_fit(f, 0.35 * f - 4.0)
-    assert fit.slope == pytest.approx(0.35, rel=1e-12)
-    assert fit.intercept == pytest.approx(-4.0, rel=1e-12)
-    assert fit.r_squared == pytest.approx(1.0, abs=1e-12)
+    assert fit.slope == pytest.approx(0.35, rel=CLOSED_FORM)
+    assert fit.intercept == pytest.approx(-4.0, rel=CLOSED_FORM)
+    assert fit.r_squared == pytest.approx(1.0, abs=CLOSED_FORM)
     assert fit.n == 4
     np.testing.assert_allclose(fit(f), 0.35 * f - 4.0)
     V = np.array([25.0, 50.0, 75.0, 100.0])
     fv = linear_fit(V**2, 6e-3 * V**2)
-    assert fv.slope == pytest.approx(6e-3, rel=1e-12)
-    assert fv.intercept == pytest.approx(0.0, abs=1e-10)
+    assert fv.slope == pytest.approx(6e-3, rel=CLOSED_FORM)
+    # an intercept of 0 is judged against the data's size (≤ 60): least squares leaves cond·ε of it
+    assert fv.intercept == pytest.approx(0.0, abs=float(rtol(np.linalg.cond(np.vander(V**2, 2)))) * 60.0)
 
 
 def test_linear_fit_noisy_r2_below_one():
@@ -324,6 +337,6 @@ def test_linear_fit_noisy_r2_below_one():
     y = 2 * x + 3 * rng.normal(size=x.size)
     fit = linear_fit(x, y)
     resid = y - fit(x)
-    assert fit.r_squared == pytest.approx(1 - resid @ resid / np.sum((y - y.mean()) ** 2), rel=1e-12)
+    assert fit.r_squared == pytest.approx(1 - resid @ resid / np.sum((y - y.mean()) ** 2), rel=CLOSED_FORM)
     assert 0.5 < fit.r_squared < 0.95
     assert fit.slope == pytest.approx(2.0, abs=5 * fit.slope_stderr)
