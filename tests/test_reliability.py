@@ -552,3 +552,30 @@ def test_resimulating_from_scratch_gives_identical_captures_and_tables(smoke_run
             {k: qc[1][k] for k in ("n_samples", "nan", "clipped")}]
     for t in tables:
         assert (repo / t).read_bytes() == (smoke_run / t).read_bytes(), t
+
+
+@pytest.mark.slow
+def test_a_bad_capture_stops_everything_made_from_it_even_with_keep_going(smoke_run, tmp_path):
+    # every rule that reads a capture takes its QC report, so check_capture's failure on
+    # ch4_static_free leaves the stiffness, the Chapter 4 tables and figures, the model and the
+    # scorecard unmade; what does not read that capture is still made under --keep-going
+    repo = copy_repo(tmp_path / "repo")
+    runs = sorted(p.stem for p in (smoke_run / "raw" / "pi_p885").glob("ch4_*.nc"))
+    folder = add_measured(repo, smoke_run, "bench_k", runs)
+    doc = load_yaml(folder / "dataset.yaml") | {"protocols": ["ch4"]}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+    _gap_middle(folder / "ch4_static_free.nc")
+    run = run_snakemake(repo, write_config(repo, "k", ["bench_k"]), "--keep-going")
+    assert run.returncode != 0
+    one_line(error_line(run, "CaptureError: ").split("CaptureError: ", 1)[1], "raw/bench_k/ch4_static_free.nc",
+             "time axis breaks at sample 4000")
+    res, figs = repo / "results" / "bench_k", repo / "figures" / "bench_k"
+    unmade = [res / "ch4" / f"{t}.csv" for t in ("static_stiffness", "sets", "table_4_1", "table_4_2", "table_4_3",
+                                                   "hysteresis_voltage")]
+    unmade += [res / "ch4" / "model.json", res / "scorecard.csv", repo / "results" / "scorecard_summary.rst",
+               res / "qc" / "ch4_static_free.json", res / "qc" / "captures.csv"]
+    assert [p for p in unmade if p.exists()] == []
+    assert not list(figs.glob("fig_4_*.png"))
+    made = [res / "qc" / "ch4_static_blocked.json", res / "ripple" / "ch4_sine_10hz_s1.nc",
+            res / "ch3" / "table_3_1.csv", res / "stages.csv"]
+    assert [p for p in made if not p.exists()] == []

@@ -1,0 +1,90 @@
+"""Config reaches the rules only through their params: changing one config key reruns exactly the
+rules that declare it (Snakemake's params trigger), and everything downstream of them only because
+their inputs are remade. Dry runs on the session's up-to-date smoke tree (`smoke_run`)."""
+
+import re
+
+import pytest
+import yaml
+
+from selfsense.manifest import load_config
+
+from .conftest import ROOT, snakemake
+
+pytestmark = pytest.mark.slow
+
+SMOKE = ROOT / "tests" / "config" / "smoke.yaml"
+
+#: config key: (a changed value, the rules whose params declare it; see workflow/rules/*.smk)
+USES = {
+    "ripple.n_periods": (5, {"extract_ripple", "ce_recovery", "gamma_fit", "observe", "observer_study",
+                             "ch5_figures", "simulate_closed_loop", "audit_realtime", "thermal_extract",
+                             "estimator_diagram", "coupled"}),
+    "ripple.np_sweep": ([1, 2, 4], {"ce_np_study"}),
+    "gamma.orders": ([3, 4], {"gamma_fit", "ch5_figures"}),
+    "observer.omega_s": (3.0, {"charge_sensing"}),
+    "observer.zeta_s": (0.7, {"charge_sensing"}),
+    "observer.sweep_settle_s": (0.03, {"frequency_response"}),
+    "observer.study_omegas": ([1.0, 6.283], {"observer_study"}),
+    "observer.study_offsets": ([0.0], {"observer_study"}),
+    "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results"}),
+    "capture.chunk_len": (32768, {"simulate", "simulate_closed_loop"}),
+    "capture.zlib": (False, {"simulate", "simulate_closed_loop"}),
+    "capture.complevel": (2, {"simulate", "simulate_closed_loop"}),
+    "capture.truth_decimation": (6, {"simulate", "simulate_closed_loop"}),
+    # a job's resources are no rerun trigger: no rule is rerun
+    "resources.simulate_mem_mb": (1234, set()),
+    "resources.analysis_mem_mb": (1234, set()),
+}
+
+#: keys that choose which jobs and files exist rather than what a job computes (a change makes a
+#: different DAG, not a rerun of this one)
+STRUCTURAL = {"datasets", "campaign", "raw_dir"}
+
+
+def leaves(doc, prefix=""):
+    for key, value in doc.items():
+        if isinstance(value, dict):
+            yield from leaves(value, f"{prefix}{key}.")
+        else:
+            yield f"{prefix}{key}"
+
+
+def with_change(key, value):
+    config = yaml.safe_load(SMOKE.read_text())
+    *parents, leaf = key.split(".")
+    node = config
+    for p in parents:
+        node = node.setdefault(p, {})
+    node[leaf] = value
+    return config
+
+
+def reasons(output):
+    """{reason: rules} from the "Reasons:" summary that ends a dry run with --quiet rules."""
+    summary = output.split("Reasons:", 1)[1] if "Reasons:" in output else ""
+    return {reason: set(rules.split(", "))
+            for reason, rules in re.findall(r"^ {4}(\S[^\n]*):\n {8}(\S[^\n]*)$", summary, re.M)}
+
+
+def test_every_config_key_is_covered():
+    # every leaf the workflow sees (smoke.yaml, config.yaml and the schema's defaults) is listed here
+    seen = set(leaves(load_config(SMOKE))) | set(leaves(load_config(ROOT / "config.yaml")))
+    assert seen == set(USES) | STRUCTURAL
+
+
+@pytest.mark.parametrize("key", USES)
+def test_a_config_change_reruns_exactly_the_rules_that_declare_it(smoke_run, tmp_path, key):
+    value, rules = USES[key]
+    changed = tmp_path / "changed.yaml"
+    changed.write_text(yaml.safe_dump(with_change(key, value), sort_keys=False))
+    dry = snakemake(smoke_run, "-n", "--quiet", "rules", config=str(changed))
+    assert dry.returncode == 0, dry.stderr[-2000:]
+    out = dry.stdout + dry.stderr
+    if not rules:
+        assert "Nothing to be done" in out, out[-2000:]
+        return
+    why = reasons(out)
+    assert why.pop("params have changed since last execution", set()) == rules
+    # every other job runs only because a job upstream of it reruns
+    assert set(why) <= {"input files updated by another job"}, why
