@@ -7,7 +7,8 @@ Physics (equation numbers are the paper's unless marked "thesis"):
     I = i_C + i_l,  i_C = dQ/dt               total current (Eq 4)
     i_l = V/X(i_C),  X = R/√((c·i_C)² + 1)    loss impedance across the terminals (Eq 5, 10, 13)
 
-U_H is the Maxwell resistive-capacitive operator on Q (thesis Eq 1.11–1.12) and U_c are Voigt
+U_H is the Maxwell resistive-capacitive operator on Q (thesis Eq 1.11–1.12, :mod:`.maxwell`, shared
+with the stack's twin) and U_c are Voigt
 relaxation elements charged by i_C: under a voltage they let Q creep, under a current they only
 change V. The loss impedance is model (10) as the twin's physics, a function of the charging
 current i_C (the rate of motion), so at rest it is the leakage resistance R (Section 4).
@@ -49,6 +50,8 @@ from ..manifest import PROTOCOLS, Experiment, load_yaml
 from .bench import DaqPlan, experiment_seed
 from .drive import Drive, drive_from_protocol
 from .instruments import SlowProcess
+from .maxwell import (MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step,
+                      slide_anchors, slide_anchors_reference, span)
 from .params import CreepParams, HysteresisParams, _build
 
 #: kernel output columns, in order
@@ -154,19 +157,6 @@ class Compensation:
                 "compensation_c": self.c}
 
 
-@dataclass(frozen=True)
-class KernelConstants:
-    scalars: np.ndarray  # see _SCALARS
-    C_h: np.ndarray  # Maxwell element capacitances [F]
-    v_h: np.ndarray  # Maxwell break-away voltages [V]
-    creep_decay: np.ndarray  # exp(-h/τ_j)
-    creep_R: np.ndarray  # R_j = τ_j/C_j [Ω]
-
-    @property
-    def n_state(self) -> int:
-        return _HEAD + len(self.C_h) + len(self.creep_R)
-
-
 _SCALARS = ("C", "R", "c", "gain", "u_max", "kp", "ki", "kd", "fs", "meter_decay",
             "meter_resolution", "meter_offset", "comp_kind", "comp_X", "comp_R", "comp_c")
 #: state layout: Q, V, meter output, last reading, PID integral, previous error, has-previous flag
@@ -181,10 +171,8 @@ def kernel_constants(p: BenderParams, fs: float, compensation: Compensation = Co
                   meter_resolution=ins.meter_resolution, meter_offset=ins.meter_offset,
                   comp_kind=COMPENSATIONS[compensation.kind], comp_X=compensation.X,
                   comp_R=compensation.R, comp_c=compensation.c)
-    C_h, v_h = p.hysteresis.arrays()
-    C_c, tau_c = np.asarray(p.creep.C, float), np.asarray(p.creep.tau, float)
-    return KernelConstants(np.array([values[k] for k in _SCALARS]), C_h, v_h,
-                           np.exp(-1.0 / (fs * tau_c)), tau_c / C_c)
+    return KernelConstants.build(_HEAD, np.array([values[k] for k in _SCALARS]), p.hysteresis, p.creep,
+                                 lambda tau: np.exp(-1.0 / (fs * tau)))
 
 
 def initial_state(kc: KernelConstants) -> np.ndarray:
@@ -198,23 +186,6 @@ def initial_state(kc: KernelConstants) -> np.ndarray:
 @numba.njit(cache=True)
 def _quantise(value, step):
     return np.round(value / step) * step
-
-
-@numba.njit(cache=True)
-def _maxwell(q, q_b, C_h, v_h):
-    """U_H(Q) and dU_H/dQ for the current anchors (thesis Eq 1.11–1.12), anchors unchanged."""
-    u = 0.0
-    slope = 0.0
-    for i in range(q_b.size):
-        e = (q - q_b[i]) / C_h[i]
-        if e > v_h[i]:
-            u += v_h[i]
-        elif e < -v_h[i]:
-            u -= v_h[i]
-        else:
-            u += e
-            slope += 1.0 / C_h[i]
-    return u, slope
 
 
 @numba.njit(cache=True)
@@ -234,9 +205,7 @@ def run_kernel(mode, drive, noise, sc, C_h, v_h, creep_decay, creep_R, state, ou
     U_c = state[_HEAD + nh:_HEAD + nh + nc]
     Q, V, m, reading, integral, prev_e, has_prev = (state[0], state[1], state[2], state[3],
                                                      state[4], state[5], state[6])
-    vmax = 0.0
-    for i in range(nh):
-        vmax += v_h[i]
+    vmax = span(v_h)
     for n in range(drive.size):
         i_t = 0.0
         if mode == 1:
@@ -265,30 +234,19 @@ def run_kernel(mode, drive, noise, sc, C_h, v_h, creep_decay, creep_R, state, ou
         uc_sum = 0.0
         for j in range(nc):
             uc_sum += U_c[j]
-        # V = Q/C + U_H(Q) + ΣU_c is monotone in Q with |U_H| <= vmax: Newton inside a bracket
+        # V = Q/C + U_H(Q) + ΣU_c is monotone in Q with |U_H| <= vmax
         target = V - uc_sum
         lo = C * (target - vmax) - 1e-9
         hi = C * (target + vmax) + 1e-9
         q = Q
-        for _ in range(200):
-            uh, slope = _maxwell(q, q_b, C_h, v_h)
+        for _ in range(MAX_ITERATIONS):
+            uh, slope = maxwell(q, q_b, C_h, v_h)
             f = q / C + uh - target
-            if abs(f) < 1e-13 * (1.0 + abs(target)):
+            if balanced(f, target):
                 break
-            if f > 0.0:
-                hi = q
-            else:
-                lo = q
-            q -= f / (1.0 / C + slope)
-            if q <= lo or q >= hi:
-                q = 0.5 * (lo + hi)
-        for i in range(nh):
-            e_h = (q - q_b[i]) / C_h[i]
-            if e_h > v_h[i]:
-                q_b[i] = q - v_h[i] * C_h[i]
-            elif e_h < -v_h[i]:
-                q_b[i] = q + v_h[i] * C_h[i]
-        uh, _ = _maxwell(q, q_b, C_h, v_h)
+            q, lo, hi = newton_step(q, f, 1.0 / C + slope, lo, hi)
+        slide_anchors(q, q_b, C_h, v_h)
+        uh, _ = maxwell(q, q_b, C_h, v_h)
         i_C = (q - Q) * fs
         i_l = V / R * math.sqrt((c * i_C) ** 2 + 1.0)
         current = i_C + i_l
@@ -323,9 +281,7 @@ def run_reference(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelCon
     """Plain-Python reference of :func:`run_kernel`: Brent's method for the voltage balance, the
     library's :class:`~selfsense.powerloss.CurrentPID` and Eq 13/15 from :mod:`selfsense.powerloss`."""
     sc = dict(zip(_SCALARS, kc.scalars))
-    nh, nc = len(kc.C_h), len(kc.creep_R)
-    q_b = state[_HEAD:_HEAD + nh]
-    U_c = state[_HEAD + nh:_HEAD + nh + nc]
+    q_b, U_c = kc.elements(state)
     Q, V, m, reading = state[:4]
     pid = pl.CurrentPID(sc["kp"], sc["ki"], sc["kd"], 1.0 / sc["fs"], -sc["u_max"], sc["u_max"])
     pid_state = pl.PIDState(state[4], state[5] if state[6] > 0 else None)
@@ -334,7 +290,7 @@ def run_reference(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelCon
     out = np.empty((len(drive), N_OUT))
 
     def u_h(q):
-        return float(np.sum(np.clip((q - q_b) / kc.C_h, -kc.v_h, kc.v_h)))
+        return maxwell_reference(q, q_b, kc.C_h, kc.v_h)
 
     for n in range(len(drive)):
         i_t = 0.0
@@ -355,7 +311,7 @@ def run_reference(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelCon
         vmax = float(kc.v_h.sum())
         q = brentq(lambda q: q / sc["C"] + u_h(q) - target, sc["C"] * (target - vmax) - 1e-9,
                    sc["C"] * (target + vmax) + 1e-9, xtol=1e-24, rtol=4 * np.finfo(float).eps)
-        q_b[:] = np.clip(q_b, q - kc.v_h * kc.C_h, q + kc.v_h * kc.C_h)
+        slide_anchors_reference(q, q_b, kc.C_h, kc.v_h)
         i_C = (q - Q) * sc["fs"]
         i_l = float(pl.leakage_current(i_C, V, sc["R"], sc["c"]))
         current = i_C + i_l

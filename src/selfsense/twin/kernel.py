@@ -7,8 +7,8 @@ Model (thesis Eq 1.4–1.6, 1.11–1.12, 4.6, 7.2), one voltage-source sample at
     m ẍ + b ẋ + k x = α U_P + F          mechanics (Eq 1.4), bilinear (Tustin) discretisation
     ρcv dT/dt = (U_H + Σ U_c)·I − k_T A (T − T_amb)    thermal (Eq 7.2), exact discretisation
 
-U_H is the Maxwell resistive-capacitive operator on q (Eq 1.11–1.12): rate independent, so the
-voltage balance is solved for U_P at each sample. The mechanics is discretised with Tustin's
+U_H is the Maxwell resistive-capacitive operator on q (Eq 1.11–1.12, :mod:`.maxwell`): rate
+independent, so the voltage balance is solved for U_P at each sample. The mechanics is discretised with Tustin's
 method because its direct feed-through puts this sample's force into this sample's position:
 the charge balance then contains x_n implicitly and the electromechanical coupling carries no
 one-sample delay. (A zero-order hold delays it one sample, and when Maxwell elements leave
@@ -22,34 +22,17 @@ U_P is kept only as the next sample's starting guess.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numba
 import numpy as np
 from scipy.signal import cont2discrete
 
+from .maxwell import (MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step,
+                      slide_anchors, slide_anchors_reference, span)
 from .params import TwinParams
 
 #: output columns of the kernel, in order
 OUTPUTS = ("x", "v", "a", "q", "U_P", "U_H", "T", "I", "C_P")
 N_OUT = len(OUTPUTS)
-
-
-@dataclass(frozen=True)
-class KernelConstants:
-    """Everything the per-sample loop needs, as flat arrays (numba-friendly)."""
-
-    scalars: np.ndarray  # see _SCALARS
-    C_h: np.ndarray  # Maxwell element capacitances [F]
-    v_h: np.ndarray  # Maxwell break-away voltages [V]
-    creep_decay: np.ndarray  # exp(-h/τ_j)
-    creep_R: np.ndarray  # R_j = τ_j / C_j
-
-    @property
-    def n_state(self) -> int:
-        return _HEAD + len(self.C_h) + len(self.creep_R)
-
-
 _HEAD = 5
 _SCALARS = ("alpha", "C_P0", "dC_U", "kappa_T", "T_ref", "fs",
             "a11", "a12", "a21", "a22", "b1", "b2", "m", "b", "k_tot",
@@ -69,33 +52,14 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
                    b1=Bd[0, 0], b2=Bd[1, 0], m=s.m, b=s.b, k_tot=k_tot,
                    th_decay=th_decay, th_gain=th.gamma * (1.0 - th_decay),
                    c11=Cd[0, 0], c12=Cd[0, 1], c21=Cd[1, 0], c22=Cd[1, 1], d1=Dd[0, 0], d2=Dd[1, 0])
-    C_h, v_h = p.hysteresis.arrays()
-    C_c, tau_c = np.asarray(p.creep.C, float), np.asarray(p.creep.tau, float)
-    return KernelConstants(np.array([scalars[k] for k in _SCALARS]), C_h, v_h,
-                           np.exp(-h / tau_c), tau_c / C_c)
+    return KernelConstants.build(_HEAD, np.array([scalars[k] for k in _SCALARS]), p.hysteresis, p.creep,
+                                 lambda tau: np.exp(-h / tau))
 
 
 def initial_state(kc: KernelConstants, T0: float) -> np.ndarray:
     state = np.zeros(kc.n_state)
     state[2] = T0
     return state
-
-
-@numba.njit(cache=True)
-def _maxwell(q, q_b, C_h, v_h):
-    """U_H(q) and its slope for the current anchors (Eq 1.11–1.12), without updating them."""
-    u = 0.0
-    slope = 0.0
-    for i in range(q_b.size):
-        e = (q - q_b[i]) / C_h[i]
-        if e > v_h[i]:
-            u += v_h[i]
-        elif e < -v_h[i]:
-            u -= v_h[i]
-        else:
-            u += e
-            slope += 1.0 / C_h[i]
-    return u, slope
 
 
 @numba.njit(cache=True)
@@ -116,9 +80,7 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
     U_c = state[5 + nh:5 + nh + nc]
     s1, s2, T, q_prev, u_p = state[0], state[1], state[2], state[3], state[4]
     alpha, fs = sc[0], sc[5]
-    vmax = 0.0
-    for i in range(nh):
-        vmax += v_h[i]
+    vmax = span(v_h)
     for n in range(U.size):
         uc_sum = 0.0
         for j in range(nc):
@@ -126,35 +88,23 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
         dT = T - sc[4]
         target = U[n] - uc_sum
         x_free = sc[17] * s1 + sc[18] * s2
-        # f(u) = u + U_H(q(u)) - target is monotone with |U_H| <= vmax: Newton inside a
-        # bracket that bisection takes over whenever a step would leave it (kinks of U_H).
+        # f(u) = u + U_H(q(u)) - target is monotone with |U_H| <= vmax
         lo = target - vmax - 1.0
         hi = target + vmax + 1.0
-        for _ in range(200):
+        for _ in range(MAX_ITERATIONS):
             q, dq = _charge(u_p, x_free, F[n], dT, sc)
-            uh, slope = _maxwell(q, q_b, C_h, v_h)
+            uh, slope = maxwell(q, q_b, C_h, v_h)
             f = u_p + uh - target
-            if abs(f) < 1e-13 * (1.0 + abs(target)):
+            if balanced(f, target):
                 break
-            if f > 0.0:
-                hi = u_p
-            else:
-                lo = u_p
-            u_p -= f / (1.0 + slope * dq)
-            if u_p <= lo or u_p >= hi:
-                u_p = 0.5 * (lo + hi)
+            u_p, lo, hi = newton_step(u_p, f, 1.0 + slope * dq, lo, hi)
         q, _ = _charge(u_p, x_free, F[n], dT, sc)
         c_p = sc[1] + sc[3] * dT + sc[2] * u_p
         force = alpha * u_p + F[n]
         x = x_free + sc[21] * force
         v = sc[19] * s1 + sc[20] * s2 + sc[22] * force
-        for i in range(nh):
-            e = (q - q_b[i]) / C_h[i]
-            if e > v_h[i]:
-                q_b[i] = q - v_h[i] * C_h[i]
-            elif e < -v_h[i]:
-                q_b[i] = q + v_h[i] * C_h[i]
-        uh, _ = _maxwell(q, q_b, C_h, v_h)
+        slide_anchors(q, q_b, C_h, v_h)
+        uh, _ = maxwell(q, q_b, C_h, v_h)
         current = (q - q_prev) * fs
         acc = (force - sc[13] * v - sc[14] * x) / sc[12]
         out[n, 0] = x
@@ -181,9 +131,7 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
     from scipy.optimize import brentq  # only the tests run the reference: ≈ 0.3 s of every simulation's start-up
 
     sc = dict(zip(_SCALARS, kc.scalars))
-    nh, nc = len(kc.C_h), len(kc.creep_R)
-    q_b = state[_HEAD:_HEAD + nh]
-    U_c = state[_HEAD + nh:_HEAD + nh + nc]
+    q_b, U_c = kc.elements(state)
     s1, s2, T, q_prev, u_p = state[:5]
     out = np.empty((len(U), N_OUT))
     vmax = kc.v_h.sum()
@@ -193,7 +141,7 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         return c0 * u_p + 0.5 * sc["dC_U"] * u_p ** 2 + sc["alpha"] * x
 
     def u_h(q):
-        return float(np.sum(np.clip((q - q_b) / kc.C_h, -kc.v_h, kc.v_h)))
+        return maxwell_reference(q, q_b, kc.C_h, kc.v_h)
 
     for n in range(len(U)):
         uc_sum = float(U_c.sum())
@@ -208,7 +156,7 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
                      target - vmax - 1.0, target + vmax + 1.0, xtol=1e-15, rtol=4 * np.finfo(float).eps)
         x = position(u_p)
         q = charge(u_p, dT, x)
-        q_b[:] = np.clip(q_b, q - kc.v_h * kc.C_h, q + kc.v_h * kc.C_h)
+        slide_anchors_reference(q, q_b, kc.C_h, kc.v_h)
         uh = u_h(q)
         current = (q - q_prev) * sc["fs"]
         force = sc["alpha"] * u_p + F[n]

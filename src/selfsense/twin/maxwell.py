@@ -1,0 +1,126 @@
+"""The Maxwell resistive-capacitive hysteresis operator (thesis Eq 1.11–1.12) both twins share,
+with the kernel scaffolding around it: the constants a per-sample loop needs and the safeguarded
+Newton step that solves a voltage balance through the operator.
+
+Element i holds a charge anchor q_b[i]: its voltage is (q − q_b[i])/C_h[i] clipped to ±v_h[i], and
+while clipped the anchor slides with q so that the element stays at its break-away voltage. U_H(q)
+is the sum over the elements, rate independent, piecewise linear and monotone in q with
+|U_H| ≤ Σ v_h. The numba functions serve the twins' fast kernels; the ``*_reference`` functions,
+plain numpy, serve the kernels' references, which the tests hold the fast kernels to.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from .params import CreepParams, HysteresisParams
+
+#: Newton iterations before a voltage balance gives up (bisection halves the bracket each time
+#: Newton would leave it, so 200 reach any float's resolution)
+MAX_ITERATIONS = 200
+
+
+@dataclass(frozen=True)
+class KernelConstants:
+    """Everything a twin's per-sample loop needs, as flat arrays (numba-friendly).
+
+    The state vector is ``head`` twin-specific values, then the Maxwell anchors q_b, then the
+    creep voltages U_c.
+    """
+
+    head: int
+    scalars: np.ndarray  # the twin's own scalars, in its kernel's order
+    C_h: np.ndarray  # Maxwell element capacitances [F]
+    v_h: np.ndarray  # Maxwell break-away voltages [V]
+    creep_decay: np.ndarray  # exp(-h/τ_j) over one sample h
+    creep_R: np.ndarray  # R_j = τ_j / C_j [Ω]
+
+    @classmethod
+    def build(cls, head: int, scalars: np.ndarray, hysteresis: HysteresisParams, creep: CreepParams,
+              decay: Callable[[np.ndarray], np.ndarray]) -> "KernelConstants":
+        """``decay`` maps the creep time constants τ_j [s] to their decay over one sample: each twin
+        keeps the arithmetic its captures were made with."""
+        C_h, v_h = hysteresis.arrays()
+        C_c, tau_c = np.asarray(creep.C, float), np.asarray(creep.tau, float)
+        return cls(head, scalars, C_h, v_h, decay(tau_c), tau_c / C_c)
+
+    @property
+    def n_state(self) -> int:
+        return self.head + len(self.C_h) + len(self.creep_R)
+
+    def elements(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Views of the anchors q_b and the creep voltages U_c in ``state``."""
+        nh = len(self.C_h)
+        return state[self.head:self.head + nh], state[self.head + nh:self.head + nh + len(self.creep_R)]
+
+
+@numba.njit(cache=True)
+def maxwell(q, q_b, C_h, v_h):
+    """U_H(q) and dU_H/dq for the current anchors, without moving them."""
+    u = 0.0
+    slope = 0.0
+    for i in range(q_b.size):
+        e = (q - q_b[i]) / C_h[i]
+        if e > v_h[i]:
+            u += v_h[i]
+        elif e < -v_h[i]:
+            u -= v_h[i]
+        else:
+            u += e
+            slope += 1.0 / C_h[i]
+    return u, slope
+
+
+@numba.njit(cache=True)
+def slide_anchors(q, q_b, C_h, v_h):
+    """Move the anchors of the elements q has driven past their break-away voltage (in place)."""
+    for i in range(q_b.size):
+        e = (q - q_b[i]) / C_h[i]
+        if e > v_h[i]:
+            q_b[i] = q - v_h[i] * C_h[i]
+        elif e < -v_h[i]:
+            q_b[i] = q + v_h[i] * C_h[i]
+
+
+@numba.njit(cache=True)
+def span(v_h):
+    """max |U_H| = Σ v_h, which brackets a voltage balance's root."""
+    vmax = 0.0
+    for i in range(v_h.size):
+        vmax += v_h[i]
+    return vmax
+
+
+@numba.njit(cache=True)
+def balanced(f, target):
+    """Whether a balance's residual f is zero to the resolution of its target voltage."""
+    return abs(f) < 1e-13 * (1.0 + abs(target))
+
+
+@numba.njit(cache=True)
+def newton_step(y, f, df, lo, hi):
+    """One step on a monotone increasing residual f(y) with slope df: Newton inside the bracket
+    [lo, hi], which the step narrows, and bisection whenever Newton would leave it (at the kinks
+    of U_H, where the slope jumps). Returns the new y, lo, hi."""
+    if f > 0.0:
+        hi = y
+    else:
+        lo = y
+    y -= f / df
+    if y <= lo or y >= hi:
+        y = 0.5 * (lo + hi)
+    return y, lo, hi
+
+
+def maxwell_reference(q: float, q_b: np.ndarray, C_h: np.ndarray, v_h: np.ndarray) -> float:
+    """Plain-numpy :func:`maxwell` (U_H only)."""
+    return float(np.sum(np.clip((q - q_b) / C_h, -v_h, v_h)))
+
+
+def slide_anchors_reference(q: float, q_b: np.ndarray, C_h: np.ndarray, v_h: np.ndarray) -> None:
+    """Plain-numpy :func:`slide_anchors`."""
+    q_b[:] = np.clip(q_b, q - v_h * C_h, q + v_h * C_h)
