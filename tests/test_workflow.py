@@ -6,7 +6,7 @@ import re
 import pandas as pd
 import pytest
 
-from .conftest import snakemake
+from .conftest import copy_repo, snakemake
 
 pytestmark = pytest.mark.slow
 
@@ -190,3 +190,20 @@ def test_chapter_7_runs_and_says_why_when_runs_are_too_short(smoke_run):
     assert shown["g [µm/K]"] == json.loads((res / "gamma_t.json").read_text())["g"]
     assert shown["a0 [C/m]"] == json.loads((smoke_run / "results/pi_p885/ch5/observer.json").read_text())["a0"]
     assert (shown["tau [s]"] is None) == (not model["identified"])
+
+
+def test_every_job_that_reads_a_capture_takes_its_qc_report(tmp_path):
+    # check_capture fails on a bad capture: a job that takes the capture without its report would
+    # still run on it (and under --keep-going make tables from it)
+    dry = snakemake(copy_repo(tmp_path / "repo"), "-n")
+    assert dry.returncode == 0, dry.stderr[-2000:]
+    jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    input: (.*)$", dry.stdout + dry.stderr, re.M)
+    readers = 0
+    for rule, inputs in jobs:
+        inputs = inputs.split(", ")
+        captures = [m.groups() for m in map(re.compile(r"raw/([^/]+)/(\w+)\.nc$").match, inputs) if m]
+        if rule != "check_capture" and captures:
+            readers += 1
+            missing = [f"results/{d}/qc/{e}.json" for d, e in captures if f"results/{d}/qc/{e}.json" not in inputs]
+            assert missing == [], (rule, missing)
+    assert readers > 50
