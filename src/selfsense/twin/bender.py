@@ -52,7 +52,7 @@ from .drive import Drive, drive_from_protocol
 from .instruments import SlowProcess
 from .maxwell import (MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step,
                       slide_anchors, slide_anchors_reference, span)
-from .params import CreepParams, HysteresisParams, _build
+from .params import CreepParams, HysteresisParams, build_sections
 
 #: kernel output columns, in order
 OUTPUTS = ("V", "I", "I_meter", "Q", "U_H", "U_c", "i_t", "i_C", "i_l")
@@ -111,15 +111,7 @@ class BenderParams:
 
     @classmethod
     def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> "BenderParams":
-        kinds = {f.name: f.type for f in fields(cls)}
-        missing = sorted(set(kinds) - set(twin))
-        unknown = sorted(set(twin) - set(kinds))
-        if missing or unknown:
-            raise ValueError(f"{where}: missing key(s) {', '.join(missing) or '-'}; "
-                             f"unknown key(s) {', '.join(unknown) or '-'}")
-        types = {"actuator": ActuatorParams, "hysteresis": HysteresisParams, "creep": CreepParams,
-                 "amplifier": AmplifierParams, "pid": PIDParams, "instruments": BenderInstruments}
-        return cls(**{name: _build(kind, twin[name], f"{where}.{name}") for name, kind in types.items()})
+        return build_sections(cls, twin, where)
 
     def truth_attrs(self) -> dict[str, float | np.ndarray]:
         """Flat {section_key: value} of every parameter, for the capture's /truth group."""

@@ -7,7 +7,7 @@ the instruments' data sheets); none is an analysis setting. Units are SI.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
-from typing import Any, Mapping
+from typing import Any, Mapping, get_type_hints
 
 import numpy as np
 
@@ -18,6 +18,18 @@ def _build(cls, values: Mapping[str, Any], where: str):
     if unknown:
         raise ValueError(f"{where}: unknown key(s) {', '.join(unknown)}")
     return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items()})
+
+
+def build_sections(cls, twin: Mapping[str, Any], where: str):
+    """A twin's parameters ``cls`` (a dataclass of sections) from a manifest's twin block: every
+    section present and none unknown, each built into the type its field is annotated with."""
+    kinds = get_type_hints(cls)
+    missing = sorted(set(kinds) - set(twin))
+    unknown = sorted(set(twin) - set(kinds))
+    if missing or unknown:
+        raise ValueError(f"{where}: missing key(s) {', '.join(missing) or '-'}; "
+                         f"unknown key(s) {', '.join(unknown) or '-'}")
+    return cls(**{name: _build(kind, twin[name], f"{where}.{name}") for name, kind in kinds.items()})
 
 
 @dataclass(frozen=True)
@@ -140,19 +152,11 @@ class TwinParams:
 
     @classmethod
     def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> "TwinParams":
-        parts = {f.name: f.type for f in fields(cls)}
-        missing = sorted(set(parts) - set(twin))
-        if missing:
-            raise ValueError(f"{where}: missing key(s) {', '.join(missing)}")
-        kinds = {"stack": StackParams, "hysteresis": HysteresisParams, "creep": CreepParams,
-                 "ripple": RippleParams, "thermal": ThermalParams, "instruments": InstrumentParams}
-        built = {}
-        for name, kind in kinds.items():
-            values = dict(twin[name])
-            if name == "instruments":
-                values["ranges"] = {k: tuple(v) for k, v in values.get("ranges", {}).items()}
-            built[name] = _build(kind, values, f"{where}.{name}")
-        return cls(**built)
+        if "instruments" in twin:  # the ADC ranges are pairs, nested below the section
+            instruments = dict(twin["instruments"])
+            instruments["ranges"] = {k: tuple(v) for k, v in instruments.get("ranges", {}).items()}
+            twin = dict(twin) | {"instruments": instruments}
+        return build_sections(cls, twin, where)
 
     def truth_attrs(self) -> dict[str, float]:
         """Flat {section_key: value} of every scalar parameter, for the capture's /truth group."""
