@@ -49,7 +49,8 @@ def test_plan_from_capture_is_the_plan_the_capture_was_sampled_with(tmp_path, nf
         assert plan_from_capture(cap, 4) == SamplingPlan(1e5, 12, nf, 4)
 
 
-def test_a_cmd_round_trip(tmp_path):
+def test_identified_constants_round_trip(tmp_path):
     identified = pd.DataFrame([{"key": "R", "value": 2e9, "unit": "Ohm"}, {"key": "a_cmd", "value": 16.7, "unit": "m/C"}])
     write_table(identified, tmp_path / "identified.csv")
-    assert ronkanen.load_a_cmd(tmp_path / "identified.csv") == 16.7
+    assert ronkanen.load_identified(tmp_path / "identified.csv", "a_cmd") == 16.7
+    assert ronkanen.load_identified(tmp_path / "identified.csv", "R") == 2e9

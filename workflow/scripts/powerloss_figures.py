@@ -19,7 +19,7 @@ def main(hold, ramps, captures, table_1, table_2, identified, out_dir, drift_sta
     records = ronkanen.read_records([hold, *ramps, *captures.values()])
     built = ronkanen.figures_paper(records[Path(hold).stem], [records[Path(r).stem] for r in ramps],
                                    ronkanen.by_kind(records, captures), pd.read_csv(table_1), pd.read_csv(table_2),
-                                   ronkanen.load_a_cmd(identified), drift_start, velocity_window)
+                                   ronkanen.load_identified(identified, "a_cmd"), drift_start, velocity_window)
     inputs = [hold, *ramps, *captures.values(), table_1, table_2, identified]
     config = {"velocity_window": velocity_window, "drift_start": drift_start}
     for n, fig in built.items():

@@ -14,7 +14,7 @@ from selfsense.provenance import script_logging, write_table
 def main(captures, identified, performance, repeatability, drift_start, drift_duration=120.0, log=None):
     """captures: {"<decay|repeat|drift>_<current|voltage>": path}."""
     logger = script_logging(log)
-    a_cmd = ronkanen.load_a_cmd(identified)
+    a_cmd = ronkanen.load_identified(identified, "a_cmd")
     kind = ronkanen.by_kind(ronkanen.read_records(captures.values()), captures)
     table = ronkanen.performance(kind["decay"], kind["repeat"], kind["drift"], a_cmd, drift_start, drift_duration)
     cycles = pd.concat([ronkanen.cycles(rec, a_cmd).assign(control=c) for c, rec in kind["repeat"].items()])

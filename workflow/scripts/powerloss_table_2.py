@@ -13,8 +13,7 @@ from selfsense.provenance import script_logging, write_table
 
 def main(table_1, identified, table, log=None):
     logger = script_logging(log)
-    R = float(pd.read_csv(identified).set_index("key").loc["R", "value"])
-    result = ronkanen.table_2_both(pd.read_csv(table_1), R)
+    result = ronkanen.table_2_both(pd.read_csv(table_1), ronkanen.load_identified(identified, "R"))
     write_table(result, table, inputs=[table_1, identified])
     logger.info("\n%s", result.to_string())
 

@@ -91,9 +91,9 @@ def by_kind(records: Mapping[str, Record], captures: Mapping[str, str | Path]) -
     return {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
 
 
-def load_a_cmd(path: str | Path) -> float:
-    """a_cmd [m/C] from the identified constants :func:`identify` returns, as written to CSV."""
-    return float(pd.read_csv(path).set_index("key").loc["a_cmd", "value"])
+def load_identified(path: str | Path, key: str) -> float:
+    """One of the identified constants :func:`identify` returns (e.g. R [Ω], a_cmd [m/C]), as written to CSV."""
+    return float(pd.read_csv(path).set_index("key").loc[key, "value"])
 
 
 def ramp_row(rec: Record, velocity_window: float) -> dict[str, object]:
