@@ -16,10 +16,11 @@ def main(stats, creep_traces, creep_step_at, table, creep_table, transient_s=10.
     """stats: {frequency [Hz]: observe-stats json path}."""
     logger = script_logging(log)
     by_f = {float(f): json.loads(Path(p).read_text()) for f, p in stats.items()}
-    write_table(table_5_4(by_f), table, inputs=list(stats.values()))
+    t54 = table_5_4(by_f)
+    write_table(t54, table, inputs=list(stats.values()))
     creep = creep_errors(read_series(creep_traces), creep_step_at, transient_s)
     write_table(creep, creep_table, inputs=[creep_traces], config={"transient_s": transient_s})
-    logger.info("\n%s\n%s", table_5_4(by_f).to_string(), creep.to_string())
+    logger.info("\n%s\n%s", t54.to_string(), creep.to_string())
 
 
 if "snakemake" in globals():

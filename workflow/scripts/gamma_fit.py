@@ -6,12 +6,9 @@ Alone: python workflow/scripts/gamma_fit.py results/pi_p885/ripple/ch5_sine_0p1h
 import argparse
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
 from selfsense.capture import read_series
-from selfsense.chapters.ch5 import fit_chosen_gamma, gamma_data
-from selfsense.gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma
+from selfsense.chapters.ch5 import basis_table, fit_chosen_gamma, gamma_data
+from selfsense.gamma import GammaPolynomial, anova_table, coefficient_table
 from selfsense.provenance import provenance, script_logging, write_json, write_table
 
 
@@ -19,16 +16,11 @@ def main(series, out, n_periods, orders=(3, 4, 5, 6), log=None):
     logger = script_logging(log)
     C, x = gamma_data(read_series(series), n_periods)
     table, order, fit = fit_chosen_gamma(C, x, orders)
-    raw = fit_gamma(C, x, order, basis="raw")
-    basis = pd.DataFrame([{"order": order, "condition number (raw power basis)": fit.condition_number,
-                           "condition number (scaled Legendre basis)": fit.condition_number_scaled,
-                           "max |fitted raw − fitted scaled| [µm]": float(np.max(np.abs(raw.fitted_um - fit.fitted_um))),
-                           "points": len(C)}])
     cfg = {"n_periods": n_periods, "orders": list(orders)}
     write_table(table, out["table_5_1"], inputs=[series], config=cfg)
     write_table(anova_table(fit).reset_index(names="source"), out["anova"], inputs=[series], config=cfg)
     write_table(coefficient_table(fit).reset_index(names="coefficient"), out["coefficients"], inputs=[series], config=cfg)
-    write_table(basis, out["basis"], inputs=[series], config=cfg)
+    write_table(basis_table(C, x, order, fit), out["basis"], inputs=[series], config=cfg)
     write_json(GammaPolynomial.from_fit(fit).record() | {"provenance": provenance([series], cfg)},
                out["gamma"])
     logger.info("chosen order %d\n%s", order, table.to_string())

@@ -52,6 +52,16 @@ def fit_chosen_gamma(C: np.ndarray, x: np.ndarray, orders: Iterable[int]):
     return table, order, fit_gamma(C, x, order)
 
 
+def basis_table(C: np.ndarray, x: np.ndarray, order: int, fit) -> pd.DataFrame:
+    """Why Γ is fitted in the scaled basis: the condition numbers of both bases, and how far the
+    raw power basis's fit (what Excel solves) lies from ``fit``, the scaled one, of that order."""
+    raw = fit_gamma(C, x, order, basis="raw")
+    return pd.DataFrame([{"order": order, "condition number (raw power basis)": fit.condition_number,
+                          "condition number (scaled Legendre basis)": fit.condition_number_scaled,
+                          "max |fitted raw − fitted scaled| [µm]": float(np.max(np.abs(raw.fitted_um - fit.fitted_um))),
+                          "points": len(C)}])
+
+
 def offset_compensated_charge(series):
     """Position from its start and the integrated current with q0 + I0·t fitted out (Fig 5.2, 5.4):
     returns (x [m], q [C], the fit)."""
