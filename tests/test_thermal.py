@@ -26,7 +26,6 @@ from selfsense.thermal import (
     linear_fit,
     power_loss,
     predict_temperature,
-    self_heating_temperature,
     steady_state_rise,
     zoh_coefficients,
 )
@@ -215,7 +214,7 @@ def test_self_heating_stream_equals_batch_and_is_chunk_invariant():
     x = U_P / k_over_alpha
     model = ThermalModel(tau=5.0, gamma=50.0)  # fast model so heating is visible
 
-    out = self_heating_temperature(U, x, I, fs, model, k_over_alpha, interval=0.1, chunk_size=777)
+    out = SelfHeatingEstimator(fs, model, k_over_alpha, interval=0.1).run(U, x, I, chunk_size=777)
     tt, P = average_power(power_loss(U, x, I, k_over_alpha), fs, 0.1)
     np.testing.assert_allclose(out.t, tt)
     # chunked vs whole: means of 480 samples whose loss term cancels |U|/|R·I| of its digits; the
@@ -226,7 +225,7 @@ def test_self_heating_stream_equals_batch_and_is_chunk_invariant():
     np.testing.assert_allclose(out.T, predict_temperature(tt, P, model), rtol=0, atol=t_tol)
     assert out.T[-1] > 23.0 + 0.9 * model.gamma * R * np.mean(I**2) * (1 - np.exp(-19.9 / 5.0))
 
-    big = self_heating_temperature(U, x, I, fs, model, k_over_alpha, interval=0.1, chunk_size=10**7)
+    big = SelfHeatingEstimator(fs, model, k_over_alpha, interval=0.1).run(U, x, I, chunk_size=10**7)
     np.testing.assert_allclose(big.T, out.T, rtol=0, atol=t_tol)
 
     est = SelfHeatingEstimator(fs, model, k_over_alpha, interval=0.1)

@@ -58,7 +58,6 @@ __all__ = [
     "predict_temperature",
     "SelfHeatingTrace",
     "SelfHeatingEstimator",
-    "self_heating_temperature",
     "ThermalFit",
     "identify_step",
     "identify_series",
@@ -433,41 +432,27 @@ class SelfHeatingEstimator:
         self._dT = float(zf[0])
         return SelfHeatingTrace(t, P, self.T_amb + dT)
 
+    def run(self, U, x, I, chunk_size: int = 1 << 18) -> SelfHeatingTrace:
+        """Eq 7.12 over whole records: ``T_SH(PS)`` or ``T_SH(HPO)`` depending on which position
+        ``x`` is passed, from the estimator's current state.
 
-def self_heating_temperature(
-    U,
-    x,
-    I,
-    fs: float,
-    model: ThermalModel,
-    k_over_alpha: float = K_OVER_ALPHA_TABLE_7_1,
-    interval: float = 0.1,
-    T0: float | None = None,
-    T_amb: float = T_REF,
-    t0: float = 0.0,
-    chunk_size: int = 1 << 18,
-) -> SelfHeatingTrace:
-    """Eq 7.12 over whole records: ``T_SH(PS)`` or ``T_SH(HPO)`` depending on
-    which position ``x`` is passed.
-
-    The inputs are sliced ``chunk_size`` samples at a time, so memory-mapped or
-    lazily loaded arrays are never materialised whole.  The incomplete final
-    interval is dropped (its power would act only after the last time stamp).
-    """
-    if int(chunk_size) < 1:
-        raise ValueError("chunk_size must be at least 1")
-    n = len(U)
-    if len(x) != n or len(I) != n:
-        raise ValueError("U, x and I must have the same length")
-    est = SelfHeatingEstimator(fs, model, k_over_alpha, interval, T0, T_amb, t0)
-    parts = []
-    for i in range(0, n, int(chunk_size)):
-        j = i + int(chunk_size)
-        parts.append(est.update(np.asarray(U[i:j]), np.asarray(x[i:j]), np.asarray(I[i:j])))
-    if not parts:
-        e = np.empty(0)
-        return SelfHeatingTrace(e, e, e)
-    return SelfHeatingTrace(*(np.concatenate([getattr(p, f) for p in parts]) for f in "tPT"))
+        The inputs are sliced ``chunk_size`` samples at a time, so memory-mapped or lazily loaded
+        arrays are never materialised whole.  The incomplete final interval is dropped (its power
+        would act only after the last time stamp).
+        """
+        if int(chunk_size) < 1:
+            raise ValueError("chunk_size must be at least 1")
+        n = len(U)
+        if len(x) != n or len(I) != n:
+            raise ValueError("U, x and I must have the same length")
+        parts = []
+        for i in range(0, n, int(chunk_size)):
+            j = i + int(chunk_size)
+            parts.append(self.update(np.asarray(U[i:j]), np.asarray(x[i:j]), np.asarray(I[i:j])))
+        if not parts:
+            e = np.empty(0)
+            return SelfHeatingTrace(e, e, e)
+        return SelfHeatingTrace(*(np.concatenate([getattr(p, f) for p in parts]) for f in "tPT"))
 
 
 # --------------------------------------------------------------------------
