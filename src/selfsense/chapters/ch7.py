@@ -4,7 +4,7 @@ frequency effect on C_e–x (Fig 7.8) and the coupled observer/thermal estimatio
 from __future__ import annotations
 
 import textwrap
-from typing import Iterable, Mapping
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
