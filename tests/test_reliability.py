@@ -479,6 +479,18 @@ def start_snakemake(repo, config, *targets):
                             cwd=repo, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
 
 
+class WriterTemporary:
+    """The temporary a writer makes beside ``path`` (``<name>.<pid>-<random>.part``: unique per
+    writer, so that two runs never write into one file)."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.name = self.path.name + ".part"
+
+    def exists(self):
+        return any(self.path.parent.glob(self.path.name + ".*.part"))
+
+
 def kill_when_any_exists(proc, paths, timeout=900):
     """SIGKILL the whole process group as soon as one of paths exists; the path seen, or None."""
     deadline = time.monotonic() + timeout
@@ -511,7 +523,7 @@ def test_killed_run_resumes_and_never_takes_a_half_written_file(smoke_run, tmp_p
     target = "results/pi_p885/ch3/hysteresis.csv"
 
     # 1. killed in the middle of `simulate`: the capture exists only as its .part file
-    seen = kill_when_any_exists(start_snakemake(repo, config, target), [Path(f"{capture}.part")])
+    seen = kill_when_any_exists(start_snakemake(repo, config, target), [WriterTemporary(capture)])
     assert seen is not None, "simulate finished before it could be killed"
     assert not capture.exists()
     assert incomplete_markers(repo)
@@ -519,7 +531,7 @@ def test_killed_run_resumes_and_never_takes_a_half_written_file(smoke_run, tmp_p
     # 2. resumed (Snakemake's lock outlives a SIGKILL: --unlock first), killed in an analysis rule
     assert run_snakemake(repo, config, "--unlock").returncode == 0
     proc = start_snakemake(repo, config, target)
-    seen = kill_when_any_exists(proc, [Path(f"{series}.part"), repo / "logs" / "pi_p885" / "ch3_hysteresis.log"])
+    seen = kill_when_any_exists(proc, [WriterTemporary(series), repo / "logs" / "pi_p885" / "ch3_hysteresis.log"])
     assert seen is not None, "the analysis finished before it could be killed"
     assert capture.exists() and not table.exists()
     assert incomplete_markers(repo)

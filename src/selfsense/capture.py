@@ -11,14 +11,21 @@ Every failure raises :class:`CaptureError` whose message is one line that starts
 
 from __future__ import annotations
 
+import hashlib
+import logging
 import math
 import os
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Mapping, Sequence
 
 import netCDF4
 import numpy as np
+
+from .provenance import temporary_path
+
+LOG = logging.getLogger("selfsense.capture")
 
 #: int16 code reserved for missing samples (NaN); the ADC range maps onto ±INT16_FULL.
 FILL = np.int16(-32768)
@@ -30,6 +37,8 @@ FS_RTOL = 1e-6
 #: random access; captures are streamed in order, so a few chunks per variable suffice and a
 #: capture's memory stays flat however long it is (benchmarks/README.md, "Streaming memory").
 CHUNK_CACHE_BYTES = 1 << 20
+#: long writes and streamed reads log their progress this often (fraction of the samples)
+PROGRESS_STEP = 0.1
 
 
 class CaptureError(ValueError):
@@ -113,11 +122,33 @@ def _fail(path: os.PathLike | str, problem: str) -> CaptureError:
     return CaptureError(f"{path}: {problem}")
 
 
-class CaptureWriter:
-    """Write a capture sequentially in chunks; the file appears only when complete.
+class _Progress:
+    """Logs "k % of n samples …, rate" every PROGRESS_STEP of n, so that `tail -f` on a long
+    rule's log shows it moving."""
 
-    Data go to ``<path>.part`` and are renamed over ``path`` on a clean exit of the ``with``
-    block, so an interrupted run never leaves a file that looks complete.
+    def __init__(self, what: str, total: int):
+        self.what, self.total = what, max(int(total), 1)
+        self.start = time.monotonic()
+        self.next = PROGRESS_STEP
+
+    def __call__(self, done: int) -> None:
+        if done / self.total + 1e-12 < self.next:
+            return
+        elapsed = max(time.monotonic() - self.start, 1e-9)
+        LOG.info("%s: %3.0f %% of %d samples (%.3g M samples/s)", self.what, 100 * done / self.total,
+                 self.total, done / elapsed / 1e6)
+        self.next = (math.floor(done / self.total / PROGRESS_STEP + 1e-9) + 1) * PROGRESS_STEP
+
+
+class CaptureWriter:
+    """Write a capture sequentially in chunks; the file appears only when complete and verified.
+
+    Data go to a temporary beside ``path`` that no other writer uses
+    (:func:`~selfsense.provenance.temporary_path`). On a clean exit of the ``with`` block the
+    temporary is read back whole and compared, variable by variable, with a hash of what was
+    written; only then is it renamed over ``path``. An interrupted or concurrent run therefore
+    never leaves a file that looks complete, and every chunk carries a Fletcher-32 checksum so
+    a capture damaged later fails on read (its QC) instead of giving numbers.
     """
 
     def __init__(
@@ -135,7 +166,7 @@ class CaptureWriter:
         truth_decimation: int = 1,
     ):
         self.path = Path(path)
-        self.tmp = self.path.with_name(self.path.name + ".part")
+        self.tmp: Path | None = None
         self.channels = {c.name: c for c in channels}
         self.n_samples = int(n_samples)
         self.n_slow = int(n_slow)
@@ -149,9 +180,11 @@ class CaptureWriter:
         self._zlib = zlib
         self._complevel = complevel
         self._nc: netCDF4.Dataset | None = None
+        self._digest: dict[str, "hashlib._Hash"] = {}
+        self._progress = _Progress(f"{self.path} written", self.n_samples)
 
     def __enter__(self) -> "CaptureWriter":
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = temporary_path(self.path)
         nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
         nc.setncatts({k: _attr(v) for k, v in self._attrs.items()})
         nc.Conventions = CONVENTIONS
@@ -164,7 +197,7 @@ class CaptureWriter:
             n = self.n_samples if spec.dim == "time" else self.n_slow
             v = nc.createVariable(
                 spec.name, "i2", (spec.dim,), zlib=self._zlib, complevel=self._complevel,
-                shuffle=True, chunksizes=(max(1, min(self._chunk_len, n)),), fill_value=FILL,
+                shuffle=True, fletcher32=True, chunksizes=(max(1, min(self._chunk_len, n)),), fill_value=FILL,
             )
             v.set_auto_maskandscale(False)
             v.setncatts({
@@ -179,13 +212,13 @@ class CaptureWriter:
             g.createDimension("time_truth", n_truth)
             for name in self.truth:
                 g.createVariable(name, "f4", ("time_truth",), zlib=self._zlib, complevel=self._complevel,
-                                 shuffle=True, chunksizes=(max(1, min(self._chunk_len, n_truth)),))
+                                 shuffle=True, fletcher32=True, chunksizes=(max(1, min(self._chunk_len, n_truth)),))
         _limit_chunk_cache(nc)
         self._nc = nc
         return self
 
     def _time_var(self, nc: netCDF4.Dataset, dim: str, n: int) -> None:
-        v = nc.createVariable(dim, "f8", (dim,), zlib=True, complevel=1, shuffle=True,
+        v = nc.createVariable(dim, "f8", (dim,), zlib=True, complevel=1, shuffle=True, fletcher32=True,
                               chunksizes=(max(1, min(self._chunk_len, n)),))
         v.units = "s"
         v.standard_name = "time"
@@ -202,13 +235,21 @@ class CaptureWriter:
         self._pos[dim] = start + n
         if dim == "time_truth":
             for name, values in data.items():
-                self._nc["truth"][name][start:start + n] = values
+                self._put(f"truth/{name}", start, np.asarray(values, dtype=np.float32))
             return
-        self._nc[dim][start:start + n] = (start + np.arange(n)) / self._rate[dim]
+        self._put(dim, start, (start + np.arange(n)) / self._rate[dim])
         for name, values in data.items():
             codes, clipped = self.channels[name].pack(values)
             self.clipped[name] += clipped
-            self._nc[name][start:start + n] = codes
+            self._put(name, start, codes)
+        if dim == "time":
+            self._progress(start + n)
+
+    def _put(self, name: str, start: int, values: np.ndarray) -> None:
+        """Write one variable's next values and hash them for the read-back (in order: the
+        writer appends sequentially)."""
+        self._nc[name][start:start + len(values)] = values
+        self._digest.setdefault(name, hashlib.blake2b()).update(np.ascontiguousarray(values).tobytes())
 
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
         """The twin's true parameters, as attributes of /truth (states go through ``write``)."""
@@ -230,7 +271,31 @@ class CaptureWriter:
         if short:
             self.tmp.unlink(missing_ok=True)
             raise ValueError(f"{self.path}: writer stopped early at {short} samples")
+        try:
+            _verify(self.tmp, self._digest, self._chunk_len)
+        except CaptureError as err:
+            self.tmp.unlink(missing_ok=True)
+            raise _fail(self.path, f"not renamed into place: {str(err).split(': ', 1)[1]}") from None
         os.replace(self.tmp, self.path)
+
+
+def _verify(path: Path, digests: Mapping[str, "hashlib._Hash"], chunk_len: int) -> None:
+    """Read every written variable back and compare it with the hash taken while writing."""
+    try:
+        with netCDF4.Dataset(path, "r") as nc:
+            for name, digest in digests.items():
+                var = nc[name]
+                var.set_auto_maskandscale(False)
+                h = hashlib.blake2b()
+                step = 16 * chunk_len
+                for start in range(0, var.shape[0], step):
+                    h.update(np.ascontiguousarray(var[start:start + step]).tobytes())
+                if h.digest() != digest.digest():
+                    raise _fail(path, f"variable {name} read back differs from what was written")
+    except CaptureError:
+        raise
+    except Exception as err:  # HDF5 checksum or structure errors surface as RuntimeError/OSError
+        raise _fail(path, f"read-back failed ({type(err).__name__}: {err})") from None
 
 
 def _limit_chunk_cache(group: netCDF4.Dataset | netCDF4.Group) -> None:
@@ -272,6 +337,8 @@ class Capture:
         self.n_slow = len(nc.dimensions["time_slow"]) if "time_slow" in nc.dimensions else 0
         self.channels = [v for v in nc.variables if v in CHANNEL_UNITS]
         self.stats = ChunkStats()
+        self.required: frozenset[str] = frozenset()
+        self._finite_seen: set[str] = set()
 
     # -- context management -------------------------------------------------------------
     def close(self) -> None:
@@ -299,9 +366,21 @@ class Capture:
     def _decode(self, name: str, codes: np.ndarray) -> np.ndarray:
         var = self._nc[name]
         self.stats.add(name, codes)
+        missing = codes == FILL
+        if not missing.all():
+            self._finite_seen.add(name)
         values = codes.astype(np.float64) * float(var.scale_factor) + float(var.add_offset)
-        values[codes == FILL] = np.nan
+        values[missing] = np.nan
         return values
+
+    def _check_not_all_missing(self, names: Sequence[str], dim: str) -> None:
+        """After a whole pass: a channel the analysis requires that held no sample at all stops
+        it here, with one line, instead of deep inside (empty reductions, division by zero)."""
+        empty = [n for n in names if n in self.required and n not in self._finite_seen]
+        if empty:
+            total = self.n if dim == "time" else self.n_slow
+            raise _fail(self.path, f"channel {empty[0]} is entirely NaN (all {total} samples missing): "
+                                   f"this analysis needs it")
 
     def read(self, names: Sequence[str], start: int = 0, stop: int | None = None,
              dim: str = "time") -> dict[str, np.ndarray]:
@@ -312,6 +391,9 @@ class Capture:
             var = self._nc[name]
             var.set_auto_maskandscale(False)
             out[name] = self._decode(name, np.asarray(var[start:stop]))
+        total = self.n if dim == "time" else self.n_slow
+        if start == 0 and (stop is None or stop >= total):
+            self._check_not_all_missing(names, dim)
         return out
 
     def iter_chunks(self, names: Sequence[str], chunk_len: int = 1 << 18,
@@ -324,6 +406,7 @@ class Capture:
         n = self.n if dim == "time" else self.n_slow
         rate = self.fs if dim == "time" else float(self._nc["time_slow"].sampling_rate)
         tvar = self._nc[dim]
+        progress = _Progress(f"{self.path} read", n)
         for start in range(0, n, chunk_len):
             stop = min(n, start + chunk_len)
             t = np.asarray(tvar[start:stop], dtype=np.float64)
@@ -333,6 +416,8 @@ class Capture:
                 raise _fail(self.path, f"time axis breaks at sample {k} (t = {t[k - start]:.6g} s, "
                                        f"expected {k / rate:.6g} s at fs = {rate:g} Hz)")
             yield start, self.read(names, start, stop, dim)
+            progress(stop)
+        self._check_not_all_missing(names, dim)
 
     def read_truth(self) -> tuple[dict[str, object], dict[str, np.ndarray]]:
         """The twin's ground truth (parameters, states); only tests and the scorecard call this."""
@@ -373,7 +458,9 @@ def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Captur
     except Exception as err:  # a truncated file can fail on any access, not only on open
         nc.close()
         raise _fail(path, f"unreadable capture ({type(err).__name__}: {err})") from None
-    return Capture(path, nc)
+    capture = Capture(path, nc)
+    capture.required = frozenset(require)
+    return capture
 
 
 def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) -> None:
@@ -385,8 +472,8 @@ def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) ->
     if "fs" not in nc.ncattrs():
         raise _fail(path, "missing global attribute 'fs'")
     fs = float(nc.getncattr("fs"))
-    if not fs > 0:
-        raise _fail(path, f"fs = {fs} must be positive")
+    if not (math.isfinite(fs) and fs > 0):
+        raise _fail(path, f"fs = {fs} must be positive and finite")
     missing = [c for c in require if c not in nc.variables]
     if missing:
         raise _fail(path, f"missing channel(s) {', '.join(missing)} needed by this analysis")
@@ -399,6 +486,10 @@ def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) ->
             raise _fail(path, f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}")
         if var.dtype != np.int16 or "scale_factor" not in var.ncattrs():
             raise _fail(path, f"channel {name} is not packed int16 with scale_factor/add_offset")
+        scale, offset = float(var.scale_factor), float(getattr(var, "add_offset", 0.0))
+        if not (math.isfinite(scale) and scale > 0 and math.isfinite(offset)):
+            raise _fail(path, f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}: "
+                              f"the packing needs a finite, positive scale and a finite offset")
     t = nc["time"]
     t0, t1 = float(t[0]), float(t[n - 1])
     if abs(t0) > 0.25 / fs or abs(t1 - (n - 1) / fs) > 0.25 / fs + FS_RTOL * t1:
@@ -451,7 +542,7 @@ class SeriesWriter:
     def __init__(self, path: os.PathLike | str, variables: Mapping[str, str],
                  attrs: Mapping[str, object] | None = None, dim: str = "block"):
         self.path = Path(path)
-        self.tmp = self.path.with_name(self.path.name + ".part")
+        self.tmp: Path | None = None
         self.variables = dict(variables)  # name -> units
         self.attrs = dict(attrs or {})
         self.dim = dim
@@ -459,7 +550,7 @@ class SeriesWriter:
         self._nc: netCDF4.Dataset | None = None
 
     def __enter__(self) -> "SeriesWriter":
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = temporary_path(self.path)
         nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
         nc.setncatts({k: _attr(v) for k, v in self.attrs.items()})
         nc.createDimension(self.dim, None)

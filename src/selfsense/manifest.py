@@ -1,29 +1,46 @@
 """Config, dataset manifests and the experiment catalogue: loading and one-line validation.
 
-The JSON schemas live in workflow/schemas/. Snakemake's own ``validate`` fills their defaults in
-the workflow; this module runs the same schemas first so that a bad document fails with one line
-naming the file and the offending key, and expands the catalogue into concrete experiments.
+The JSON schemas are package data (``selfsense/schemas``): they are the library's contracts, so
+an installed package (editable or not) has them. Snakemake's own ``validate`` fills their
+defaults in the workflow; this module runs the same schemas first so that a bad document fails
+with one line naming the file and the offending key, and expands the catalogue into concrete
+experiments. The catalogue (``workflow/protocols``) belongs to the workflow and is found from
+the folder it runs in (or given).
 """
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 from typing import Any, Mapping
 
 import jsonschema
 import yaml
 
-ROOT = Path(__file__).resolve().parents[2]
-SCHEMAS = ROOT / "workflow" / "schemas"
-PROTOCOLS = ROOT / "workflow" / "protocols"
-#: dataset names become paths: no separators, no dots at the start
-DATASET_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*$")
+SCHEMAS = resources.files("selfsense") / "schemas"
+#: the experiment catalogue, relative to the folder the workflow (or a script run alone) runs in
+PROTOCOLS = Path("workflow") / "protocols"
+#: dataset names become paths: no separators, no dots at the start (matched whole: "$" alone
+#: would let a trailing newline through)
+DATASET_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
+#: experiment names become file names and Snakemake wildcards (no "-": the wildcard excludes it)
+EXPERIMENT_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_]*")
+#: YAML nested deeper than this is refused before it is built: libyaml's composer recurses in C,
+#: and ≈ 100 000 levels overflow the stack (SIGSEGV) instead of raising
+MAX_YAML_DEPTH = 100
+#: and so is a manifest or config larger than this (they are a few kB)
+MAX_YAML_BYTES = 4 << 20
 
 
 class ManifestError(ValueError):
     """A config, manifest or protocol that breaks its schema; one line naming file and key."""
+
+    def __init__(self, message: str, key: str | None = None):
+        super().__init__(message)
+        self.key = key
 
 
 def _where(error: jsonschema.ValidationError) -> str:
@@ -31,7 +48,8 @@ def _where(error: jsonschema.ValidationError) -> str:
 
 
 def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
-    """Validate ``doc`` against workflow/schemas/<schema_name>; raise ManifestError on the first problem."""
+    """Validate ``doc`` against the schema <schema_name>; raise ManifestError on the first problem."""
+    _check_finite(doc, source)
     schema = load_yaml(SCHEMAS / schema_name)
     validator = jsonschema.Draft202012Validator(schema)
     error = jsonschema.exceptions.best_match(validator.iter_errors(doc))
@@ -41,10 +59,21 @@ def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
         allowed = set(error.schema.get("properties", {}))
         extra = sorted(set(error.instance) - allowed)
         key = f"{_where(error)}.{extra[0]}" if error.absolute_path else extra[0]
-        raise ManifestError(f"{source}: unknown key {key} (allowed: {', '.join(sorted(allowed))})")
+        raise ManifestError(f"{source}: unknown key {key} (allowed: {', '.join(sorted(allowed))})", key)
     if error.validator == "required":
-        raise ManifestError(f"{source}: {_where(error)}: {error.message}")
-    raise ManifestError(f"{source}: key {_where(error)}: {error.message}")
+        raise ManifestError(f"{source}: {_where(error)}: {error.message}", _where(error))
+    raise ManifestError(f"{source}: key {_where(error)}: {error.message}", _where(error))
+
+
+def _check_finite(doc: Any, source: str | Path, where: str = "") -> None:
+    """No NaN or infinity anywhere: JSON Schema's bounds let NaN through (every comparison with
+    NaN is false), and no physical quantity, rate or range of ours is infinite."""
+    if isinstance(doc, float) and not math.isfinite(doc):
+        key = where or "(top level)"
+        raise ManifestError(f"{source}: key {key}: {doc} is not a finite number", key)
+    items = doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    for k, v in items:
+        _check_finite(v, source, f"{where}.{k}" if where else str(k))
 
 
 class _Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
@@ -63,12 +92,26 @@ _Loader.add_implicit_resolver(
 
 
 def load_yaml(path: str | Path) -> Any:
-    path = Path(path)
+    """A YAML file (YAML 1.2 floats), its size and nesting bounded before it is built."""
     try:
-        with open(path) as fh:
-            return yaml.load(fh, Loader=_Loader)
+        text = (path if hasattr(path, "read_text") else Path(path)).read_text()  # a file or package data
     except FileNotFoundError:
         raise ManifestError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise ManifestError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
+    try:
+        if len(text) > MAX_YAML_BYTES:
+            raise ManifestError(f"{path}: {len(text)} bytes, more than a manifest or config can need "
+                                f"({MAX_YAML_BYTES} at most)")
+        depth = 0
+        for event in yaml.parse(text, Loader=_Loader):  # events only: nothing is composed yet
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+                depth += 1
+                if depth > MAX_YAML_DEPTH:
+                    raise ManifestError(f"{path}: nested deeper than {MAX_YAML_DEPTH} levels")
+            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                depth -= 1
+        return yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = f" at line {mark.line + 1}" if mark else ""
@@ -76,15 +119,39 @@ def load_yaml(path: str | Path) -> Any:
 
 
 def check_dataset_name(name: str, source: str | Path) -> None:
-    if not DATASET_NAME.match(name):
+    if not (isinstance(name, str) and DATASET_NAME.fullmatch(name)):
         raise ManifestError(f"{source}: dataset name {name!r} must be letters, digits, '_' or '-' "
-                            "(no path separators or '..')")
+                            "(no path separators or '..')", "datasets")
 
 
-def validate_config(config: Mapping[str, Any], source: str | Path) -> None:
-    validate_document(config, "config.schema.yaml", source)
-    for name in config["datasets"]:
-        check_dataset_name(name, source)
+def check_experiment_name(name: str, source: str | Path) -> None:
+    if not (isinstance(name, str) and EXPERIMENT_NAME.fullmatch(name)):
+        raise ManifestError(f"{source}: key experiments: experiment name {name!r} must be letters, digits "
+                            "or '_' (it becomes a file name and a Snakemake wildcard)", "experiments")
+
+
+def validate_config(config: Mapping[str, Any], source: str | Path,
+                    overrides: Mapping[str, Any] | None = None) -> None:
+    """Validate the merged config. A fault in a key that ``--config`` set is blamed on
+    ``--config``, not on the config files."""
+    try:
+        validate_document(config, "config.schema.yaml", source)
+        for name in config["datasets"]:
+            check_dataset_name(name, source)
+    except ManifestError as err:
+        if overrides and _sets(overrides, err.key):
+            raise ManifestError(f"--config{str(err)[len(str(source)):]}", err.key) from None
+        raise
+
+
+def _sets(overrides: Mapping[str, Any], key: str | None) -> bool:
+    """Whether the --config overrides set (a part of) the dotted key."""
+    node: Any = overrides
+    for part in (key or "").split("."):
+        if not isinstance(node, Mapping) or part not in node:
+            return False
+        node = node[part]
+    return bool(key)
 
 
 def load_config(path: str | Path) -> dict:
@@ -112,6 +179,12 @@ def load_dataset(raw_dir: str | Path, name: str) -> dict:
     validate_document(manifest, "dataset.schema.yaml", path)
     if manifest["name"] != name:
         raise ManifestError(f"{path}: key name: {manifest['name']!r} does not match its folder {name!r}")
+    for channel, (lo, hi) in manifest["daq"]["ranges"].items():
+        if not lo < hi:
+            raise ManifestError(f"{path}: key daq.ranges.{channel}: [{lo:g}, {hi:g}] must be [low, high] "
+                                f"with low < high (the ADC's full scale)", f"daq.ranges.{channel}")
+    for experiment in manifest.get("experiments", ()):
+        check_experiment_name(experiment, path)
     return manifest
 
 
@@ -126,11 +199,12 @@ class Experiment:
     control: str = "open_loop"
 
 
-def expand_protocols(protocol_names: list[str], campaign: str) -> dict[str, Experiment]:
+def expand_protocols(protocol_names: list[str], campaign: str,
+                     directory: str | Path = PROTOCOLS) -> dict[str, Experiment]:
     """The experiment catalogue for a campaign: sets expanded to <name>_s<k>, smoke overrides applied."""
     experiments: dict[str, Experiment] = {}
     for chapter in protocol_names:
-        path = PROTOCOLS / f"{chapter}.yaml"
+        path = Path(directory) / f"{chapter}.yaml"
         doc = load_yaml(path)
         validate_document(doc, "protocol.schema.yaml", path)
         for name, entry in doc["experiments"].items():

@@ -13,6 +13,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import subprocess
 import sys
 from contextlib import contextmanager
@@ -28,13 +29,42 @@ PACKAGES = ("selfsense", "numpy", "scipy", "pandas", "xarray", "netCDF4", "stats
             "numba", "control", "matplotlib", "snakemake")
 
 
+def temporary_path(path: str | os.PathLike, hidden: bool = False) -> Path:
+    """A temporary name beside ``path`` that no other writer uses: ``<name>.<pid>-<random>.part``
+    (hidden: ``.<stem>.<pid>-<random>.part<suffix>``, keeping the suffix that format-sniffing
+    writers such as matplotlib need).
+
+    Two runs that write the same output at once (a second Snakemake started with ``--nolock``,
+    or after the lock was removed) each write their own file and rename it whole, so neither can
+    damage the other's. Temporaries of writers that no longer run (killed) are removed here, so
+    reruns after kills do not pile them up.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pattern = f".{path.stem}.*.part{path.suffix}" if hidden else f"{path.name}.*.part"
+    for stale in path.parent.glob(pattern):
+        tag = re.search(r"\.(\d+)-[0-9a-f]{8}\.part", stale.name)
+        if tag and not _running(int(tag.group(1))):
+            stale.unlink(missing_ok=True)
+    tag = f"{os.getpid()}-{os.urandom(4).hex()}"
+    return path.with_name(f".{path.stem}.{tag}.part{path.suffix}" if hidden else f"{path.name}.{tag}.part")
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # a fixed name: a rerun after a kill overwrites the leftover instead of piling up new ones
-    tmp = path.with_name(f".{path.stem}.part{path.suffix}")
+    tmp = temporary_path(path, hidden=True)
     try:
         yield tmp
         os.replace(tmp, path)
@@ -120,4 +150,24 @@ def script_logging(log_path: str | os.PathLike | None) -> logging.Logger:
     handler = logging.FileHandler(log_path, mode="w") if log_path else logging.StreamHandler()
     handler.setFormatter(logging.Formatter("%(levelname)s %(message)s"))
     logger.handlers[:] = [handler]
+    if log_path:
+        sys.excepthook = _log_then_raise(logger, sys.excepthook)
     return logger
+
+
+def _log_then_raise(logger: logging.Logger, hook):
+    """An excepthook that first writes the failure's one-line reason to the rule's log:
+    Snakemake points the user at that file, and the traceback goes only to the terminal."""
+    def excepthook(kind, error, tb):
+        logger.error("%s", one_line_reason(error))
+        hook(kind, error, tb)
+    return excepthook
+
+
+def one_line_reason(error: BaseException) -> str:
+    """The message the user needs: ours are one line naming the file already; others get their
+    type in front."""
+    text = " ".join(str(error).split())
+    if any(c.__name__ in ("CaptureError", "ManifestError") for c in type(error).__mro__):
+        return text
+    return f"{type(error).__name__}: {text}" if text else type(error).__name__

@@ -1,6 +1,6 @@
 """The scorecard: every published number beside its reproduction, a band and a verdict.
 
-The registry (workflow/scorecard.yaml, schema workflow/schemas/scorecard.schema.yaml) lists each
+The registry (workflow/scorecard.yaml, schema selfsense/schemas/scorecard.schema.yaml) lists each
 published number once, with the band it must land in and the reason for that band, both set
 before the result, and where the reproduced value is read from: one cell of a results table. This
 module is pure: the registry document, the tables and the dataset manifest in, a DataFrame (and

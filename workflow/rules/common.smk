@@ -5,12 +5,14 @@ from pathlib import Path
 
 from snakemake.utils import validate
 
-from selfsense.manifest import expand_protocols, load_dataset, validate_config
+from selfsense.manifest import SCHEMAS, expand_protocols, load_dataset, validate_config
 
-# One-line errors first (file and key), then Snakemake's validate to fill the schema defaults.
-# --configfile files override config.yaml; Snakemake lists them before it in workflow.configfiles
-validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config")
-validate(config, "../schemas/config.schema.yaml")
+# One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
+# defaults. --configfile files override config.yaml; Snakemake lists them before it in
+# workflow.configfiles
+validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config",
+                workflow.config_settings.overwrite_config)
+validate(config, str(SCHEMAS / "config.schema.yaml"))
 
 #: where the selfsense package's source lives (the README's install is editable: this is the code
 #: that runs)
