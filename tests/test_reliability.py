@@ -1,4 +1,4 @@
-"""Reliability: the fault matrix (README, "Reliability: the fault matrix").
+"""Reliability: the fault matrix (docs/reliability.md).
 
 Users feed the pipeline their own captures and manifests. Whatever goes wrong, the pipeline must
 stop with one line naming the file and the problem and leave no partial output, or, where the

@@ -1,7 +1,7 @@
 """The digital twin: calibration against the thesis's observations, kernel vs reference, determinism.
 
 These test the twin (its physics and parameters), not the analysis: each band is the thesis's
-observation with the tolerance given by the foundation issue.
+observation with the tolerance of its calibration band (docs/twin.md).
 """
 
 import dataclasses

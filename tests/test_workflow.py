@@ -129,7 +129,7 @@ def test_frequency_response_of_fig_5_3(smoke_run):
     """The smoke sweep against Eq 5.2 with the smoke campaign's identified model: flat and equal
     well below the resonance (the identified k, α, C_P0 are within ≈ 1 % of the twin's), and a
     measured peak inside the sweep near the model's (the twin's Tustin-integrated mechanics puts
-    it ≈ 2 % lower; README)."""
+    it ≈ 2 % lower; docs/deviations.md)."""
     fr = pd.read_csv(smoke_run / "results/pi_p885/ch5/frequency_response.csv")
     assert fr["frequency [Hz]"].tolist() == [100, 1000, 3300, 3500, 3650, 3800]
     assert fr.notna().all().all()

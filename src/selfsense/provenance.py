@@ -82,7 +82,7 @@ def sha256(path: str | os.PathLike, block: int = 1 << 20) -> str:
 
 @lru_cache(maxsize=1)
 def code_version() -> dict[str, Any]:
-    root = Path(__file__).resolve().parents[2]
+    root = Path.cwd()  # the checkout the workflow runs in (the package may be installed elsewhere)
     try:
         describe = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=root,
                                   capture_output=True, text=True, timeout=10).stdout.strip()

@@ -14,8 +14,8 @@ validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workfl
                 workflow.config_settings.overwrite_config)
 validate(config, str(SCHEMAS / "config.schema.yaml"))
 
-#: where the selfsense package's source lives (the README's install is editable: this is the code
-#: that runs)
+#: where the selfsense package's source lives in the checkout: its files are the rules' `library`
+#: inputs (the README's install is editable, so this is also the code that runs)
 LIBRARY = Path("src")
 
 
