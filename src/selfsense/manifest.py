@@ -188,6 +188,13 @@ def load_dataset(raw_dir: str | Path, name: str) -> dict:
     return manifest
 
 
+def load_manifest(path: str | Path) -> dict:
+    """A manifest by its path, raw/<name>/dataset.yaml, validated as :func:`load_dataset` does
+    (the rules pass the manifest's path)."""
+    path = Path(path)
+    return load_dataset(path.parent.parent, path.parent.name)
+
+
 @dataclass(frozen=True)
 class Experiment:
     """One capture to make (simulated) or read (measured)."""
