@@ -116,7 +116,7 @@ DOCUTILS_MESSAGE = re.compile(r"\((?:WARNING/2|ERROR/3|SEVERE/4)\)")
 def docutils_messages(text):
     """Every docutils warning or error of rendering reStructuredText, as the report renders it."""
     stream = io.StringIO()
-    docutils.core.publish_parts(text, writer_name="html", settings_overrides={
+    docutils.core.publish_parts(text, writer="html", settings_overrides={
         "report_level": 2, "halt_level": 5, "warning_stream": stream, "_disable_config": True})
     return stream.getvalue()
 

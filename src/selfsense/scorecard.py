@@ -308,7 +308,7 @@ def rst_html(text: str) -> str:
     page never shows a "problematic" marker)."""
     from docutils.core import publish_string
 
-    return publish_string(text, writer_name="html5", settings_overrides={
+    return publish_string(text, writer="html5", settings_overrides={
         "halt_level": 2, "report_level": 2, "output_encoding": "unicode", "embed_stylesheet": True,
         "_disable_config": True})
 
