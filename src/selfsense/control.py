@@ -113,14 +113,10 @@ class HPOIntegralController:
         return {"x_ref": x_ref, "x_hpo_rt": x_hat, "u_cmd": u_cmd}
 
 
-def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int,
-                        realtime: Mapping) -> HPOIntegralController:
-    """The bench's real-time loop (Chapter 6) from the identified Γ, a0 and k/α.
-
-    ``realtime`` holds ``gamma`` (coefficients, g), ``a0``, ``omega_s``, ``zeta_s``,
-    ``k_over_alpha`` and ``omega_c``: what the bench's loop was configured with.
-    """
+def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int, gamma: GammaPolynomial,
+                        observer: HPOGains, controller: IntegralController) -> HPOIntegralController:
+    """The bench's real-time loop (Chapter 6) configured as the bench's was: the identified Γ and
+    observer gains (a0, ω_S, ζ_S) estimate x̂, ``controller`` (ω_C, k/α) drives the stack from it."""
     plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
-    chain = SelfSensingChain(plan, GammaPolynomial.from_record(realtime["gamma"]), HPOGains.from_record(realtime), daq.fs)
-    gains = IntegralController(realtime["omega_c"], realtime["k_over_alpha"])
-    return HPOIntegralController(chain, gains, drive, daq.fs, plan.ns, warmup)
+    chain = SelfSensingChain(plan, gamma, observer, daq.fs)
+    return HPOIntegralController(chain, controller, drive, daq.fs, plan.ns, warmup)

@@ -218,6 +218,10 @@ def measure_sweep(capture, segments: Sequence, settle_s: float) -> Measured:
     return measure(rest, ((p, capture.read(CHANNELS, p.start, p.stop)) for p in plan.points), capture.fs)
 
 
+#: file name of :func:`figure_5_3`
+FIGURE = "fig_5_3"
+
+
 def figure_5_3(table: pd.DataFrame, peaks: pd.DataFrame, G: control.TransferFunction):
     """Fig 5.3: the measured points of :func:`response_table` over the model ``G`` on a fine grid."""
     grid = np.geomspace(table["frequency [Hz]"].min(), table["frequency [Hz]"].max(), 600)

@@ -56,6 +56,13 @@ def library_sources(script):
     return sorted(str(f) for f in seen)
 
 
+def report_figure(name, subcategory):
+    """Output figures/<dataset>/<name>.png, filed in the report under its dataset with the caption
+    workflow/report/<name>.rst."""
+    return report(f"figures/{{dataset}}/{name}.png", caption=f"../report/{name}.rst", category="{dataset}",
+                  subcategory=subcategory)
+
+
 RAW = Path(config["raw_dir"])
 DATASETS = {name: load_dataset(RAW, name) for name in config["datasets"]}
 SIMULATED = [n for n, m in DATASETS.items() if m["source"] == "simulated"]

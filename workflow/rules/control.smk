@@ -3,7 +3,7 @@
 
 CH6_TABLES = ["table_6_1", "table_6_2", "p3", "tracking"]
 
-CH6_FIGURES = ["fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8"]
+from selfsense.chapters.ch6 import FIGURES as CH6_FIGURES
 
 #: the closed-loop experiments of each dataset (audited against the estimate their loop logged)
 CLOSED_LOOP = {d: [e for e, x in EXPERIMENTS[d].items() if x is not None and x.control == "closed_loop"]
@@ -100,13 +100,11 @@ rule ch6_results:
     output:
         **{t: report(f"results/{{dataset}}/ch6/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
                      subcategory="Chapter 6") for t in CH6_TABLES},
-        figures=[report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
-                        subcategory="Chapter 6") for f in CH6_FIGURES],
+        **{name: report_figure(name, "Chapter 6") for name in CH6_FIGURES},
     params:
         protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in CH6_RUNS[w.dataset]},
         controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in CH6_RUNS[w.dataset]},
         omega_c=config["control"]["omega_c"],
-        out_dir=lambda w: f"figures/{w.dataset}",
     log:
         "logs/{dataset}/ch6_results.log",
     benchmark:

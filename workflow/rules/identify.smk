@@ -1,6 +1,6 @@
 # Stage "identify" (thesis Chapter 4): Case 1 / Case 2 model identification, Tables 4.1–4.3.
 
-CH4_FIGURES = ["fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_8"]
+from selfsense.chapters.ch4 import FIGURES as CH4_FIGURES
 
 CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
 
@@ -65,10 +65,7 @@ rule ch4_figures:
         per_set="results/{dataset}/ch4/sets.csv",
         library=library_sources("ch4_figures"),
     output:
-        [report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
-                subcategory="Chapter 4") for f in CH4_FIGURES],
-    params:
-        out_dir=lambda w: f"figures/{w.dataset}",
+        **{name: report_figure(name, "Chapter 4") for name in CH4_FIGURES},
     log:
         "logs/{dataset}/ch4_figures.log",
     benchmark:

@@ -1,8 +1,8 @@
 # Stage "observer" (thesis Chapter 5): charge self-sensing a0, the hybrid position observer,
 # Tables 5.3–5.4, Figures 5.1–5.14, and the frequency response x/q of Fig 5.3.
 
-CH5_FIGURES = ["fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
-               "fig_5_13", "fig_5_14"]
+from selfsense.chapters.ch5 import FIGURES as CH5_FIGURES, STUDY_FIGURE as OBSERVER_STUDY_FIGURE
+from selfsense.frequency_response import FIGURE as FREQUENCY_RESPONSE_FIGURE
 
 TABLE_5_4_HZ = (0.01, 0.1, 1.0, 10.0, 50.0, 100.0)
 
@@ -107,8 +107,7 @@ rule observer_study:
     output:
         table=report("results/{dataset}/ch5/observer_study.csv", caption="../report/observer_study.rst",
                      category="{dataset}", subcategory="Chapter 5"),
-        figure=report("figures/{dataset}/fig_5_observer_study.png", caption="../report/fig_5_observer_study.rst",
-                      category="{dataset}", subcategory="Chapter 5"),
+        figure=report_figure(OBSERVER_STUDY_FIGURE, "Chapter 5"),
     params:
         omegas=config["observer"]["study_omegas"],
         offsets=config["observer"]["study_offsets"],
@@ -135,12 +134,10 @@ rule ch5_figures:
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("ch5_figures"),
     output:
-        [report(f"figures/{{dataset}}/{f}.png", caption=f"../report/{f}.rst", category="{dataset}",
-                subcategory="Chapter 5") for f in CH5_FIGURES],
+        **{name: report_figure(name, "Chapter 5") for name in CH5_FIGURES},
     params:
         series_f=lambda w: list(sines(w.dataset, "ch5_sine_")),
         traces_f=lambda w: list(OBSERVED_SINES[w.dataset]),
-        out_dir=lambda w: f"figures/{w.dataset}",
         n_periods=config["ripple"]["n_periods"],
         orders=config["gamma"]["orders"],
     log:
@@ -166,8 +163,7 @@ rule frequency_response:
                      category="{dataset}", subcategory="Chapter 5"),
         peaks=report("results/{dataset}/ch5/resonance.csv", caption="../report/resonance.rst",
                      category="{dataset}", subcategory="Chapter 5"),
-        figure=report("figures/{dataset}/fig_5_3.png", caption="../report/fig_5_3.rst", category="{dataset}",
-                      subcategory="Chapter 5"),
+        figure=report_figure(FREQUENCY_RESPONSE_FIGURE, "Chapter 5"),
     params:
         protocol=lambda w: EXPERIMENTS[w.dataset]["ch5_sweep"].protocol,
         settle_s=config["observer"]["sweep_settle_s"],

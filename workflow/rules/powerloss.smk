@@ -3,11 +3,11 @@
 # voltage control (Section 7, Figures 2–11). Datasets take part when their DAQ records the
 # current drive and they run the Ronkanen catalogue; the others skip the stage.
 
+from selfsense.chapters.ronkanen import FIGURES as RONKANEN_FIGURES
+
 POWERLOSS = "results/{dataset}/powerloss"
 
 RONKANEN_REPORT = {"category": "{dataset}", "subcategory": "Ronkanen 2002"}  # where the report files them
-
-RONKANEN_FIGURES = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}  # paper figure: file name
 
 #: the open-loop comparison: {"<kind>_<control>": experiment}
 RONKANEN_PAIRS = {f"{kind}_{control}": f"rk_{kind}_{control}"
@@ -107,10 +107,9 @@ rule powerloss_figures:
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_figures"),
     output:
-        figures=[report(f"figures/{{dataset}}/{name}.png", caption=f"../report/ronkanen_fig_{n}.rst", **RONKANEN_REPORT)
-                 for n, name in RONKANEN_FIGURES.items()],
+        **{name: report(f"figures/{{dataset}}/{name}.png", caption=f"../report/ronkanen_fig_{n}.rst", **RONKANEN_REPORT)
+           for n, name in RONKANEN_FIGURES.items()},
     params:
-        out_dir=lambda w: f"figures/{w.dataset}",
         velocity_window=2.0,
         drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
     log:

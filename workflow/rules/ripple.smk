@@ -1,10 +1,9 @@
 # Stage "ripple" (thesis Chapter 3): folded-sampling plan, C_e and R_e from the ripple channels.
 
+from selfsense.chapters.ch3 import FIGURES as CH3_FIGURES, MODEL_FIGURE as CH3_MODEL_FIGURE
+
 #: the Chapter 3 runs by drive frequency (Figures 3.9–3.14, hysteresis, C_e recovery)
 CH3_SERIES = {"10 Hz": "ch3_sine_10hz", "1 Hz": "ch3_sine_1hz", "0.1 Hz": "ch3_sine_0p1hz"}
-
-CH3_FIGURES = ["fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_3_12",
-               "fig_3_13", "fig_3_14"]
 
 #: datasets whose DAQ records the ripple channels (the others skip this stage)
 RIPPLE_DATASETS = [d for d in DATASETS
@@ -91,11 +90,9 @@ rule ch3_figures:
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("ch3_figures"),
     output:
-        figures=[report(f"figures/{{dataset}}/{name}.png", caption=f"../report/{name}.rst",
-                        category="{dataset}", subcategory="Chapter 3") for name in CH3_FIGURES],
+        **{name: report_figure(name, "Chapter 3") for name in CH3_FIGURES},
     params:
         labels=list(CH3_SERIES),
-        out_dir=lambda w: f"figures/{w.dataset}",
         skip_s=0.1,
     log:
         "logs/{dataset}/ch3_figures.log",
@@ -115,8 +112,7 @@ rule ch3_model_figure:
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("ch3_model_figure"),
     output:
-        figure=report("figures/{dataset}/fig_3_2.png", caption="../report/fig_3_2.rst",
-                      category="{dataset}", subcategory="Chapter 3"),
+        figure=report_figure(CH3_MODEL_FIGURE, "Chapter 3"),
     log:
         "logs/{dataset}/ch3_model_figure.log",
     benchmark:
@@ -160,8 +156,7 @@ rule ce_np_study:
     output:
         table=report("results/{dataset}/twin/ce_np_study.csv", caption="../report/ce_np_study.rst",
                      category="{dataset}", subcategory="Twin validation"),
-        figure=report("figures/{dataset}/fig_3_np_study.png", caption="../report/fig_3_np_study.rst",
-                      category="{dataset}", subcategory="Twin validation"),
+        figure=report_figure("fig_3_np_study", "Twin validation"),
     params:
         nps=config["ripple"]["np_sweep"],
         wanders=[0, 30, 100, 300],

@@ -1,6 +1,9 @@
 # Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
 # 7.3), the frequency effect on C_e–x, the coupled observer/thermal estimation, Figures 7.1–7.12.
 
+from selfsense.chapters.ch7 import (COUPLED_FIGURES, DIAGRAM_FIGURE, FREQUENCY_FIGURE, GAMMA_T_FIGURE,
+                                    THERMAL_FIGURES)
+
 #: the runs the coupled observer/thermal estimation is evaluated on (Figures 7.10–7.12)
 CH7_COUPLED = ["ch7_freq_100hz", "ch7_freq_50hz", "ch7_mixed_ae"]
 
@@ -55,13 +58,11 @@ rule thermal_identify:
         **{t: report(f"results/{{dataset}}/ch7/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
                      subcategory="Chapter 7") for t in THERMAL_TABLES},
         thermal_model="results/{dataset}/ch7/thermal_model.json",
-        figures=[report(f"figures/{{dataset}}/fig_7_{n}.png", caption=f"../report/fig_7_{n}.rst", category="{dataset}",
-                        subcategory="Chapter 7") for n in (1, 2, 3, 5, 6)],
+        **{name: report_figure(name, "Chapter 7") for name in THERMAL_FIGURES},
     params:
         freqs=lambda w: list(sines(w.dataset, "ch7_freq_")),
         checks=CH7_CHECKS,
         volt_segments=lambda w: EXPERIMENTS[w.dataset]["ch7_volt_150hz"].protocol["segments"],
-        out_dir=lambda w: f"figures/{w.dataset}",
     log:
         "logs/{dataset}/thermal_identify.log",
     benchmark:
@@ -84,8 +85,7 @@ rule gamma_t_fit:
         **{k: report(f"results/{{dataset}}/ch7/{v}", caption=f"../report/{k}_t.rst", category="{dataset}",
                      subcategory="Chapter 7") for k, v in GAMMA_T_TABLES.items()},
         gamma_t="results/{dataset}/ch7/gamma_t.json",
-        figure=report("figures/{dataset}/fig_7_7.png", caption="../report/fig_7_7.rst", category="{dataset}",
-                      subcategory="Chapter 7"),
+        figure=report_figure(GAMMA_T_FIGURE, "Chapter 7"),
     params:
         orders=[4, 5, 6],
         order=5,
@@ -112,8 +112,7 @@ rule frequency_effect:
     output:
         table=report("results/{dataset}/ch7/frequency_effect.csv", caption="../report/frequency_effect.rst",
                      category="{dataset}", subcategory="Chapter 7"),
-        figure=report("figures/{dataset}/fig_7_8.png", caption="../report/fig_7_8.rst", category="{dataset}",
-                      subcategory="Chapter 7"),
+        figure=report_figure(FREQUENCY_FIGURE, "Chapter 7"),
     params:
         runs=lambda w: list(sines(w.dataset, "ch5_sine_").values()),
         frequencies=lambda w: [drive_frequency(w.dataset, e) for e in sines(w.dataset, "ch5_sine_").values()],
@@ -141,8 +140,7 @@ rule estimator_diagram:
         model="results/{dataset}/ch4/model.json",
         library=library_sources("estimator_diagram"),
     output:
-        figure=report("figures/{dataset}/fig_7_9.png", caption="../report/fig_7_9.rst", category="{dataset}",
-                      subcategory="Chapter 7"),
+        figure=report_figure(DIAGRAM_FIGURE, "Chapter 7"),
     params:
         fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
         fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
@@ -200,11 +198,9 @@ rule ch7_summary:
                        subcategory="Chapter 7"),
         recovery=report("results/{dataset}/twin/thermal_recovery.csv", caption="../report/thermal_recovery.rst",
                         category="{dataset}", subcategory="Twin validation"),
-        figures=[report(f"figures/{{dataset}}/fig_7_{n}.png", caption=f"../report/fig_7_{n}.rst",
-                        category="{dataset}", subcategory="Chapter 7") for n in (10, 11, 12)],
+        **{name: report_figure(name, "Chapter 7") for name in COUPLED_FIGURES},
     params:
         runs=CH7_COUPLED,
-        out_dir=lambda w: f"figures/{w.dataset}",
     log:
         "logs/{dataset}/ch7_summary.log",
     benchmark:

@@ -4,10 +4,9 @@ Alone: python workflow/scripts/ce_np_study.py raw/pi_p885/dataset.yaml out.csv o
 """
 
 import argparse
-from pathlib import Path
 
 from selfsense import figures
-from selfsense.manifest import load_dataset
+from selfsense.manifest import load_manifest
 from selfsense.provenance import save_figure, script_logging, write_table
 from selfsense.twin import TwinParams, daq_plan
 from selfsense.twin.studies import ce_error_vs_np_and_wander
@@ -16,7 +15,7 @@ from selfsense.twin.studies import ce_error_vs_np_and_wander
 def main(manifest, table, figure, nps=(1, 2, 4, 8, 12, 16), wanders=(0, 30, 100, 300), drive_hz=100.0,
          log=None):
     logger = script_logging(log)
-    meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
+    meta = load_manifest(manifest)
     result = ce_error_vs_np_and_wander(TwinParams.from_manifest(meta["twin"]), daq_plan(meta),
                                        list(nps), list(wanders), drive_hz=drive_hz, seed=meta.get("seed", 0))
     config = {"np": list(nps), "wander_hz": list(wanders), "drive_hz": drive_hz}

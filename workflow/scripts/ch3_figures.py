@@ -8,25 +8,25 @@ from pathlib import Path
 
 from selfsense.capture import read_series
 from selfsense.chapters import ch3
-from selfsense.manifest import load_dataset
+from selfsense.manifest import load_manifest
 from selfsense.provenance import save_figure, script_logging
 
 
-def main(capture_10hz, series, manifest, out_dir, skip_s=0.1, log=None):
-    """series: {label: path} of ripple series, the 10 Hz one first."""
+def main(capture_10hz, series, manifest, out, skip_s=0.1, log=None):
+    """series: {label: path} of ripple series, the 10 Hz one first; out: {figure name: path}."""
     logger = script_logging(log)
     data = {label: ch3.steady(read_series(path), skip_s) for label, path in series.items()}
-    ripple = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)["daq"]["ripple"]
+    ripple = load_manifest(manifest)["daq"]["ripple"]
     built = ch3.figures_ch3(capture_10hz, data, ripple["fr_nominal"], ripple["ns"])
     inputs = [capture_10hz, *series.values(), manifest]
     for name, fig in built.items():
-        save_figure(fig, Path(out_dir) / f"{name}.png", inputs=inputs, config={"skip_s": skip_s})
+        save_figure(fig, out[name], inputs=inputs, config={"skip_s": skip_s})
     logger.info("wrote %s", ", ".join(sorted(built)))
 
 
 if "snakemake" in globals():
     main(snakemake.input.capture, dict(zip(snakemake.params.labels, snakemake.input.series)),
-         snakemake.input.manifest, snakemake.params.out_dir, snakemake.params.skip_s, snakemake.log[0])
+         snakemake.input.manifest, dict(snakemake.output.items()), snakemake.params.skip_s, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("capture_10hz")
@@ -34,4 +34,5 @@ elif __name__ == "__main__":
     cli.add_argument("out_dir")
     cli.add_argument("--series", nargs="+", required=True, help="label=path, the 10 Hz one first")
     args = cli.parse_args()
-    main(args.capture_10hz, dict(s.split("=", 1) for s in args.series), args.manifest, args.out_dir)
+    main(args.capture_10hz, dict(s.split("=", 1) for s in args.series), args.manifest,
+         {name: Path(args.out_dir) / f"{name}.png" for name in ch3.FIGURES})

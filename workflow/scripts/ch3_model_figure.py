@@ -4,17 +4,15 @@ Alone: python workflow/scripts/ch3_model_figure.py raw/pi_p885/dataset.yaml fig_
 """
 
 import argparse
-from pathlib import Path
 
 from selfsense.chapters.ch3 import figure_3_2
-from selfsense.manifest import load_dataset
+from selfsense.manifest import load_manifest
 from selfsense.provenance import save_figure, script_logging
 
 
 def main(manifest, figure, log=None):
     logger = script_logging(log)
-    meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
-    twin = meta["twin"]
+    twin = load_manifest(manifest)["twin"]
     save_figure(figure_3_2(twin["stack"], twin["ripple"]["amplitude"], twin["ripple"]["f_nominal"]),
                 figure, inputs=[manifest])
     logger.info("wrote %s", figure)

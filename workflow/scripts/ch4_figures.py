@@ -19,22 +19,25 @@ def channel(capture, name):
         return {"t": np.arange(cap.n) / cap.fs, name: cap.read((name,))[name]}
 
 
-def main(series, per_set, force_capture, drive_capture, out_dir, log=None):
+def main(series, per_set, force_capture, drive_capture, out, log=None):
+    """out: {figure name: path}."""
     logger = script_logging(log)
     sets = {Path(p).stem: read_series(p) for p in series}
     fits = ch4.fits_from_table(pd.read_csv(per_set))
     built = ch4.figures_ch4(sets, fits, channel(force_capture, "F"), channel(drive_capture, "U"))
     for name, fig in built.items():
-        save_figure(fig, Path(out_dir) / f"{name}.png", inputs=[*series, per_set, force_capture, drive_capture])
+        save_figure(fig, out[name], inputs=[*series, per_set, force_capture, drive_capture])
     logger.info("wrote %s", ", ".join(sorted(built)))
 
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(list(i.series), i.per_set, i.force, i.drive, snakemake.params.out_dir, snakemake.log[0])
+    main(list(i.series), i.per_set, i.force, i.drive, dict(snakemake.output.items()), snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("per_set", "force_capture", "drive_capture", "out_dir"):
         cli.add_argument(name)
     cli.add_argument("--series", nargs="+", required=True)
-    main(**vars(cli.parse_args()))
+    a = cli.parse_args()
+    main(a.series, a.per_set, a.force_capture, a.drive_capture,
+         {name: Path(a.out_dir) / f"{name}.png" for name in ch4.FIGURES})

@@ -3,27 +3,25 @@
 Alone: run through Snakemake (`snakemake figures/pi_p885/fig_5_1.png`); the inputs are many.
 """
 
-from pathlib import Path
-
 from selfsense.capture import read_series
 from selfsense.chapters.ch5 import figures_ch5
 from selfsense.observer import load_gains
 from selfsense.provenance import save_figure, script_logging
 
 
-def main(series, gamma_series, traces, creep, observer, out_dir, n_periods, orders, log=None):
-    """series / traces: {frequency [Hz]: path}."""
+def main(series, gamma_series, traces, creep, observer, out, n_periods, orders, log=None):
+    """series / traces: {frequency [Hz]: path}; out: {figure name: path}."""
     logger = script_logging(log)
     built = figures_ch5({float(f): read_series(p) for f, p in series.items()}, read_series(gamma_series), n_periods,
                         orders, {float(f): read_series(p) for f, p in traces.items()}, read_series(creep),
                         load_gains(observer))
     inputs = [*series.values(), *traces.values(), creep, observer]
     for name, fig in built.items():
-        save_figure(fig, Path(out_dir) / f"{name}.png", inputs=inputs)
+        save_figure(fig, out[name], inputs=inputs)
     logger.info("wrote %s", ", ".join(sorted(built)))
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
     main(dict(zip(p.series_f, i.series)), i.gamma_series, dict(zip(p.traces_f, i.traces)), i.creep, i.observer,
-         p.out_dir, p.n_periods, p.orders, snakemake.log[0])
+         dict(snakemake.output.items()), p.n_periods, p.orders, snakemake.log[0])

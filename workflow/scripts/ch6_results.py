@@ -11,7 +11,8 @@ from selfsense.electromech import load_k_over_alpha
 from selfsense.provenance import save_figure, script_logging, write_table
 
 
-def main(captures, protocols, controls, k_over_alpha, omega_c, out, out_dir, log=None):
+def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
+    """out: {table or figure name: path}."""
     logger = script_logging(log)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
     tables = ch6.results(runs, protocols, controls, k_over_alpha, omega_c)
@@ -19,11 +20,11 @@ def main(captures, protocols, controls, k_over_alpha, omega_c, out, out_dir, log
     for key, table in tables.items():
         write_table(table, out[key], inputs=inputs, config=None if key == "p3" else {"omega_c": omega_c})
     for name, fig in ch6.figures_ch6(runs, tables["tracking"]).items():
-        save_figure(fig, Path(out_dir) / f"{name}.png", inputs=inputs)
+        save_figure(fig, out[name], inputs=inputs)
     logger.info("%d runs", len(runs))
 
 
 if "snakemake" in globals():
     p = snakemake.params
     main(list(snakemake.input.captures), p.protocols, p.controls, load_k_over_alpha(snakemake.input.model),
-         p.omega_c, dict(snakemake.output.items()), p.out_dir, snakemake.log[0])
+         p.omega_c, dict(snakemake.output.items()), snakemake.log[0])

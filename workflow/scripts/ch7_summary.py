@@ -14,15 +14,15 @@ from selfsense.chapters import ch7
 from selfsense.provenance import save_figure, script_logging, write_table
 
 
-def main(stats, traces, table_7_1, truth_capture, out, out_dir, log=None):
-    """stats / traces: {run: path}."""
+def main(stats, traces, table_7_1, truth_capture, out, log=None):
+    """stats / traces: {run: path}; out: {"coupled", "recovery" or figure name: path}."""
     logger = script_logging(log)
     records = {run: json.loads(Path(path).read_text()) for run, path in stats.items()}
     coupled = ch7.coupled_table(records)
     write_table(coupled, out["coupled"], inputs=list(stats.values()))
-    for n, run in zip((10, 11, 12), ("ch7_freq_100hz", "ch7_freq_50hz", ch7.MIXED_RUN)):
-        save_figure(ch7.figure_coupled(n, run, read_series(traces[run]), records[run]),
-                    Path(out_dir) / f"fig_7_{n}.png", inputs=[traces[run]])
+    for name, run in ch7.COUPLED_FIGURES.items():
+        save_figure(ch7.figure_coupled(name, run, read_series(traces[run]), records[run]), out[name],
+                    inputs=[traces[run]])
     with open_capture(truth_capture) as cap:
         truth, _ = cap.read_truth()
     recovery = ch7.thermal_recovery(pd.read_csv(table_7_1), truth)
@@ -33,4 +33,4 @@ def main(stats, traces, table_7_1, truth_capture, out, out_dir, log=None):
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
     main(dict(zip(p.runs, i.stats)), dict(zip(p.runs, i.traces)), i.table_7_1, i.truth_capture,
-         dict(snakemake.output.items()), p.out_dir, snakemake.log[0])
+         dict(snakemake.output.items()), snakemake.log[0])

@@ -44,4 +44,4 @@ elif __name__ == "__main__":
     freqs = {run: float(f) for run, f in (r.split("=") for r in a.runs)}
     main({r: a.results / "ripple" / f"{r}.nc" for r in freqs}, {r: a.raw / f"{r}.nc" for r in freqs}, freqs,
          a.results / "ch5/gamma.json", a.results / "ch7/gamma_t.json", a.reference, a.out_dir / "frequency_effect.csv",
-         a.out_dir / "fig_7_8.png", a.bins, a.min_windows)
+         a.out_dir / f"{ch7.FREQUENCY_FIGURE}.png", a.bins, a.min_windows)

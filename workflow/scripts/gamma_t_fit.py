@@ -6,9 +6,8 @@ Alone: python workflow/scripts/gamma_t_fit.py samples.nc power.nc out_dir
 import argparse
 from pathlib import Path
 
-from selfsense import figures
 from selfsense.capture import read_series
-from selfsense.chapters.ch7 import gamma_t
+from selfsense.chapters.ch7 import GAMMA_T_FIGURE, figure_7_7, gamma_t
 from selfsense.gamma import GammaPolynomial
 from selfsense.provenance import provenance, save_figure, script_logging, write_json, write_table
 
@@ -23,9 +22,7 @@ def main(samples, power, out, figure, orders=(4, 5, 6), order=5, log=None):
     write_table(coefs, out["coefficients"], inputs=[samples, power], config=cfg)
     write_json(GammaPolynomial.from_fit(fit).record() | {"provenance": provenance([samples, power], cfg)},
                out["gamma_t"])
-    save_figure(figures.loop([s["x_laser"] * 1e6], [s["C_e"] * 1e6], "x [µm]", "C_e [µF]",
-                             "Capacitance against position while the stack heats (50 Hz)"), figure,
-                inputs=[samples, power])
+    save_figure(figure_7_7(s), figure, inputs=[samples, power])
     logger.info("\n%s", t72.to_string())
 
 
@@ -40,4 +37,4 @@ elif __name__ == "__main__":
     d = Path(a.out_dir)
     main(a.samples, a.power, {"table_7_2": d / "table_7_2.csv", "anova": d / "table_7_3_anova.csv",
                               "coefficients": d / "table_7_3_coefficients.csv", "gamma_t": d / "gamma_t.json"},
-         d / "fig_7_7.png")
+         d / f"{GAMMA_T_FIGURE}.png")

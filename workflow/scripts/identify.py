@@ -12,14 +12,14 @@ import pandas as pd
 from selfsense.capture import read_series
 from selfsense.chapters import ch4
 from selfsense.electromech import geometry_from_actuator, model_record
-from selfsense.manifest import load_dataset
+from selfsense.manifest import load_manifest
 from selfsense.provenance import script_logging, write_json, write_table, provenance
 
 
 def main(series, static, manifest, out, log=None):
     """series: list of ripple-series paths (one per set); out: {name: output path}."""
     logger = script_logging(log)
-    meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
+    meta = load_manifest(manifest)
     actuator = meta["actuator"]
     geometry = geometry_from_actuator(actuator, f"{manifest}: actuator")
     k_static = float(pd.read_csv(static)["k [N/µm]"].iloc[0]) * 1e6

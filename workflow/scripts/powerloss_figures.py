@@ -12,9 +12,9 @@ import pandas as pd
 from selfsense.chapters import ronkanen
 from selfsense.provenance import save_figure, script_logging
 
-def main(hold, ramps, captures, table_1, table_2, identified, out_dir, drift_start, velocity_window=2.0, log=None):
+def main(hold, ramps, captures, table_1, table_2, identified, out, drift_start, velocity_window=2.0, log=None):
     """ramps: the ±300 nA ramps compensated for too large, too small and ideal X (Figs 3, 4, 5–6);
-    captures: {"<decay|repeat|drift>_<current|voltage>": path}."""
+    captures: {"<decay|repeat|drift>_<current|voltage>": path}; out: {figure name: path}."""
     logger = script_logging(log)
     records = ronkanen.read_records([hold, *ramps, *captures.values()])
     built = ronkanen.figures_paper(records[Path(hold).stem], [records[Path(r).stem] for r in ramps],
@@ -22,15 +22,16 @@ def main(hold, ramps, captures, table_1, table_2, identified, out_dir, drift_sta
                                    ronkanen.load_identified(identified, "a_cmd"), drift_start, velocity_window)
     inputs = [hold, *ramps, *captures.values(), table_1, table_2, identified]
     config = {"velocity_window": velocity_window, "drift_start": drift_start}
-    for n, fig in built.items():
-        save_figure(fig, Path(out_dir) / f"fig_ronkanen_{n}.png", inputs=inputs, config=config)
+    for name, fig in built.items():
+        save_figure(fig, out[name], inputs=inputs, config=config)
         ronkanen.plt.close(fig)
-    logger.info("wrote Figures %s to %s", ", ".join(map(str, sorted(built))), out_dir)
+    logger.info("wrote %s", ", ".join(out[name] for name in built))
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(i.hold, list(i.ramps), {k: i[k] for k in ronkanen.PAIRS}, i.table_1, i.table_2, i.identified, p.out_dir, p.drift_start,
+    main(i.hold, list(i.ramps), {k: i[k] for k in ronkanen.PAIRS}, i.table_1, i.table_2, i.identified,
+         dict(snakemake.output.items()), p.drift_start,
          p.velocity_window, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
@@ -42,4 +43,5 @@ elif __name__ == "__main__":
     cli.add_argument("--velocity-window", dest="velocity_window", type=float, default=2.0, help="[s]")
     args = cli.parse_args()
     main(args.hold, args.ramps, dict(c.split("=", 1) for c in args.captures), args.table_1, args.table_2,
-         args.identified, args.out_dir, args.drift_start, args.velocity_window)
+         args.identified, {name: str(Path(args.out_dir) / f"{name}.png") for name in ronkanen.FIGURES.values()},
+         args.drift_start, args.velocity_window)

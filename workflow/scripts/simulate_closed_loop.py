@@ -6,29 +6,25 @@ Alone: python workflow/scripts/simulate_closed_loop.py pi_p885 ch6_p2a_closed re
 """
 
 import argparse
-import json
 from pathlib import Path
 
-from selfsense.control import realtime_controller
+from selfsense.control import IntegralController, realtime_controller
+from selfsense.electromech import load_k_over_alpha
+from selfsense.gamma import load_gamma
 from selfsense.manifest import load_config
+from selfsense.observer import load_gains
 from selfsense.provenance import script_logging
 from selfsense.twin import simulate_experiment
-
-
-def realtime(gamma, observer, model, omega_c):
-    o = json.loads(Path(observer).read_text())
-    return {"gamma": json.loads(Path(gamma).read_text()), "a0": o["a0"], "omega_s": o["omega_s"],
-            "zeta_s": o["zeta_s"], "k_over_alpha": json.loads(Path(model).read_text())["k_over_alpha"],
-            "omega_c": omega_c}
 
 
 def main(raw_dir, dataset, experiment, gamma, observer, model, campaign, capture, omega_c, n_periods,
          output=None, log=None):
     logger = script_logging(log)
-    rt = realtime(gamma, observer, model, omega_c)
+    g, gains, loop = load_gamma(gamma), load_gains(observer), IntegralController(omega_c, load_k_over_alpha(model))
     path = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output,
-                               controller_for=lambda daq, drive, warmup: realtime_controller(daq, drive, warmup, n_periods, rt))
-    logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", path, rt["k_over_alpha"], rt["a0"])
+                               controller_for=lambda daq, drive, warmup: realtime_controller(daq, drive, warmup, n_periods,
+                                                                                             g, gains, loop))
+    logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", path, loop.k_over_alpha, gains.a0)
 
 
 if "snakemake" in globals():

@@ -8,15 +8,16 @@ from pathlib import Path
 from selfsense.capture import read_series
 from selfsense.chapters import ch7
 from selfsense.electromech import load_k_over_alpha
-from selfsense.manifest import load_dataset
+from selfsense.manifest import load_manifest
 from selfsense.provenance import provenance, save_figure, script_logging, write_json, write_table
 from selfsense.thermal import ThermalProperties
 
 
-def main(freq_series, volt_series, check_series, manifest, model, volt_segments, out, out_dir, log=None):
-    """freq_series: {frequency [Hz]: path}; check_series: {run: path} for Figs 7.5–7.6."""
+def main(freq_series, volt_series, check_series, manifest, model, volt_segments, out, log=None):
+    """freq_series: {frequency [Hz]: path}; check_series: {run: path} for Figs 7.5–7.6; out: {table,
+    "thermal_model" or figure name: path}."""
     logger = script_logging(log)
-    th = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)["actuator"]["thermal"]
+    th = load_manifest(manifest)["actuator"]["thermal"]
     tables, record, built = ch7.thermal_identification(
         {Path(p).stem: read_series(p) for p in freq_series.values()}, {Path(p).stem: float(f) for f, p in freq_series.items()},
         read_series(volt_series), volt_segments, {Path(p).stem: read_series(p) for p in check_series.values()},
@@ -26,7 +27,7 @@ def main(freq_series, volt_series, check_series, manifest, model, volt_segments,
         write_table(table, out[key], inputs=inputs)
     write_json(record | {"provenance": provenance(inputs)}, out["thermal_model"])
     for name, fig in built.items():
-        save_figure(fig, Path(out_dir) / f"{name}.png", inputs=inputs)
+        save_figure(fig, out[name], inputs=inputs)
     if not record["identified"]:  # e.g. the smoke campaign's short runs: the later stages skip, and say why
         logger.warning(record["reason"])
     logger.info("\n%s", tables["per_run"].to_string())
@@ -35,4 +36,4 @@ def main(freq_series, volt_series, check_series, manifest, model, volt_segments,
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
     main(dict(zip(p.freqs, i.freq_series)), i.volt_series, dict(zip(p.checks, i.check_series)), i.manifest, i.model,
-         p.volt_segments, dict(snakemake.output.items()), p.out_dir, snakemake.log[0])
+         p.volt_segments, dict(snakemake.output.items()), snakemake.log[0])

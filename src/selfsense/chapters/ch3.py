@@ -25,6 +25,10 @@ SCALE = {"U": 1.0, "C_e": 1e6, "R_e": 1.0, "x_laser": 1e6}
 #: drive frequency [Hz] of the run most figures show, and the end of its capture Fig 3.3 shows [s]
 SHOWN_HZ = 10.0
 SHOWN_TAIL_S = 0.2
+#: file names of the figures :func:`figures_ch3` builds, in its order
+FIGURES = ("fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_3_12", "fig_3_13", "fig_3_14")
+#: file name of :func:`figure_3_2`
+MODEL_FIGURE = "fig_3_2"
 
 
 def steady(series: Mapping[str, np.ndarray], skip: float) -> dict[str, np.ndarray]:
@@ -86,18 +90,17 @@ def figures_ch3(capture, series_by_label: Mapping[str, Mapping[str, np.ndarray]]
         t = (start + np.arange(len(last["U"]))) / cap.fs
     shown = next(iter(series_by_label.values()))
     one = {f"{SHOWN_HZ:g} Hz": shown}
-    return {
-        "fig_3_3": figure_3_3(t, last["U"], last["I"], SHOWN_HZ),
-        "fig_3_4": figure_3_4(shown, fr),
-        "fig_3_7": figure_3_7(fr, ns),
-        "fig_3_9": figure_3_9(shown),
-        "fig_3_10": loop_figure(one, "U", "C_e", "Effective capacitance against voltage"),
-        "fig_3_11": loop_figure(one, "x_laser", "C_e", "Effective capacitance against position"),
-        "fig_3_12": loop_figure(one, "U", "x_laser", "Position against voltage"),
-        "fig_3_13": loop_figure(series_by_label, "x_laser", "C_e",
-                                "Effective capacitance against position at several frequencies"),
-        "fig_3_14": loop_figure(one, "C_e", "R_e", "Effective resistance against effective capacitance"),
-    }
+    return dict(zip(FIGURES, (
+        figure_3_3(t, last["U"], last["I"], SHOWN_HZ),
+        figure_3_4(shown, fr),
+        figure_3_7(fr, ns),
+        figure_3_9(shown),
+        loop_figure(one, "U", "C_e", "Effective capacitance against voltage"),
+        loop_figure(one, "x_laser", "C_e", "Effective capacitance against position"),
+        loop_figure(one, "U", "x_laser", "Position against voltage"),
+        loop_figure(series_by_label, "x_laser", "C_e", "Effective capacitance against position at several frequencies"),
+        loop_figure(one, "C_e", "R_e", "Effective resistance against effective capacitance"),
+    )))
 
 
 def figure_3_3(t, u, i, f):

@@ -149,24 +149,26 @@ def hysteresis_voltage(sets, fits, per_frequency=(10.0, 100.0)) -> tuple[pd.Data
     return pd.DataFrame(rows), traces
 
 
+#: file names of the figures :func:`figures_ch4` builds, in its order
+FIGURES = ("fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_8")
+
+
 def figures_ch4(sets, fits, force, drive) -> dict:
     """Figures 4.2–4.8 from the sets' series (set 1 at each frequency) and two captures."""
     first = {}
     for name in sets:
         first.setdefault(_frequency(name), name)
     by_f = {f"{f:g} Hz": set_frame(sets[n]) for f, n in sorted(first.items())}
-    out = {"fig_4_2": figures.time_traces(force["t"], [(force["F"], "F [N]")], "Force at 50 Hz"),
-           "fig_4_5": figures.time_traces(drive["t"], [(drive["U"], "U [V]")], "Driving signal at 10 Hz")}
-    out["fig_4_3"] = figures.loop([s["x_laser"] * 1e6 for s in by_f.values()], [s["C_e"] * 1e6 for s in by_f.values()],
-                                  "x [µm]", "C_e [µF]", "Capacitance against position", labels=list(by_f))
+    capacitance = figures.loop([s["x_laser"] * 1e6 for s in by_f.values()], [s["C_e"] * 1e6 for s in by_f.values()],
+                               "x [µm]", "C_e [µF]", "Capacitance against position", labels=list(by_f))
     ratio_x, ratio = [], []
     for label, s in by_f.items():
         kin = kinematics(s["time"], s["x_laser"])
         fast = np.abs(kin.v) > 0.5 * np.max(np.abs(kin.v))
         ratio_x.append(kin.x[fast] * 1e6)
         ratio.append(s["I"][fast] / kin.v[fast])
-    out["fig_4_4"] = figures.loop(ratio_x, ratio, "x [µm]", "I/ẋ [C/m]", "Current over velocity against position",
-                                  labels=list(by_f))
+    current_ratio = figures.loop(ratio_x, ratio, "x [µm]", "I/ẋ [C/m]", "Current over velocity against position",
+                                 labels=list(by_f))
     qs, qm, xs, i_meas, i_model = [], [], [], [], []
     for f, name in sorted(first.items()):
         s, fit = by_f[f"{f:g} Hz"], fits[name]
@@ -179,11 +181,16 @@ def figures_ch4(sets, fits, force, drive) -> dict:
         i_meas.append(s["I"] - fit.charge_quadratic.I0)
         i_model.append(np.gradient(model, s["time"]))
     labels = list(by_f)
-    out["fig_4_6"] = figures.model_vs_measured(xs, qs, qm, i_meas, i_model, labels)
-    out["fig_4_7"] = _figure_4_7(by_f, first, fits)
     _, traces = hysteresis_voltage(sets, fits)
-    out["fig_4_8"] = figures.hysteresis_voltage(traces)
-    return out
+    return dict(zip(FIGURES, (
+        figures.time_traces(force["t"], [(force["F"], "F [N]")], "Force at 50 Hz"),
+        capacitance,
+        current_ratio,
+        figures.time_traces(drive["t"], [(drive["U"], "U [V]")], "Driving signal at 10 Hz"),
+        figures.model_vs_measured(xs, qs, qm, i_meas, i_model, labels),
+        _figure_4_7(by_f, first, fits),
+        figures.hysteresis_voltage(traces),
+    )))
 
 
 def _figure_4_7(by_f, first, fits):

@@ -161,6 +161,10 @@ def creep_errors(traces: Mapping[str, np.ndarray], step_at: float, transient_s: 
     return pd.DataFrame(rows)
 
 
+#: file name of the figure of :func:`observer_study`'s table
+STUDY_FIGURE = "fig_5_observer_study"
+
+
 def observer_study(chunks_factory, plan, gamma, a0: float, fs: float, settle_s: float,
                    omegas: Iterable[float], offsets: Iterable[float], zeta_s: float = 1.0) -> pd.DataFrame:
     """Max observer error against the transition frequency ω_S and an added offset current.
@@ -197,55 +201,60 @@ def charge_estimate_figure(series, a0: float):
                                f"Position from charge (a0 = {a0:.3g} C/m), I0 = {fit.I0 * 1e6:.3g} µA fitted")
 
 
+#: file names of the figures :func:`figures_ch5` builds, in its order
+FIGURES = ("fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
+           "fig_5_13", "fig_5_14")
+
+
 def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep, gains) -> dict:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14 from the chapter's series and observer traces."""
     from .. import figures
     from ..gamma import fit_log_gamma
     from ..observer import magnitude_response, transfer_functions
 
-    out = {}
+    built = []
     # leave out the warm-up hold at 0 V
     warm = {f: {k: v[s["U"] > 0.5] for k, v in s.items()} for f, s in series_by_f.items()}
     labels = [f"{f:g} Hz" for f in sorted(warm)]
     fs_sorted = sorted(warm)
-    out["fig_5_1"] = figures.loop([warm[f]["U"] for f in fs_sorted], [warm[f]["x_laser"] * 1e6 for f in fs_sorted],
-                                  "U [V]", "x [µm]", "Rate-dependent hysteresis (0.01–300 Hz)", labels=labels)
+    built.append(figures.loop([warm[f]["U"] for f in fs_sorted], [warm[f]["x_laser"] * 1e6 for f in fs_sorted],
+                              "U [V]", "x [µm]", "Rate-dependent hysteresis (0.01–300 Hz)", labels=labels))
     xs, qs = [], []
     for f in (f for f in fs_sorted if f >= 10):
         x, q, _ = offset_compensated_charge(series_by_f[f])
         xs.append(x * 1e6)
         qs.append(q * 1e6)
-    out["fig_5_2"] = figures.loop(xs, qs, "x [µm]", "q [µC]", "Charge against position, 10–300 Hz",
-                                  labels=[f"{f:g} Hz" for f in fs_sorted if f >= 10])
-    out["fig_5_4"] = charge_estimate_figure(series_by_f[min(f for f in fs_sorted if f >= 10)], gains.a0)
+    built.append(figures.loop(xs, qs, "x [µm]", "q [µC]", "Charge against position, 10–300 Hz",
+                              labels=[f"{f:g} Hz" for f in fs_sorted if f >= 10]))
+    built.append(charge_estimate_figure(series_by_f[min(f for f in fs_sorted if f >= 10)], gains.a0))
     low = [f for f in fs_sorted if f <= 1]
-    out["fig_5_5"] = figures.loop([warm[f]["x_laser"] * 1e6 for f in low], [warm[f]["C_e"] * 1e6 for f in low],
-                                  "x [µm]", "C_e [µF]", "Capacitance against position at low frequencies",
-                                  labels=[f"{f:g} Hz" for f in low])
+    built.append(figures.loop([warm[f]["x_laser"] * 1e6 for f in low], [warm[f]["C_e"] * 1e6 for f in low],
+                              "x [µm]", "C_e [µF]", "Capacitance against position at low frequencies",
+                              labels=[f"{f:g} Hz" for f in low]))
     C, x = gamma_data(gamma_series, n_periods)
     fits = {str(j): fit_gamma(C, x, j) for j in orders} | {"ln": fit_log_gamma(C, x)}
     grid = np.linspace(C.min(), C.max(), 200)
-    out["fig_5_6"] = figures.loop([C * 1e6] + [grid * 1e6] * len(fits), [x * 1e6] + [f.predict(grid) * 1e6 for f in fits.values()],
-                                  "C_e [µF]", "x [µm]", "Γ fits of the 0.1 Hz data",
-                                  labels=["measured"] + [f"order {k}" if k != "ln" else "ln" for k in fits])
-    out["fig_5_7"] = figures.loop([x * 1e6] * len(fits), [f.residuals_um for f in fits.values()], "x [µm]",
-                                  "residual [µm]", "Residuals of the Γ fits", labels=list(fits))
+    built.append(figures.loop([C * 1e6] + [grid * 1e6] * len(fits), [x * 1e6] + [f.predict(grid) * 1e6 for f in fits.values()],
+                              "C_e [µF]", "x [µm]", "Γ fits of the 0.1 Hz data",
+                              labels=["measured"] + [f"order {k}" if k != "ln" else "ln" for k in fits]))
+    built.append(figures.loop([x * 1e6] * len(fits), [f.residuals_um for f in fits.values()], "x [µm]",
+                              "residual [µm]", "Residuals of the Γ fits", labels=list(fits)))
     gs = gamma_series
     chosen = GammaPolynomial.from_fit(fits[str(choose_order(model_selection_table(C, x, tuple(orders))))])
-    out["fig_5_8"] = figures.time_traces(gs["time"], [((gs["x_laser"] - gs["x_laser"][0]) * 1e6, "x laser [µm]"),
-                                                      (chosen.predict(gs["C_e"]) * 1e6, "x from Γ(C_e) [µm]")],
-                                         "Position from capacitance at 0.1 Hz")
+    built.append(figures.time_traces(gs["time"], [((gs["x_laser"] - gs["x_laser"][0]) * 1e6, "x laser [µm]"),
+                                                  (chosen.predict(gs["C_e"]) * 1e6, "x from Γ(C_e) [µm]")],
+                                     "Position from capacitance at 0.1 Hz"))
     freqs = np.logspace(-3, 3, 400)
     mags = magnitude_response(transfer_functions(gains), freqs)
-    out["fig_5_10"] = figures.magnitude_plot(freqs, mags, "HPO transfer functions (Eq 5.6–5.8)")
+    built.append(figures.magnitude_plot(freqs, mags, "HPO transfer functions (Eq 5.6–5.8)"))
     hz = sorted(traces_by_f)
-    out["fig_5_12"] = figures.loop([traces_by_f[f]["time"] for f in hz], [traces_by_f[f]["x_hat"] * 1e6 for f in hz],
-                                   "time [s]", "x̂ [µm]", "Observer estimate at 0.01–100 Hz", labels=[f"{f:g} Hz" for f in hz])
-    out["fig_5_13"] = figures.time_traces(creep["time"], [(creep["x_laser"] * 1e6, "x laser [µm]"),
-                                                          (creep["x_hat"] * 1e6, "x̂ [µm]"),
-                                                          ((creep["x_hat"] - creep["x_laser"]) * 1e6, "error [µm]")],
-                                          "Creep run: 50 Hz transient, then 100 V held")
-    out["fig_5_14"] = figures.loop([traces_by_f[f]["time"] for f in hz],
-                                   [(traces_by_f[f]["x_hat"] - traces_by_f[f]["x_laser"]) * 1e6 for f in hz],
-                                   "time [s]", "x̂ − x [µm]", "Observer error", labels=[f"{f:g} Hz" for f in hz])
-    return out
+    built.append(figures.loop([traces_by_f[f]["time"] for f in hz], [traces_by_f[f]["x_hat"] * 1e6 for f in hz],
+                              "time [s]", "x̂ [µm]", "Observer estimate at 0.01–100 Hz", labels=[f"{f:g} Hz" for f in hz]))
+    built.append(figures.time_traces(creep["time"], [(creep["x_laser"] * 1e6, "x laser [µm]"),
+                                                     (creep["x_hat"] * 1e6, "x̂ [µm]"),
+                                                     ((creep["x_hat"] - creep["x_laser"]) * 1e6, "error [µm]")],
+                                     "Creep run: 50 Hz transient, then 100 V held"))
+    built.append(figures.loop([traces_by_f[f]["time"] for f in hz],
+                              [(traces_by_f[f]["x_hat"] - traces_by_f[f]["x_laser"]) * 1e6 for f in hz],
+                              "time [s]", "x̂ − x [µm]", "Observer error", labels=[f"{f:g} Hz" for f in hz]))
+    return dict(zip(FIGURES, built))

@@ -150,34 +150,36 @@ def p3_summary(t: np.ndarray, open_run: Mapping[str, np.ndarray], closed_run: Ma
     ])
 
 
+#: file names of the figures :func:`figures_ch6` builds, in its order
+FIGURES = ("fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8")
+
+
 def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataFrame) -> dict:
-    """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}})."""
+    """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}}); a
+    figure whose runs are missing is left out."""
     from .. import figures
 
-    out = {}
+    built = []
     p1o, p1c = runs.get("ch6_p1_open_s1"), runs.get("ch6_p1_closed_s1")
-    if p1o is not None and p1c is not None:
-        out["fig_6_2"] = figures.time_traces(p1c["t"], [(p1c["x_ref"] * 1e6, "x_R [µm]"),
-                                                        (p1c["x_laser"] * 1e6, "x closed loop [µm]"),
-                                                        (p1o["x_laser"] * 1e6, "x open loop [µm]")],
-                                             "P1: steps with minor loops (segments a–h)")
-        out["fig_6_3"] = figures.time_traces(p1c["t"], [((p1o["x_ref"] - p1o["x_laser"]) * 1e6, "ε_TOL [µm]"),
-                                                        ((p1c["x_ref"] - p1c["x_laser"]) * 1e6, "ε_TCL [µm]"),
-                                                        ((p1c["x_laser"] - p1c["x_hat"]) * 1e6, "ε_OCL [µm]")],
-                                             "P1 errors, open and closed loop")
-    for n, p in zip((4, 5, 6, 7), ("p2a", "p2b", "p2c", "p2d")):
+    p1 = p1o is not None and p1c is not None
+    built.append(figures.time_traces(p1c["t"], [(p1c["x_ref"] * 1e6, "x_R [µm]"),
+                                                (p1c["x_laser"] * 1e6, "x closed loop [µm]"),
+                                                (p1o["x_laser"] * 1e6, "x open loop [µm]")],
+                                     "P1: steps with minor loops (segments a–h)") if p1 else None)
+    built.append(figures.time_traces(p1c["t"], [((p1o["x_ref"] - p1o["x_laser"]) * 1e6, "ε_TOL [µm]"),
+                                                ((p1c["x_ref"] - p1c["x_laser"]) * 1e6, "ε_TCL [µm]"),
+                                                ((p1c["x_laser"] - p1c["x_hat"]) * 1e6, "ε_OCL [µm]")],
+                                     "P1 errors, open and closed loop") if p1 else None)
+    for p in ("p2a", "p2b", "p2c", "p2d"):
         o, c = runs.get(f"ch6_{p}_open"), runs.get(f"ch6_{p}_closed")
-        if o is None or c is None:
-            continue
-        out[f"fig_6_{n}"] = figures.time_traces(c["t"], [(c["x_ref"] * 1e6, "x_R [µm]"),
-                                                         (c["x_laser"] * 1e6, "x closed [µm]"),
-                                                         (o["x_laser"] * 1e6, "x open [µm]"),
-                                                         ((c["x_ref"] - c["x_laser"]) * 1e6, "ε_TCL [µm]")],
-                                                f"{p.upper()}: tracking open and closed loop")
+        built.append(None if o is None or c is None else
+                     figures.time_traces(c["t"], [(c["x_ref"] * 1e6, "x_R [µm]"), (c["x_laser"] * 1e6, "x closed [µm]"),
+                                                  (o["x_laser"] * 1e6, "x open [µm]"),
+                                                  ((c["x_ref"] - c["x_laser"]) * 1e6, "ε_TCL [µm]")],
+                                         f"{p.upper()}: tracking open and closed loop"))
     o, c = runs.get("ch6_p3_open"), runs.get("ch6_p3_closed")
-    if o is not None and c is not None:
-        out["fig_6_8"] = figures.time_traces(c["t"], [(o["U"], "U open loop [V]"), (c["U"], "U closed loop [V]"),
-                                                      (o["x_laser"] * 1e6, "x open [µm]"),
-                                                      (c["x_laser"] * 1e6, "x closed [µm]")],
-                                             "P3: 50 Hz transient then DC; voltage open vs closed loop")
-    return out
+    built.append(None if o is None or c is None else
+                 figures.time_traces(c["t"], [(o["U"], "U open loop [V]"), (c["U"], "U closed loop [V]"),
+                                              (o["x_laser"] * 1e6, "x open [µm]"), (c["x_laser"] * 1e6, "x closed [µm]")],
+                                     "P3: 50 Hz transient then DC; voltage open vs closed loop"))
+    return {name: fig for name, fig in zip(FIGURES, built) if fig is not None}

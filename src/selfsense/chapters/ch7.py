@@ -28,6 +28,12 @@ THESIS_COUPLED_MIXED = {"max observer error [µm]": 1.38, "max observer error [%
                         "max |T_SH_HPO − T| [K]": 1.45, "max |T_SH_PS − T| [K]": 1.45}
 #: the run the thesis reports the coupled estimation's errors for
 MIXED_RUN = "ch7_mixed_ae"
+#: file names of the figures :func:`thermal_identification` builds, in its order
+THERMAL_FIGURES = ("fig_7_1", "fig_7_2", "fig_7_3", "fig_7_5", "fig_7_6")
+#: file names of :func:`figure_7_7`, :func:`figure_7_8` and :func:`figure_7_9`
+GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = "fig_7_7", "fig_7_8", "fig_7_9"
+#: {file name: the run it shows} of :func:`figure_coupled` (Figs 7.10–7.12)
+COUPLED_FIGURES = {"fig_7_10": "ch7_freq_100hz", "fig_7_11": "ch7_freq_50hz", "fig_7_12": MIXED_RUN}
 THESIS_TABLE_7_2 = {"n=4": (0.998189, 0.998188, 0.474422), "n=5": (0.998194, 0.998193, 0.473808),
                     "n=6": (0.998194, 0.998193, 0.47377), "n=5 + C·T": (0.998193, 0.998193, 0.473825)}
 
@@ -100,35 +106,43 @@ def thermal_identification(runs: Mapping[str, Mapping[str, np.ndarray]], freq_of
 
     per_run, _ = identify(runs, props, T_amb=None)
     identified = per_run.dropna(subset=["tau [s]"]) if "tau [s]" in per_run else per_run.iloc[0:0]
-    built = {"fig_7_1": figures.loop([s["time"] for s in runs.values()], [s["T_mid"] for s in runs.values()],
-                                     "time [s]", "T [°C]", "Self-heating at 100 V, 20–200 Hz", labels=list(runs))}
+    heating = figures.loop([s["time"] for s in runs.values()], [s["T_mid"] for s in runs.values()],
+                           "time [s]", "T [°C]", "Self-heating at 100 V, 20–200 Hz", labels=list(runs))
     later = ("table_7_1", "freq_trend", "volt_trend", "prediction")
     if identified.empty:
         reason = "no heating run long enough to identify τ and γ (see per_run.csv)"
         tables = {key: pd.DataFrame([{"note": f"not computed: {reason}"}]) for key in later}
-        built |= {f"fig_7_{n}": figures.placeholder(f"Figure 7.{n}", reason) for n in (2, 3, 5, 6)}
-        return {"per_run": per_run} | tables, {"identified": False, "reason": reason}, built
+        missing = [figures.placeholder(_title(name), reason) for name in THERMAL_FIGURES[1:]]
+        return ({"per_run": per_run} | tables, {"identified": False, "reason": reason},
+                dict(zip(THERMAL_FIGURES, (heating, *missing))))
     model = ThermalModel(float(identified["tau [s]"].mean()), float(identified["gamma [K/W]"].mean()))
     T_amb = float(identified["T_amb [°C]"].mean())
     trend = steady_rise_trends(identified, freq_of)
     vtrend = voltage_trend(volt, volt_segments, model)
     tables = dict(zip(later, (table_7_1(identified, k_over_alpha, THESIS_TABLE_7_1["T_ref [°C]"]), trend, vtrend,
                               prediction_errors(checks, model, T_amb))))
-    built["fig_7_2"] = figures.loop([trend["frequency [Hz]"]] * 2, [trend["steady rise [K]"],
-                                    trend["fit slope [K/Hz]"] * trend["frequency [Hz]"] + trend["fit intercept [K]"]],
-                                    "frequency [Hz]", "steady rise [K]",
-                                    f"Steady rise against frequency (linear fit R² = {trend['fit R²'].iloc[0]:.4f})",
-                                    labels=["identified γ·P", "linear fit"])
-    built["fig_7_3"] = figures.loop([vtrend["voltage [V]"] ** 2], [vtrend["steady rise [K]"]], "V² [V²]",
-                                    "steady rise [K]",
-                                    f"Steady rise against V² at 150 Hz (R² = {vtrend['fit R²'].iloc[0]:.4f})")
-    for n, (name, s) in zip((5, 6), checks.items()):
+    frequency_rise = figures.loop([trend["frequency [Hz]"]] * 2, [trend["steady rise [K]"],
+                                  trend["fit slope [K/Hz]"] * trend["frequency [Hz]"] + trend["fit intercept [K]"]],
+                                  "frequency [Hz]", "steady rise [K]",
+                                  f"Steady rise against frequency (linear fit R² = {trend['fit R²'].iloc[0]:.4f})",
+                                  labels=["identified γ·P", "linear fit"])
+    voltage_rise = figures.loop([vtrend["voltage [V]"] ** 2], [vtrend["steady rise [K]"]], "V² [V²]",
+                                "steady rise [K]",
+                                f"Steady rise against V² at 150 Hz (R² = {vtrend['fit R²'].iloc[0]:.4f})")
+    predicted = []
+    for name, s in checks.items():
         T_pred = predict_temperature(s["time"], s["P_PS"], model, T0=T_amb, T_amb=T_amb)
-        built[f"fig_7_{n}"] = figures.time_traces(s["time"], [(s["T_mid"], "T measured [°C]"),
-                                                              (T_pred, "T_SH(PS) [°C]"), (T_pred - s["T_mid"], "error [K]")],
-                                                  f"{name}: measured against predicted temperature")
+        predicted.append(figures.time_traces(s["time"], [(s["T_mid"], "T measured [°C]"), (T_pred, "T_SH(PS) [°C]"),
+                                                         (T_pred - s["T_mid"], "error [K]")],
+                                             f"{name}: measured against predicted temperature"))
     record = {"identified": True, "tau": model.tau, "gamma": model.gamma, "T_amb": T_amb}
-    return {"per_run": per_run} | tables, record, built
+    return ({"per_run": per_run} | tables, record,
+            dict(zip(THERMAL_FIGURES, (heating, frequency_rise, voltage_rise, *predicted))))
+
+
+def _title(name: str) -> str:
+    """A placeholder's title from its file name: fig_7_10 → Figure 7.10."""
+    return "Figure " + name.removeprefix("fig_").replace("_", ".")
 
 
 def table_7_1(per_run: pd.DataFrame, k_over_alpha: float, T_ref: float) -> pd.DataFrame:
@@ -183,6 +197,14 @@ def gamma_t(samples: Mapping[str, np.ndarray], T_mid_time, T_mid, orders=(4, 5, 
     t72 = gamma_t_table(C, x, T, orders=tuple(orders), interaction_order=order)
     fit = fit_gamma(C, x, order, temperature=T)
     return t72, anova_table(fit).reset_index(names="source"), coefficient_table(fit).reset_index(names="coefficient"), fit
+
+
+def figure_7_7(samples: Mapping[str, np.ndarray]):
+    """Fig 7.7: C_e against position on the 50 Hz run while the stack heats (:func:`gamma_t`'s samples)."""
+    from .. import figures  # here: the streaming jobs that import this module need no matplotlib
+
+    return figures.loop([samples["x_laser"] * 1e6], [samples["C_e"] * 1e6], "x [µm]", "C_e [µF]",
+                        "Capacitance against position while the stack heats (50 Hz)")
 
 
 def coupled_estimation(chunks, fs: float, plan: SamplingPlan, gamma: GammaPolynomial, gains: HPOGains,
@@ -240,12 +262,13 @@ def coupled_table(stats: Mapping[str, Mapping]) -> pd.DataFrame:
                          | (thesis if run == MIXED_RUN else {}) for run, s in stats.items()])
 
 
-def figure_coupled(n: int, run: str, traces: Mapping[str, np.ndarray], stats: Mapping):
-    """Figs 7.10–7.12: measured T, T_SH(PS) and T_SH(HPO) over one run, or why they are missing."""
+def figure_coupled(name: str, run: str, traces: Mapping[str, np.ndarray], stats: Mapping):
+    """Figs 7.10–7.12 (``name`` of :data:`COUPLED_FIGURES`): measured T, T_SH(PS) and T_SH(HPO) over
+    one run, or why they are missing."""
     from .. import figures
 
     if not len(traces["time"]):
-        return figures.placeholder(f"Figure 7.{n}", stats["note"])
+        return figures.placeholder(_title(name), stats["note"])
     return figures.time_traces(traces["time"], [(traces["T_mid"], "T measured [°C]"), (traces["T_SH_PS"], "T_SH(PS) [°C]"),
                                                 (traces["T_SH_HPO"], "T_SH(HPO) [°C]"),
                                                 (traces["T_SH_HPO"] - traces["T_mid"], "T_SH(HPO) − T [K]")],

@@ -32,6 +32,8 @@ CONTROLS = ("current", "voltage")
 PAIRS = tuple(f"{k}_{c}" for k in KINDS for c in CONTROLS)
 #: Figs 3–5: the ±300 nA ramps compensated for a too large, a too small and the paper's ideal X
 RAMP_FIGURES = {3: "too large", 4: "too small", 5: "the paper's ideal"}
+#: {paper figure: file name} of the figures :func:`figures_paper` builds
+FIGURES = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}
 
 
 @dataclass(frozen=True)
@@ -258,16 +260,17 @@ def recovery(identified: pd.DataFrame, table1: pd.DataFrame, table2: pd.DataFram
 # ---------------------------------------------------------------------------------------------
 def figures_paper(hold: Record, ramps: Iterable[Record], pairs: Mapping[str, Mapping[str, Record]],
                   table1: pd.DataFrame, table2: pd.DataFrame, a_cmd: float, drift_start: float,
-                  velocity_window: float) -> dict[int, object]:
-    """Figures 2–11 by number: ``ramps`` in the order of :data:`RAMP_FIGURES`, ``pairs`` from :func:`by_kind`."""
+                  velocity_window: float) -> dict[str, object]:
+    """Figures 2–11 by file name (:data:`FIGURES`): ``ramps`` in the order of :data:`RAMP_FIGURES`, ``pairs`` from :func:`by_kind`."""
     velocity = dict(zip(RAMP_FIGURES, ramps))
     built = {2: figure_2(hold)}
     for n, rec in velocity.items():
         built[n] = velocity_figure(rec, velocity_window, f"Ramp velocity, compensation for "
                                    f"{rec.X_trial / 1e9:g} GΩ ({RAMP_FIGURES[n]}) (Fig {n})")
-    return built | {6: figure_6(velocity[5]), 7: figure_7(table1, table2),
-                    8: figure_8(pairs["decay"], a_cmd), 9: figure_9(pairs["decay"], a_cmd),
-                    10: figure_10(pairs["repeat"], a_cmd), 11: figure_11(pairs["drift"], drift_start)}
+    built |= {6: figure_6(velocity[5]), 7: figure_7(table1, table2),
+              8: figure_8(pairs["decay"], a_cmd), 9: figure_9(pairs["decay"], a_cmd),
+              10: figure_10(pairs["repeat"], a_cmd), 11: figure_11(pairs["drift"], drift_start)}
+    return {FIGURES[n]: fig for n, fig in built.items()}
 
 
 def _thin(*arrays: np.ndarray):
