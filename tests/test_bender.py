@@ -17,6 +17,8 @@ from selfsense.twin.drive import Drive, Segment, drive_from_protocol
 
 from .conftest import ROOT
 
+from .tolerances import CLOSED_FORM, rtol
+
 MANIFEST = load_dataset(ROOT / "raw", "tokin_nb40")
 PARAMS = B.BenderParams.from_manifest(MANIFEST["twin"])
 FS = float(MANIFEST["daq"]["fs"])
@@ -67,8 +69,11 @@ def test_moving_lowers_the_loss_impedance_as_model_10():
     _, truth = run(current((30.0, 300e-9)))
     moving = slice(int(10 * FS), None)
     expected = PARAMS.actuator.R / np.sqrt((PARAMS.actuator.c * truth["i_C"][moving]) ** 2 + 1)
-    np.testing.assert_allclose(truth["X"][moving], expected, rtol=1e-12)
-    np.testing.assert_allclose(truth["i_l"][moving] * truth["X"][moving], truth["V"][moving], rtol=1e-9)
+    # the same closed form evaluated twice (float64; the capture stores it as float32 only in /truth,
+    # which these arrays are not)
+    np.testing.assert_allclose(truth["X"][moving], expected, rtol=CLOSED_FORM)
+    # i_l·X = V holds to the kernel's root solve (≤ 4ε of V) and the product's rounding
+    np.testing.assert_allclose(truth["i_l"][moving] * truth["X"][moving], truth["V"][moving], rtol=float(rtol(4.0)))
     assert truth["X"][moving].max() < 0.2 * PARAMS.actuator.R
 
 
@@ -127,8 +132,11 @@ def test_numba_kernel_equals_the_reference(mode, compensation, drive):
     slow = B.run_reference(mode, drive, noise, kc, s_slow)
     scale = np.max(np.abs(slow), axis=0)
     scale[scale == 0] = 1.0
-    assert np.max(np.abs(fast - slow) / scale) < 1e-9
-    np.testing.assert_allclose(s_fast, s_slow, rtol=1e-9, atol=1e-20)
+    # each step's root (Newton here, Brent to 4ε there) differs by a few ε, and the states keep
+    # them for longer than the run (creep, heat): they add up to n·4ε at most
+    tol = float(rtol(1.0, roundings=4 * drive.size))
+    assert np.max(np.abs(fast - slow) / scale) < tol
+    np.testing.assert_allclose(s_fast, s_slow, rtol=tol, atol=1e-20)  # atol: states that sit at 0
 
 
 def test_kernel_is_chunk_invariant():
