@@ -21,9 +21,11 @@ def main(raw_dir, dataset, experiment, gamma, observer, model, campaign, capture
          output=None, log=None):
     logger = script_logging(log)
     g, gains, loop = load_gamma(gamma), load_gains(observer), IntegralController(omega_c, load_k_over_alpha(model))
+    def controller_for(daq, drive, warmup):
+        return realtime_controller(daq, drive, warmup, n_periods, g, gains, loop)
+
     path = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output,
-                               controller_for=lambda daq, drive, warmup: realtime_controller(daq, drive, warmup, n_periods,
-                                                                                             g, gains, loop))
+                               controller_for=controller_for)
     logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", path, loop.k_over_alpha, gains.a0)
 
 

@@ -173,13 +173,15 @@ def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataF
     for p in ("p2a", "p2b", "p2c", "p2d"):
         o, c = runs.get(f"ch6_{p}_open"), runs.get(f"ch6_{p}_closed")
         built.append(None if o is None or c is None else
-                     figures.time_traces(c["t"], [(c["x_ref"] * 1e6, "x_R [µm]"), (c["x_laser"] * 1e6, "x closed [µm]"),
+                     figures.time_traces(c["t"], [(c["x_ref"] * 1e6, "x_R [µm]"),
+                                                  (c["x_laser"] * 1e6, "x closed [µm]"),
                                                   (o["x_laser"] * 1e6, "x open [µm]"),
                                                   ((c["x_ref"] - c["x_laser"]) * 1e6, "ε_TCL [µm]")],
                                          f"{p.upper()}: tracking open and closed loop"))
     o, c = runs.get("ch6_p3_open"), runs.get("ch6_p3_closed")
     built.append(None if o is None or c is None else
                  figures.time_traces(c["t"], [(o["U"], "U open loop [V]"), (c["U"], "U closed loop [V]"),
-                                              (o["x_laser"] * 1e6, "x open [µm]"), (c["x_laser"] * 1e6, "x closed [µm]")],
+                                              (o["x_laser"] * 1e6, "x open [µm]"),
+                                              (c["x_laser"] * 1e6, "x closed [µm]")],
                                      "P3: 50 Hz transient then DC; voltage open vs closed loop"))
     return {name: fig for name, fig in zip(FIGURES, built) if fig is not None}
