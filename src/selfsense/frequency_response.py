@@ -37,7 +37,7 @@ import pandas as pd
 import scipy.optimize
 import scipy.signal
 
-from . import figures
+from . import figure_names, figures
 
 #: Fig 5.3 / Chapter 5 text: "the electromechanical resonance frequency (700 Hz)"
 THESIS_RESONANCE_HZ = 700.0
@@ -219,7 +219,7 @@ def measure_sweep(capture, segments: Sequence, settle_s: float) -> Measured:
 
 
 #: file name of :func:`figure_5_3`
-FIGURE = "fig_5_3"
+FIGURE = figure_names.CH5_SWEEP
 
 
 def figure_5_3(table: pd.DataFrame, peaks: pd.DataFrame, G: control.TransferFunction):

@@ -1,11 +1,12 @@
 # Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
 # 7.3), the frequency effect on C_e–x, the coupled observer/thermal estimation, Figures 7.1–7.12.
 
-from selfsense.chapters.ch7 import (COUPLED_FIGURES, DIAGRAM_FIGURE, FREQUENCY_FIGURE, GAMMA_T_FIGURE,
-                                    THERMAL_FIGURES)
+from selfsense.figure_names import (CH7_COUPLED as COUPLED_FIGURES, CH7_DIAGRAM as DIAGRAM_FIGURE,
+                                   CH7_FREQUENCY as FREQUENCY_FIGURE, CH7_GAMMA_T as GAMMA_T_FIGURE,
+                                   CH7_THERMAL as THERMAL_FIGURES)
 
 #: the runs the coupled observer/thermal estimation is evaluated on (Figures 7.10–7.12)
-CH7_COUPLED = ["ch7_freq_100hz", "ch7_freq_50hz", "ch7_mixed_ae"]
+CH7_COUPLED = list(COUPLED_FIGURES.values())
 
 #: the runs the thermal model's predictions are checked on (Figures 7.5, 7.6)
 CH7_CHECKS = ["ch7_heat_cool", "ch7_mixed_voltage"]

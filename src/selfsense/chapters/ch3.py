@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from .. import figures
+from .. import figure_names, figures
 from ..capture import open_capture
 from ..metrics import direction, hysteresis_percent
 from ..ripple import SamplingPlan
@@ -26,9 +26,7 @@ SCALE = {"U": 1.0, "C_e": 1e6, "R_e": 1.0, "x_laser": 1e6}
 SHOWN_HZ = 10.0
 SHOWN_TAIL_S = 0.2
 #: file names of the figures :func:`figures_ch3` builds, in its order
-FIGURES = ("fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_3_12", "fig_3_13", "fig_3_14")
-#: file name of :func:`figure_3_2`
-MODEL_FIGURE = "fig_3_2"
+FIGURES, MODEL_FIGURE = figure_names.CH3, figure_names.CH3_MODEL
 
 
 def steady(series: Mapping[str, np.ndarray], skip: float) -> dict[str, np.ndarray]:

@@ -7,7 +7,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from .. import figures
+from .. import figure_names, figures
 from ..electromech import (ChargeFit, Geometry, ModelParameters, SetIdentification, as_row, identify_set,
                            kinematics, material_properties, sensitivity, slope_is_consistent)
 
@@ -150,7 +150,7 @@ def hysteresis_voltage(sets, fits, per_frequency=(10.0, 100.0)) -> tuple[pd.Data
 
 
 #: file names of the figures :func:`figures_ch4` builds, in its order
-FIGURES = ("fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_8")
+FIGURES = figure_names.CH4
 
 
 def figures_ch4(sets, fits, force, drive) -> dict:

@@ -8,6 +8,7 @@ from typing import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
+from .. import figure_names
 from ..electromech import fit_charge_position
 from ..gamma import GammaPolynomial, fit_gamma, model_selection_table
 from ..observer import HPOGains
@@ -162,7 +163,7 @@ def creep_errors(traces: Mapping[str, np.ndarray], step_at: float, transient_s: 
 
 
 #: file name of the figure of :func:`observer_study`'s table
-STUDY_FIGURE = "fig_5_observer_study"
+STUDY_FIGURE = figure_names.CH5_STUDY
 
 
 def observer_study(chunks_factory, plan, gamma, a0: float, fs: float, settle_s: float,
@@ -202,8 +203,7 @@ def charge_estimate_figure(series, a0: float):
 
 
 #: file names of the figures :func:`figures_ch5` builds, in its order
-FIGURES = ("fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
-           "fig_5_13", "fig_5_14")
+FIGURES = figure_names.CH5
 
 
 def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep, gains) -> dict:

@@ -11,6 +11,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from .. import figure_names
 from ..capture import open_capture
 from ..control import IntegralController, tracking_prediction
 from ..ripple import WindowMeans, plan_from_capture
@@ -151,7 +152,7 @@ def p3_summary(t: np.ndarray, open_run: Mapping[str, np.ndarray], closed_run: Ma
 
 
 #: file names of the figures :func:`figures_ch6` builds, in its order
-FIGURES = ("fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8")
+FIGURES = figure_names.CH6
 
 
 def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataFrame) -> dict:

@@ -9,6 +9,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
+from .. import figure_names
 from ..capture import open_capture, read_series
 from ..gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, gamma_t_table
 from ..metrics import branch_means, direction
@@ -26,14 +27,12 @@ COUPLING_INTERVAL = 0.1
 #: the thesis's coupled estimation over the mixed run (Fig 7.12)
 THESIS_COUPLED_MIXED = {"max observer error [µm]": 1.38, "max observer error [% of stroke]": 4.18,
                         "max |T_SH_HPO − T| [K]": 1.45, "max |T_SH_PS − T| [K]": 1.45}
-#: the run the thesis reports the coupled estimation's errors for
-MIXED_RUN = "ch7_mixed_ae"
-#: file names of the figures :func:`thermal_identification` builds, in its order
-THERMAL_FIGURES = ("fig_7_1", "fig_7_2", "fig_7_3", "fig_7_5", "fig_7_6")
-#: file names of :func:`figure_7_7`, :func:`figure_7_8` and :func:`figure_7_9`
-GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = "fig_7_7", "fig_7_8", "fig_7_9"
-#: {file name: the run it shows} of :func:`figure_coupled` (Figs 7.10–7.12)
-COUPLED_FIGURES = {"fig_7_10": "ch7_freq_100hz", "fig_7_11": "ch7_freq_50hz", "fig_7_12": MIXED_RUN}
+THERMAL_FIGURES = figure_names.CH7_THERMAL
+GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (figure_names.CH7_GAMMA_T, figure_names.CH7_FREQUENCY,
+                                                    figure_names.CH7_DIAGRAM)
+COUPLED_FIGURES = figure_names.CH7_COUPLED
+#: the run the thesis reports the coupled estimation's errors for: the one Fig 7.12 shows
+MIXED_RUN = COUPLED_FIGURES["fig_7_12"]
 THESIS_TABLE_7_2 = {"n=4": (0.998189, 0.998188, 0.474422), "n=5": (0.998194, 0.998193, 0.473808),
                     "n=6": (0.998194, 0.998193, 0.47377), "n=5 + C·T": (0.998193, 0.998193, 0.473825)}
 

@@ -14,7 +14,7 @@ from typing import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
-from .. import figures
+from .. import figure_names, figures
 from .. import powerloss as pl
 from ..capture import open_capture
 
@@ -33,7 +33,7 @@ PAIRS = tuple(f"{k}_{c}" for k in KINDS for c in CONTROLS)
 #: Figs 3–5: the ±300 nA ramps compensated for a too large, a too small and the paper's ideal X
 RAMP_FIGURES = {3: "too large", 4: "too small", 5: "the paper's ideal"}
 #: {paper figure: file name} of the figures :func:`figures_paper` builds
-FIGURES = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}
+FIGURES = figure_names.RONKANEN
 
 
 @dataclass(frozen=True)
