@@ -245,3 +245,13 @@ def test_two_runs_at_once_never_damage_a_capture_and_a_damaged_one_is_found(smok
     assert "unreadable capture" in line or "not a readable" in line or "time axis" in line, line
     assert "ERROR raw/pi_p885/ch3_sine_1hz.nc: " in (repo / "logs" / "pi_p885" / "check_capture" /
                                                       "ch3_sine_1hz.log").read_text()
+
+
+@pytest.mark.slow
+def test_a_dash_dash_config_fault_is_blamed_on_it_by_snakemake(tmp_path):
+    repo = copy_repo(tmp_path / "repo")
+    run = subprocess.run([sys.executable, "-m", "snakemake", "-n", "--cores", "1", "--config", "campain=smoke"],
+                         cwd=repo, capture_output=True, text=True, timeout=600)
+    assert run.returncode != 0
+    line = error_line(run, "unknown key campain")
+    assert "--config: unknown key campain" in line and "config.yaml" not in line, line

@@ -390,7 +390,12 @@ class Capture:
         for name in names:
             var = self._nc[name]
             var.set_auto_maskandscale(False)
-            out[name] = self._decode(name, np.asarray(var[start:stop]))
+            try:
+                codes = np.asarray(var[start:stop])
+            except (RuntimeError, OSError) as err:  # HDF5 checksum or a damaged chunk
+                raise _fail(self.path, f"unreadable capture (channel {name}, samples {start}–"
+                                       f"{stop if stop is not None else self.n}: {err})") from None
+            out[name] = self._decode(name, codes)
         total = self.n if dim == "time" else self.n_slow
         if start == 0 and (stop is None or stop >= total):
             self._check_not_all_missing(names, dim)

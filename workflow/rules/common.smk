@@ -11,7 +11,7 @@ from selfsense.manifest import SCHEMAS, expand_protocols, load_dataset, validate
 # defaults. --configfile files override config.yaml; Snakemake lists them before it in
 # workflow.configfiles
 validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config",
-                workflow.config_settings.overwrite_config)
+                dict(workflow.config_settings.config))  # --config alone (overwrite_config has the files too)
 validate(config, str(SCHEMAS / "config.schema.yaml"))
 
 #: where the selfsense package's source lives in the checkout: its files are the rules' `library`
