@@ -271,16 +271,16 @@ class CaptureWriter:
         if short:
             self.tmp.unlink(missing_ok=True)
             raise ValueError(f"{self.path}: writer stopped early at {short} samples")
-        try:
-            _verify(self.tmp, self._digest, self._chunk_len)
-        except CaptureError as err:
+        problem = _read_back(self.tmp, self._digest, self._chunk_len)
+        if problem:
             self.tmp.unlink(missing_ok=True)
-            raise _fail(self.path, f"not renamed into place: {str(err).split(': ', 1)[1]}") from None
+            raise _fail(self.path, f"not renamed into place: {problem}")
         os.replace(self.tmp, self.path)
 
 
-def _verify(path: Path, digests: Mapping[str, "hashlib._Hash"], chunk_len: int) -> None:
-    """Read every written variable back and compare it with the hash taken while writing."""
+def _read_back(path: Path, digests: Mapping[str, "hashlib._Hash"], chunk_len: int) -> str | None:
+    """Read every written variable back and compare it with the hash taken while writing; what
+    differs, or None."""
     try:
         with netCDF4.Dataset(path, "r") as nc:
             for name, digest in digests.items():
@@ -291,11 +291,10 @@ def _verify(path: Path, digests: Mapping[str, "hashlib._Hash"], chunk_len: int) 
                 for start in range(0, var.shape[0], step):
                     h.update(np.ascontiguousarray(var[start:start + step]).tobytes())
                 if h.digest() != digest.digest():
-                    raise _fail(path, f"variable {name} read back differs from what was written")
-    except CaptureError:
-        raise
+                    return f"variable {name} read back differs from what was written"
     except Exception as err:  # HDF5 checksum or structure errors surface as RuntimeError/OSError
-        raise _fail(path, f"read-back failed ({type(err).__name__}: {err})") from None
+        return f"read-back failed ({type(err).__name__}: {err})"
+    return None
 
 
 def _limit_chunk_cache(group: netCDF4.Dataset | netCDF4.Group) -> None:
@@ -328,7 +327,7 @@ class ChunkStats:
 class Capture:
     """A validated capture, open for streaming reads. Use as a context manager."""
 
-    def __init__(self, path: os.PathLike | str, nc: netCDF4.Dataset):
+    def __init__(self, path: os.PathLike | str, nc: netCDF4.Dataset, require: Sequence[str] = ()):
         self.path = Path(path)
         self._nc = nc
         self.attrs: dict[str, object] = {k: nc.getncattr(k) for k in nc.ncattrs()}
@@ -337,7 +336,7 @@ class Capture:
         self.n_slow = len(nc.dimensions["time_slow"]) if "time_slow" in nc.dimensions else 0
         self.channels = [v for v in nc.variables if v in CHANNEL_UNITS]
         self.stats = ChunkStats()
-        self.required: frozenset[str] = frozenset()
+        self.required = frozenset(require)  # channels whose being entirely NaN stops the analysis
         self._finite_seen: set[str] = set()
 
     # -- context management -------------------------------------------------------------
@@ -349,6 +348,9 @@ class Capture:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    def length(self, dim: str = "time") -> int:
+        return self.n if dim == "time" else self.n_slow
 
     @property
     def duration(self) -> float:
@@ -378,8 +380,7 @@ class Capture:
         it here, with one line, instead of deep inside (empty reductions, division by zero)."""
         empty = [n for n in names if n in self.required and n not in self._finite_seen]
         if empty:
-            total = self.n if dim == "time" else self.n_slow
-            raise _fail(self.path, f"channel {empty[0]} is entirely NaN (all {total} samples missing): "
+            raise _fail(self.path, f"channel {empty[0]} is entirely NaN (all {self.length(dim)} samples missing): "
                                    f"this analysis needs it")
 
     def read(self, names: Sequence[str], start: int = 0, stop: int | None = None,
@@ -394,10 +395,9 @@ class Capture:
                 codes = np.asarray(var[start:stop])
             except (RuntimeError, OSError) as err:  # HDF5 checksum or a damaged chunk
                 raise _fail(self.path, f"unreadable capture (channel {name}, samples {start}–"
-                                       f"{stop if stop is not None else self.n}: {err})") from None
+                                       f"{stop if stop is not None else self.length(dim)}: {err})") from None
             out[name] = self._decode(name, codes)
-        total = self.n if dim == "time" else self.n_slow
-        if start == 0 and (stop is None or stop >= total):
+        if start == 0 and (stop is None or stop >= self.length(dim)):
             self._check_not_all_missing(names, dim)
         return out
 
@@ -408,7 +408,7 @@ class Capture:
         The time axis is checked chunk by chunk, so a gap anywhere in the file is caught
         without ever holding more than one chunk in memory.
         """
-        n = self.n if dim == "time" else self.n_slow
+        n = self.length(dim)
         rate = self.fs if dim == "time" else float(self._nc["time_slow"].sampling_rate)
         tvar = self._nc[dim]
         progress = _Progress(f"{self.path} read", n)
@@ -463,9 +463,7 @@ def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Captur
     except Exception as err:  # a truncated file can fail on any access, not only on open
         nc.close()
         raise _fail(path, f"unreadable capture ({type(err).__name__}: {err})") from None
-    capture = Capture(path, nc)
-    capture.required = frozenset(require)
-    return capture
+    return Capture(path, nc, require)
 
 
 def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) -> None:

@@ -204,6 +204,8 @@ class Experiment:
     protocol: Mapping[str, Any]  # quantity, segments, and the optional keys below
     load_stiffness: float = 0.0
     control: str = "open_loop"
+    #: the bender's feedforward setting (Ronkanen catalogue), as the protocol gives it
+    compensation: Mapping[str, Any] | None = None
 
 
 def expand_protocols(protocol_names: list[str], campaign: str,
@@ -228,5 +230,6 @@ def expand_protocols(protocol_names: list[str], campaign: str,
                     protocol={k: entry[k] for k in ("quantity", "segments", "repeat", "warmup") if k in entry},
                     load_stiffness=float(entry.get("load_stiffness", 0.0)),
                     control=entry.get("control", "open_loop"),
+                    compensation=entry.get("compensation"),
                 )
     return experiments

@@ -5,7 +5,7 @@ from pathlib import Path
 
 from snakemake.utils import validate
 
-from selfsense.manifest import SCHEMAS, expand_protocols, load_dataset, validate_config
+from selfsense.manifest import PROTOCOLS, SCHEMAS, expand_protocols, load_dataset, validate_config
 
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
 # defaults. --configfile files override config.yaml; Snakemake lists them before it in
@@ -104,7 +104,7 @@ def captures(dataset, **runs):
 
 def protocol_file(dataset, experiment):
     """The catalogue file an experiment comes from: a capture depends on its own protocol only."""
-    return f"workflow/protocols/{EXPERIMENTS[dataset][experiment].chapter}.yaml"
+    return str(PROTOCOLS / f"{EXPERIMENTS[dataset][experiment].chapter}.yaml")
 
 
 def has_channels(dataset, *channels):

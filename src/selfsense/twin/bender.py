@@ -46,7 +46,7 @@ from scipy.optimize import brentq
 from .. import __version__
 from .. import powerloss as pl
 from ..capture import CaptureWriter, channel_spec
-from ..manifest import PROTOCOLS, Experiment, load_yaml
+from ..manifest import Experiment
 from .bench import DaqPlan, experiment_seed
 from .drive import Drive, drive_from_protocol
 from .instruments import SlowProcess
@@ -390,9 +390,8 @@ def simulate_bender_capture(
 
 
 def compensation_of(experiment: Experiment) -> Compensation:
-    """The feedforward setting of a catalogue experiment (the expanded catalogue keeps only its drive)."""
-    entry = load_yaml(PROTOCOLS / f"{experiment.chapter}.yaml")["experiments"][experiment.name]
-    return Compensation.from_protocol(entry.get("compensation"))
+    """The feedforward setting of a catalogue experiment."""
+    return Compensation.from_protocol(experiment.compensation)
 
 
 def simulate_experiment(path: Path | str, twin: Mapping[str, Any], daq: DaqPlan, experiment: Experiment,
