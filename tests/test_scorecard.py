@@ -10,7 +10,7 @@ import pytest
 from selfsense.manifest import ManifestError, load_yaml
 from selfsense.scorecard import (LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Entry, Locator, Tolerance, applicable,
                                  band, judge, lookup, parse_registry, score, scorecard, scorecard_html,
-                                 summary_rst, tables_read)
+                                 landing_rst, out_of_band_rst, pending_rst, tables_read)
 
 from .conftest import ROOT
 
@@ -203,10 +203,12 @@ def test_summary_is_valid_restructuredtext_naming_what_is_out_and_why():
                entry(quantity="e", published=40, locate=Locator("t.csv", "fs [kHz]", (("ns", 12),))),
                entry(quantity="c", chapter="Ronkanen")]
     card = scorecard(entries, {"t.csv": TABLE}, STACK)
-    text = summary_rst({"stack_ds": card})
+    pages = [render({"stack_ds": card}) for render in (landing_rst, out_of_band_rst, pending_rst)]
+    text = "\n".join(pages)
     assert "1 of 3 reproduced numbers within band" in text and "(1 without a note" in text
-    html = docutils.core.publish_parts(text, writer="html",
-                                       settings_overrides={"halt_level": 2, "report_level": 5})["body"]
+    html = "".join(docutils.core.publish_parts(page, writer="html",
+                                               settings_overrides={"halt_level": 2, "report_level": 5})["body"]
+                   for page in pages)
     assert "b*c|d_" in html and "twin_choice `x`" in html and "Ronkanen: Table 9.9 (1)" in html
 
 

@@ -269,17 +269,6 @@ def counts(card: pd.DataFrame) -> dict[str, int]:
 
 # --- renderings ---------------------------------------------------------------------------------
 
-def summary_rst(cards: Mapping[str, pd.DataFrame]) -> str:
-    """reStructuredText of the whole summary: counts per dataset, then every number out of band
-    (with the registry's note saying why), numbers missing from their tables, and what is to come."""
-    cards = _filled(cards)
-    lines = _table(cards)
-    for dataset, card in cards.items():
-        lines += ["", _tally(dataset, card), ""]
-        lines += _out_of_band(card) + _missing(card) + _pending(card)
-    return "\n".join(lines) + "\n"
-
-
 def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
     """The short summary that opens the report: the counts table and one line per dataset. The
     long lists are pages of their own (`out_of_band_rst`, `pending_rst`): the report's landing
