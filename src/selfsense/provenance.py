@@ -151,7 +151,7 @@ def script_logging(log_path: str | os.PathLike | None) -> logging.Logger:
     handler.setFormatter(logging.Formatter("%(levelname)s %(message)s"))
     logger.handlers[:] = [handler]
     if log_path:
-        sys.excepthook = _log_then_raise(logger, sys.excepthook)
+        sys.excepthook = _log_then_raise(logger, sys.__excepthook__)  # once, however often this runs
     return logger
 
 
