@@ -581,6 +581,15 @@ class SeriesWriter:
         os.replace(self.tmp, self.path)
 
 
+def series_scalars(path: os.PathLike | str) -> dict[str, float]:
+    """The numeric attributes a :class:`SeriesWriter` stored with a series (say, a run's peaks)."""
+    try:
+        with netCDF4.Dataset(path) as nc:
+            return {k: float(v) for k in nc.ncattrs() if isinstance(v := nc.getncattr(k), (float, np.floating))}
+    except OSError as err:
+        raise _fail(path, f"not a readable netCDF4 series ({err.strerror or err})") from None
+
+
 def read_series(path: os.PathLike | str, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
     """A derived series written by :class:`SeriesWriter`, whole (they are ns× smaller than captures)."""
     try:

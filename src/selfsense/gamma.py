@@ -39,7 +39,7 @@ import json
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, Sequence
 
 import numpy as np
 import pandas as pd
@@ -460,3 +460,42 @@ class GammaPolynomial:
 def load_gamma(path: str | Path) -> GammaPolynomial:
     """The Γ (Eq 5.4) or Γ_T (Eq 7.13) a fitting stage wrote as ``record() | provenance``."""
     return GammaPolynomial.from_record(json.loads(Path(path).read_text()))
+
+
+def printed_range(printed: GammaPolynomial, x_max_um: float, temperature: float = 0.0) -> tuple[float, float]:
+    """The C interval [µF] on which a printed Γ (or Γ_T at ``temperature`` [°C]) runs
+    monotonically from x = 0 to ``x_max_um``: the range of C its fit covered. A polynomial of
+    order 5 has several such stretches; the widest is the physical one (C falls by ≈ 1 µF over
+    the stroke, Table 4.2), the others are wiggles outside the data."""
+    p = Polynomial(printed.coefficients) + printed.g * temperature
+    crossings = {level: sorted(r.real for r in (p - level).roots() if abs(r.imag) < 1e-9 and r.real > 0)
+                 for level in (0.0, x_max_um)}
+    turns = [r.real for r in p.deriv().roots() if abs(r.imag) < 1e-9]
+    spans = [(min(a, b), max(a, b)) for a in crossings[0.0] for b in crossings[x_max_um]
+             if not any(min(a, b) < t < max(a, b) for t in turns)]
+    if not spans:
+        raise ValueError(f"the printed Γ does not run monotonically from 0 to {x_max_um:g} µm")
+    return max(spans, key=lambda s: s[1] - s[0])
+
+
+def curve_difference(ours: GammaPolynomial, printed: GammaPolynomial, x_max_um: float,
+                     temperatures: Sequence[float] = (0.0,), points: int = 2001) -> dict[str, float]:
+    """max |Γ_ours(C) − Γ_printed(C)| [µm] over the printed curve's C range (per temperature for
+    Γ_T): how the fitted curves compare, which the ill-conditioned coefficients cannot say."""
+    worst, lows, highs = 0.0, [], []
+    for T in temperatures:
+        lo, hi = printed_range(printed, x_max_um, T)
+        C = np.linspace(lo, hi, points)
+        T_arr = np.full_like(C, T)
+        diff = ours.predict(C / _UF_PER_F, T_arr) * _UM_PER_M - printed.predict(C / _UF_PER_F, T_arr) * _UM_PER_M
+        worst = max(worst, float(np.max(np.abs(diff))))
+        lows.append(lo)
+        highs.append(hi)
+    return {"C low [µF]": min(lows), "C high [µF]": max(highs), "max |Γ − Γ_thesis| [µm]": worst}
+
+
+def curve_table(fits: Mapping[str, GammaPolynomial], printed: GammaPolynomial, x_max_um: float,
+                temperatures: Sequence[float] = (0.0,)) -> pd.DataFrame:
+    """One row per fit (e.g. "thesis order", "our order"): its order and :func:`curve_difference`."""
+    return pd.DataFrame([{"fit": name, "order": fit.order, **curve_difference(fit, printed, x_max_um, temperatures)}
+                         for name, fit in fits.items()])

@@ -24,13 +24,18 @@ WITHIN = "within band"
 OUT = "out of band"
 NOT_YET = "not reproduced yet"
 MISSING = "missing from table"
-VERDICTS = (WITHIN, OUT, NOT_YET, MISSING)
+INFORMATION = "information (no verdict)"
+VERDICTS = (WITHIN, OUT, NOT_YET, MISSING, INFORMATION)
 
 PUBLISHED = "published"
 RECOVERY = "twin recovery"
 
-COLUMNS = ["section", "chapter", "source", "quantity", "unit", "published", "reproduced", "deviation",
-           "deviation [%]", "band low", "band high", "tolerance", "justification", "verdict", "read from",
+#: what kind of number a row is (docs/scorecard.md); only `emergent` ones count as reproduced
+KINDS = ("emergent", "closed form", "recovery", "calibration")
+EMERGENT = "emergent"
+
+COLUMNS = ["section", "kind", "chapter", "source", "quantity", "unit", "published", "reproduced", "deviation",
+           "deviation [%]", "band low", "band high", "band", "tolerance", "justification", "verdict", "read from",
            "note"]
 
 #: a value this close to a band edge (relative) counts as on it: CSV round trips are not exact
@@ -50,16 +55,60 @@ class NotComputed(LookupError):
 
 @dataclass(frozen=True)
 class Tolerance:
+    """How far from the published value a reproduction may land: a half-width (``abs`` in the
+    entry's unit, ``rel`` in percent of |published|, ``digit`` in units of the last printed digit)
+    or a ``factor``, on a ``scale``: linear (p ± h), log ([p/f, p·f] with f = factor or 1 + h/p,
+    for a positive quantity) or log1m (the same for 1 − value, for goodness of fit)."""
     abs: float | None = None
-    rel: float | None = None  # percent of |published|
+    rel: float | None = None
+    digit: float | None = None
+    factor: float | None = None
+    scale: str = "linear"
 
-    def half_width(self, published: float) -> float:
-        return self.abs if self.abs is not None else abs(published) * self.rel / 100.0
+    def half_width(self, published: float, printed: str | None = None) -> float:
+        if self.abs is not None:
+            return self.abs
+        if self.rel is not None:
+            return abs(published) * self.rel / 100.0
+        if self.digit is not None:
+            return self.digit * last_digit(printed if printed is not None else repr(published))
+        raise ValueError("a factor has no half-width")
+
+    def limits(self, published: float, printed: str | None = None) -> tuple[float, float]:
+        """[low, high] around ``published`` on this tolerance's scale."""
+        if self.scale == "linear":
+            half = self.half_width(published, printed)
+            return published - half, published + half
+        ref = published if self.scale == "log" else 1.0 - published
+        factor = self.factor if self.factor is not None else 1.0 + self.half_width(ref, printed) / ref
+        if self.scale == "log":
+            return ref / factor, ref * factor
+        return 1.0 - ref * factor, 1.0 - ref / factor
 
     def describe(self, unit: str) -> str:
-        if self.abs is not None:
-            return f"±{self.abs:g}{' ' + unit if unit else ''}"
-        return f"±{self.rel:g} %"
+        unit = f" {unit}" if unit else ""
+        text = (f"±{self.abs:g}{unit}" if self.abs is not None else f"±{self.rel:g} %" if self.rel is not None
+                else f"±{self.digit:g} of the last printed digit" if self.digit is not None else f"×/÷ {self.factor:g}")
+        if self.scale == "log" and self.factor is None:
+            text = f"+{text.removeprefix('±')}, same factor below"
+        return text + {"linear": "", "log": "", "log1m": " on 1 − value"}[self.scale]
+
+
+def last_digit(printed: str) -> float:
+    """The value of one unit of the last digit of a number as printed: '0.637' → 0.001, '400' → 1."""
+    mantissa, _, exponent = printed.lower().partition("e")
+    decimals = len(mantissa.partition(".")[2].rstrip()) if "." in mantissa else 0
+    return 10.0 ** (int(exponent or 0) - decimals)
+
+
+@dataclass(frozen=True)
+class Band:
+    """The rule for one kind of quantity: its tolerance (None: information, no verdict), the side
+    it bounds when the source states a bound, and the reason, written once in the registry."""
+    name: str
+    justification: str
+    tolerance: Tolerance | None = None
+    bound: str | None = None  # "upper" | "lower" when the rule itself is a bound (a scatter)
 
 
 @dataclass(frozen=True)
@@ -78,22 +127,27 @@ class Locator:
 @dataclass(frozen=True)
 class Entry:
     section: str
+    kind: str
     chapter: str
     source: str
     model: str
     quantity: str
     unit: str
     published: float | None  # None: the twin's truth, read from column ``truth`` of the located row
-    tolerance: Tolerance
-    justification: str
+    band: Band
     bound: str | None = None  # "upper" | "lower" for a published bound ("< 3 %")
     note: str = ""
     locate: Locator | None = None
     truth: str | None = None
+    printed: str | None = None  # the published number as printed, where trailing zeros matter
 
     @property
     def key(self) -> tuple[str, str, str]:
         return self.model, self.source, self.quantity
+
+    @property
+    def tolerance(self) -> Tolerance | None:
+        return self.band.tolerance
 
 
 @dataclass(frozen=True)
@@ -112,11 +166,17 @@ class Score:
 def parse_registry(doc: Any, source: str = "workflow/scorecard.yaml") -> list[Entry]:
     """Validate the registry document against its schema and expand groups into entries."""
     validate_document(doc, "scorecard.schema.yaml", source)
+    rules = {name: _band(b, f"{source}: bands.{name}") for name, b in doc.get("bands", {}).items()}
+    names = {b.name: b for b in rules.values()}
     entries = []
     for g, group in enumerate(doc["groups"]):
         for e, item in enumerate(group["entries"]):
             where = f"{source}: groups.{g}.entries.{e} ({group['source']}, {item['quantity']})"
             entries.append(_entry(group, item, where))
+            named = names.get(entries[-1].band.name)
+            if named is not None and named != entries[-1].band:
+                raise RegistryError(f"{where}: its band is named {named.name!r} like a rule of `bands:` "
+                                    "but differs from it: name the rule by its alias, or give the band a name of its own")
     seen: set[tuple[str, str, str]] = set()
     for entry in entries:
         if entry.key in seen:
@@ -124,6 +184,13 @@ def parse_registry(doc: Any, source: str = "workflow/scorecard.yaml") -> list[En
                                 f"model {entry.model}")
         seen.add(entry.key)
     return entries
+
+
+def _band(doc: Mapping[str, Any], where: str) -> Band:
+    tolerance = Tolerance(**doc["tolerance"]) if "tolerance" in doc else None
+    if tolerance is not None and tolerance.factor is not None and tolerance.scale == "linear":
+        raise RegistryError(f"{where}: a factor needs scale: log or log1m")
+    return Band(doc["name"], doc["justification"], tolerance, doc.get("bound"))
 
 
 def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Entry:
@@ -135,11 +202,17 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
     if truth is not None and (section != RECOVERY or locate is None):
         raise RegistryError(f"{where}: published: {{truth: <column>}} needs section: {RECOVERY} and a "
                             "locate (the truth is read from the located row)")
-    return Entry(section=section, chapter=group["chapter"], source=group["source"], model=group["model"],
-                 quantity=item["quantity"], unit=value["unit"],
-                 published=None if truth else float(published),
-                 tolerance=Tolerance(**value["tolerance"]), justification=value["justification"],
-                 bound=value.get("bound"), note=value.get("note", ""), locate=locate, truth=truth)
+    band = _band(value["band"], where)
+    bound = value.get("bound", band.bound)
+    if truth is None and band.tolerance is not None and band.tolerance.scale != "linear" and not bound:
+        ref = published if band.tolerance.scale == "log" else 1 - published
+        if ref <= 0:
+            raise RegistryError(f"{where}: band {band.name!r} is on a log scale, which needs "
+                                f"{'a positive value' if band.tolerance.scale == 'log' else 'a value below 1'}")
+    return Entry(section=section, kind=value["kind"], chapter=group["chapter"], source=group["source"],
+                 model=group["model"], quantity=item["quantity"], unit=value["unit"],
+                 published=None if truth else float(published), band=band, bound=bound,
+                 note=value.get("note", ""), locate=locate, truth=truth, printed=item.get("printed"))
 
 
 def _locator(locate: Mapping[str, Any], where: str) -> Locator | None:
@@ -154,7 +227,7 @@ def _locator(locate: Mapping[str, Any], where: str) -> Locator | None:
 
 def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[Entry]:
     """Entries for this dataset's actuator; twin recovery only where there is a twin."""
-    return [e for e in entries if e.model == manifest["model"]
+    return [e for e in entries if e.model == manifest.get("model")
             and (e.section != RECOVERY or "twin" in manifest)]
 
 
@@ -165,13 +238,16 @@ def tables_read(entries: Sequence[Entry]) -> list[str]:
 
 # --- scoring ------------------------------------------------------------------------------------
 
-def band(published: float, bound: str | None, tolerance: Tolerance) -> tuple[float, float]:
-    half = tolerance.half_width(published)
-    if bound == "upper":
-        return -math.inf, published + half
-    if bound == "lower":
-        return published - half, math.inf
-    return published - half, published + half
+def band(published: float, entry: Entry) -> tuple[float, float]:
+    """The band an entry's reproduction must land in; (-inf, inf) for an information row."""
+    if entry.tolerance is None or math.isnan(published):
+        return -math.inf, math.inf
+    lo, hi = entry.tolerance.limits(published, entry.printed)
+    if entry.bound == "upper":
+        return -math.inf, hi
+    if entry.bound == "lower":
+        return lo, math.inf
+    return lo, hi
 
 
 def judge(reproduced: float, lo: float, hi: float) -> str:
@@ -216,10 +292,9 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
     """Score one entry against the tables made for a dataset (relative path → table)."""
     published = math.nan if entry.published is None else entry.published
     if entry.locate is None:
-        return Score(entry, published, band(published, entry.bound, entry.tolerance),
-                     detail="no stage makes this number yet")
+        return Score(entry, published, band(published, entry), detail="no stage makes this number yet")
     if entry.locate.table not in tables:
-        return Score(entry, published, band(published, entry.bound, entry.tolerance),
+        return Score(entry, published, band(published, entry),
                      detail=f"{entry.locate.table} is not made for this dataset")
     table = tables[entry.locate.table]
     try:
@@ -227,12 +302,12 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
             published = lookup(entry.locate, table, entry.truth)
         reproduced = lookup(entry.locate, table)
     except NotComputed as err:  # the stage's own statement that it has no value (say, a short campaign)
-        return Score(entry, published, band(published, entry.bound, entry.tolerance), detail=f"{LEFT_OUT}{err}")
+        return Score(entry, published, band(published, entry), detail=f"{LEFT_OUT}{err}")
     except LookupError as err:  # the table no longer has the row or column: a locator to fix
-        return Score(entry, published, band(published, entry.bound, entry.tolerance), verdict=MISSING,
-                     detail=str(err))
-    limits = band(published, entry.bound, entry.tolerance)
-    return Score(entry, published, limits, reproduced, judge(reproduced, *limits))
+        return Score(entry, published, band(published, entry), verdict=MISSING, detail=str(err))
+    limits = band(published, entry)
+    verdict = INFORMATION if entry.tolerance is None else judge(reproduced, *limits)
+    return Score(entry, published, limits, reproduced, verdict)
 
 
 def scorecard(entries: Sequence[Entry], tables: Mapping[str, pd.DataFrame], manifest: Mapping[str, Any]) -> pd.DataFrame:
@@ -244,23 +319,25 @@ def _row(s: Score) -> dict[str, Any]:
     e, p, r = s.entry, s.published, s.reproduced
     lo, hi = s.band
     return {
-        "section": e.section, "chapter": e.chapter, "source": e.source, "quantity": e.quantity,
+        "section": e.section, "kind": e.kind, "chapter": e.chapter, "source": e.source, "quantity": e.quantity,
         "unit": e.unit, "published": p, "reproduced": r,
         "deviation": None if r is None else r - p,
         "deviation [%]": None if r is None or p == 0 else 100.0 * (r - p) / abs(p),
         "band low": lo if math.isfinite(lo) else None, "band high": hi if math.isfinite(hi) else None,
-        "tolerance": _tolerance_text(e, p), "justification": e.justification, "verdict": s.verdict,
-        "read from": e.locate.describe() if e.locate else "",
+        "band": e.band.name, "tolerance": _tolerance_text(e, p), "justification": e.band.justification,
+        "verdict": s.verdict, "read from": e.locate.describe() if e.locate else "",
         "note": "; ".join(t for t in (s.detail, e.note) if t),
     }
 
 
 def _tolerance_text(e: Entry, published: float) -> str:
+    if e.tolerance is None:
+        return "no verdict"
     if not e.bound:
         return e.tolerance.describe(e.unit)
-    half = e.tolerance.half_width(published)
-    sign, widen = ("≤", "+") if e.bound == "upper" else ("≥", "−")
-    return f"{sign} published" + (f" {widen} {half:g}" if half else "")
+    lo, hi = e.tolerance.limits(published, e.printed) if not math.isnan(published) else (published, published)
+    sign, widen, edge = ("≤", "+", hi) if e.bound == "upper" else ("≥", "−", lo)
+    return f"{sign} published" + (f" {widen} {abs(edge - published):g}" if edge != published else "")
 
 
 def counts(card: pd.DataFrame) -> dict[str, int]:
@@ -269,15 +346,50 @@ def counts(card: pd.DataFrame) -> dict[str, int]:
 
 # --- renderings ---------------------------------------------------------------------------------
 
-def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
-    """The short summary that opens the report: the counts table and one line per dataset. The
-    long lists are pages of their own (`out_of_band_rst`, `pending_rst`): the report's landing
-    text is centred vertically, so a long one starts above the top of the window, out of reach."""
-    cards = _filled(cards)
-    lines = _table(cards)
+def summary(cards: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """Counts per dataset, kind and chapter (and a "total" row per dataset and kind): the numbers
+    the report's opening and the README quote. ``reproduced`` = within + out of band."""
+    rows = []
     for dataset, card in cards.items():
-        lines += ["", _tally(dataset, card)]
-    return "\n".join(lines) + "\n"
+        for kind in KINDS:
+            part = card[card["kind"] == kind]
+            if not len(part):
+                continue
+            groups = [(str(c), g) for c, g in part.groupby("chapter", sort=False)] + [("total", part)]
+            for chapter, g in groups:
+                n = counts(g)
+                rows.append({"dataset": dataset, "kind": kind, "chapter": chapter, "numbers": len(g),
+                             "reproduced": n[WITHIN] + n[OUT], **n})
+    return pd.DataFrame(rows, columns=["dataset", "kind", "chapter", "numbers", "reproduced", *VERDICTS])
+
+
+def headline(counts_: pd.DataFrame) -> str:
+    """One line per dataset: emergent numbers within band, then the other kinds."""
+    lines = []
+    for dataset, part in counts_[counts_["chapter"] == "total"].groupby("dataset", sort=False):
+        by_kind = part.set_index("kind")
+        parts = [f"**{_rst(dataset)}**: " + (_kind_tally(by_kind.loc[EMERGENT], "emergent") if EMERGENT in by_kind.index
+                                            else "no emergent numbers")]
+        parts += [_kind_tally(by_kind.loc[k], k) for k in KINDS[1:] if k in by_kind.index]
+        lines.append("; ".join(parts) + ".")
+    return "\n\n".join(lines)
+
+
+def _kind_tally(row: pd.Series, kind: str) -> str:
+    text = f"{kind} {row[WITHIN]} within band of {row['reproduced']}"
+    extra = [f"{row[v]} {v}" for v in (NOT_YET, MISSING, INFORMATION) if row[v]]
+    return text + (f" ({', '.join(extra)})" if extra else "")
+
+
+def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
+    """The short summary that opens the report: the emergent numbers (the reproduction proper) per
+    chapter, then the other kinds. The long lists are pages of their own (`out_of_band_rst`,
+    `pending_rst`): the report's landing text is centred vertically, so a long one starts above the
+    top of the window, out of reach."""
+    table = summary(_filled(cards))
+    return headline(table) + "\n\n" + "\n".join(_table(table[table["kind"] == EMERGENT], "Emergent numbers by chapter")) \
+        + "\n\nClosed-form, recovery and calibration numbers are checks of the method and the twin, not " \
+          "reproductions (docs/scorecard.md, \"Kinds of numbers\").\n"
 
 
 def out_of_band_rst(cards: Mapping[str, pd.DataFrame]) -> str:
@@ -307,20 +419,17 @@ def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
     return {d: c.fillna({"unit": "", "note": "", "read from": ""}) for d, c in cards.items()}
 
 
-def _table(cards: Mapping[str, pd.DataFrame]) -> list[str]:
-    lines = [".. list-table::", "   :header-rows: 1", "",
-             "   * - dataset", "     - section", "     - numbers", *(f"     - {v}" for v in VERDICTS)]
-    for dataset, card in cards.items():
-        for section, part in card.groupby("section", sort=False):
-            lines += [f"   * - {_rst(dataset)}", f"     - {section}", f"     - {len(part)}",
-                      *(f"     - {n}" for n in counts(part).values())]
+def _table(table: pd.DataFrame, title: str) -> list[str]:
+    lines = [f".. list-table:: {title}", "   :header-rows: 1", "",
+             "   * - dataset", "     - chapter", "     - within band", "     - out of band", "     - not reproduced yet"]
+    for _, row in table.iterrows():
+        lines += [f"   * - {_rst(row['dataset'])}", f"     - {_chapter(row['chapter'])}",
+                  *(f"     - {row[v]}" for v in (WITHIN, OUT, NOT_YET))]
     return lines
 
 
 def _tally(dataset: str, card: pd.DataFrame) -> str:
-    tally = counts(card)
-    return (f"**{_rst(dataset)}**: {tally[WITHIN]} of {tally[WITHIN] + tally[OUT]} reproduced numbers "
-            f"within band, {tally[OUT]} out of band, {tally[NOT_YET]} not reproduced yet.")
+    return headline(summary({dataset: card}))
 
 
 def _out_of_band(card: pd.DataFrame) -> list[str]:
@@ -373,7 +482,7 @@ def _by_source(rows: pd.DataFrame, describe) -> list[str]:
 
 
 def _chapter(chapter: Any) -> str:
-    return f"Chapter {chapter}" if str(chapter).isdigit() else _rst(chapter)
+    return f"Chapter {chapter}" if str(chapter).isdigit() else _rst(str(chapter))
 
 
 def _describe(row: pd.Series) -> str:
@@ -411,3 +520,12 @@ def _cell(value: Any) -> str:
     if isinstance(value, float):
         return "" if math.isnan(value) else f"{value:.6g}"
     return "" if value is None else str(value)
+
+
+def printed(entries: Sequence[Entry], model: str, source: str, quantity: str) -> float:
+    """A published number as the registry lists it (for an analysis that needs the source's own
+    values, say to compare a fitted curve with the printed one)."""
+    for e in entries:
+        if (e.model, e.source, e.quantity) == (model, source, quantity) and e.published is not None:
+            return e.published
+    raise RegistryError(f"the registry lists no {source}, {quantity!r} for model {model}")

@@ -9,9 +9,54 @@ SCORECARD_REGISTRY = "workflow/scorecard.yaml"
 # parsed once here so that a bad registry stops the workflow with one line before anything runs
 SCORECARD = parse_registry(load_yaml(SCORECARD_REGISTRY), SCORECARD_REGISTRY)
 
+#: the thesis's printed Γ (Table 5.2, j = 5) and Γ_T (Table 7.3, n = 5 with T) against ours, compared
+#: as curves: per fit, the folder, the registry's source and coefficient names, the records compared
+#: (the thesis's order and the order the pipeline uses) and the temperatures (Table 7.1's T_ref)
+CURVES = {
+    "gamma": {"folder": "ch5", "source": "Table 5.2", "coefficients": [f"b{i}" for i in range(6)], "g": None,
+              "fits": {"thesis order": "gamma_j5.json", "our order": "gamma.json"}, "temperatures": [0.0],
+              "datasets": GAMMA_DATASETS},
+    "gamma_t": {"folder": "ch7", "source": "Table 7.3", "coefficients": [f"bT{i}" for i in range(6)],
+                "g": "g (temperature coefficient)", "fits": {"thesis order": "gamma_t_n5.json", "our order": "gamma_t.json"},
+                "temperatures": [23.0], "datasets": THERMAL_DATASETS},
+}
+
+
+rule curve_vs_thesis:
+    """Our fitted Γ / Γ_T against the thesis's printed one: max |Γ − Γ_thesis| over its C range."""
+    input:
+        registry=SCORECARD_REGISTRY,
+        fits=lambda w: [f"results/{w.dataset}/{CURVES[w.fit]['folder']}/{f}" for f in CURVES[w.fit]["fits"].values()],
+        library=library_sources("curve_vs_thesis"),
+    output:
+        table=report("results/{dataset}/{folder}/{fit}_vs_thesis.csv", caption="../report/curve_vs_thesis.rst",
+                     category="{dataset}", subcategory="Scorecard"),
+    wildcard_constraints:
+        fit="|".join(CURVES),
+        folder="ch5|ch7",
+    params:
+        fits=lambda w: list(CURVES[w.fit]["fits"]),
+        source=lambda w: CURVES[w.fit]["source"],
+        coefficients=lambda w: CURVES[w.fit]["coefficients"],
+        g=lambda w: CURVES[w.fit]["g"],
+        temperatures=lambda w: CURVES[w.fit]["temperatures"],
+    log:
+        "logs/{dataset}/curve_vs_thesis/{folder}_{fit}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/curve_vs_thesis/{folder}_{fit}.tsv"
+    threads: 1
+    resources:
+        mem_mb=300,
+        runtime=5,
+    script:
+        "../scripts/curve_vs_thesis.py"
+
+
+CURVE_OUTPUTS = [f"results/{d}/{c['folder']}/{fit}_vs_thesis.csv" for fit, c in CURVES.items() for d in c["datasets"]]
+
 #: everything the stages promise to make (each stage's *_OUTPUTS, as rule all collects them)
 STAGE_OUTPUTS = set(ACQUIRE_OUTPUTS + RIPPLE_OUTPUTS + IDENTIFY_OUTPUTS + GAMMA_OUTPUTS + OBSERVER_OUTPUTS
-                    + CONTROL_OUTPUTS + THERMAL_OUTPUTS + POWERLOSS_OUTPUTS)
+                    + CONTROL_OUTPUTS + THERMAL_OUTPUTS + POWERLOSS_OUTPUTS + CURVE_OUTPUTS)
 
 #: per dataset, the registry's tables that some stage makes: the scorecard reads (and reruns after)
 #: exactly these; the registry's other entries show as "not reproduced yet"
@@ -71,4 +116,4 @@ rule scorecard_summary:
         "../scripts/scorecard_summary.py"
 
 
-REPORT_OUTPUTS = expand(rules.scorecard.output.table, dataset=DATASETS) + list(rules.scorecard_summary.output)
+REPORT_OUTPUTS = expand(rules.scorecard.output.table, dataset=DATASETS) + list(rules.scorecard_summary.output) + CURVE_OUTPUTS

@@ -1,5 +1,5 @@
 """Rule `ch7_summary`: the coupled estimation's errors beside the thesis's (mixed run, Fig 7.12),
-Figures 7.10–7.12, and τ, γ, k_T against the twin's truth.
+Figures 7.10–7.12, and τ, γ, k_T and Γ_T's g against the twin's truth.
 
 Alone: run through Snakemake (`snakemake results/pi_p885/ch7/coupled.csv`).
 """
@@ -11,10 +11,11 @@ import pandas as pd
 
 from selfsense.capture import open_capture, read_series
 from selfsense.chapters import ch7
+from selfsense.gamma import load_gamma
 from selfsense.provenance import save_figure, script_logging, write_table
 
 
-def main(stats, traces, table_7_1, truth_capture, out, log=None):
+def main(stats, traces, table_7_1, gamma_t, truth_capture, out, log=None):
     """stats / traces: {run: path}; out: {"coupled", "recovery" or figure name: path}."""
     logger = script_logging(log)
     records = {run: json.loads(Path(path).read_text()) for run, path in stats.items()}
@@ -25,12 +26,12 @@ def main(stats, traces, table_7_1, truth_capture, out, log=None):
                     inputs=[traces[run]])
     with open_capture(truth_capture) as cap:
         truth, _ = cap.read_truth()
-    recovery = ch7.thermal_recovery(pd.read_csv(table_7_1), truth)
-    write_table(recovery, out["recovery"], inputs=[table_7_1, truth_capture])
+    recovery = ch7.thermal_recovery(pd.read_csv(table_7_1), truth, load_gamma(gamma_t).g)
+    write_table(recovery, out["recovery"], inputs=[table_7_1, gamma_t, truth_capture])
     logger.info("\n%s\n%s", coupled.to_string(), recovery.to_string())
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(dict(zip(p.runs, i.stats)), dict(zip(p.runs, i.traces)), i.table_7_1, i.truth_capture,
+    main(dict(zip(p.runs, i.stats)), dict(zip(p.runs, i.traces)), i.table_7_1, i.gamma_t, i.truth_capture,
          dict(snakemake.output.items()), snakemake.log[0])

@@ -27,7 +27,8 @@ def main(capture, model, power, samples, n_periods, interval=0.1, every=200, log
         temps = cap.read(slow, dim="time_slow")
     P = {k: np.concatenate([p[0][k] for p in parts]) for k in ("time", "P_PS")}
     n = min(len(P["time"]), len(temps["T_mid"]))
-    with SeriesWriter(power, {"time": "s", "P_PS": "W"} | {c: "degC" for c in slow}, {"capture": capture}) as w:
+    peaks = {"U_max": max(p[2][0] for p in parts), "x_max": max(p[2][1] for p in parts)}  # Eq 7.11
+    with SeriesWriter(power, {"time": "s", "P_PS": "W"} | {c: "degC" for c in slow}, {"capture": capture} | peaks) as w:
         w.write({"time": P["time"][:n], "P_PS": P["P_PS"][:n]} | {c: temps[c][:n] for c in slow})
     G = {k: np.concatenate([p[1][k] for p in parts]) for k in ("time", "C_e", "x_laser")}
     with SeriesWriter(samples, {"time": "s", "C_e": "F", "x_laser": "m"}, {"capture": capture}) as w:

@@ -5,7 +5,7 @@ Alone: run through Snakemake (`snakemake results/pi_p885/ch7/table_7_1.csv`).
 
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.capture import read_series, series_scalars
 from selfsense.chapters import ch7
 from selfsense.electromech import load_k_over_alpha
 from selfsense.manifest import load_manifest
@@ -19,7 +19,7 @@ def main(freq_series, volt_series, check_series, manifest, model, volt_segments,
     logger = script_logging(log)
     th = load_manifest(manifest)["actuator"]["thermal"]
     tables, record, built = ch7.thermal_identification(
-        {Path(p).stem: read_series(p) for p in freq_series.values()}, {Path(p).stem: float(f) for f, p in freq_series.items()},
+        {Path(p).stem: read_series(p) | series_scalars(p) for p in freq_series.values()}, {Path(p).stem: float(f) for f, p in freq_series.items()},
         read_series(volt_series), volt_segments, {Path(p).stem: read_series(p) for p in check_series.values()},
         ThermalProperties(th["rho"], th["c"], th["volume_m3"], th["area_m2"]), load_k_over_alpha(model))
     inputs = [*freq_series.values(), volt_series, *check_series.values(), manifest, model]

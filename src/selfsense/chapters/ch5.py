@@ -10,7 +10,7 @@ import pandas as pd
 
 from .. import figure_names
 from ..electromech import fit_charge_position
-from ..gamma import GammaPolynomial, fit_gamma, model_selection_table
+from ..gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, model_selection_table
 from ..observer import HPOGains
 from ..ripple import SamplingPlan
 from ..selfsensing import SelfSensingChain
@@ -51,6 +51,18 @@ def fit_chosen_gamma(C: np.ndarray, x: np.ndarray, orders: Iterable[int]):
     table = model_selection_table(C, x, orders=tuple(orders), include_log=True)
     order = choose_order(table)
     return table, order, fit_gamma(C, x, order)
+
+
+def gamma_tables(C: np.ndarray, x: np.ndarray, orders: Iterable[int], thesis_order: int = 5):
+    """Table 5.1, and Table 5.2 (ANOVA, coefficients) both at the order our rule picks and at
+    the thesis's order j = 5, with the basis study and both Γ: ({name: table}, {name: Γ})."""
+    table, order, fit = fit_chosen_gamma(C, x, orders)
+    thesis_fit = fit_gamma(C, x, thesis_order)
+    tables = {"table_5_1": table, "basis": basis_table(C, x, order, fit)}
+    for suffix, f in (("", fit), ("_j5", thesis_fit)):
+        tables[f"anova{suffix}"] = anova_table(f).reset_index(names="source")
+        tables[f"coefficients{suffix}"] = coefficient_table(f).reset_index(names="coefficient")
+    return tables, {"gamma": GammaPolynomial.from_fit(fit), "gamma_j5": GammaPolynomial.from_fit(thesis_fit)}
 
 
 def basis_table(C: np.ndarray, x: np.ndarray, order: int, fit) -> pd.DataFrame:

@@ -41,7 +41,8 @@ def extract(chunks, fs: float, plan: SamplingPlan, k_over_alpha: float, interval
     """Stream a capture into (a) mean loss power per interval from the laser position (Eq 7.4)
     and (b) C_e with the window-mean position, every ``every``-th ripple window (for Γ_T).
 
-    Yields ({"time", "P_PS"}, {"time", "C_e", "x_laser"}) per chunk.
+    Yields ({"time", "P_PS"}, {"time", "C_e", "x_laser"}, (max U [V], max x [m])) per chunk; the
+    maxima over the run give k/α by Eq 7.11.
     """
     power = PowerAverager(fs, interval)
     extractor, means = RippleExtractor(plan), WindowMeans(plan, 1)
@@ -58,7 +59,7 @@ def extract(chunks, fs: float, plan: SamplingPlan, k_over_alpha: float, interval
         keep = (blocks.sample_index // plan.ns) % every == 0
         yield ({"time": t, "P_PS": P},
                {"time": (blocks.sample_index[keep] - (plan.block_len - 1) / 2) / fs, "C_e": blocks.C_e[keep],
-                "x_laser": xm[keep]})
+                "x_laser": xm[keep]}, (float(np.max(d["U"], initial=-np.inf)), float(np.max(x, initial=-np.inf))))
 
 
 def identify(series: Mapping[str, Mapping[str, np.ndarray]], props: ThermalProperties, T_amb: float | None):
@@ -81,7 +82,8 @@ def identify(series: Mapping[str, Mapping[str, np.ndarray]], props: ThermalPrope
                      "R²": fit.r_squared, "max |T − fit| [K]": fit.residual_max,
                      "heating power [W]": _heating_power(s["P_PS"]),
                      "max rise [K]": float(np.max(s["T_mid"]) - fit.T_amb),
-                     "T_amb [°C]": fit.T_amb, "note": ""})
+                     "T_amb [°C]": fit.T_amb, "U_max [V]": s.get("U_max", np.nan), "x_max [m]": s.get("x_max", np.nan),
+                     "note": ""})
     return pd.DataFrame(rows), fits
 
 
@@ -145,9 +147,12 @@ def _title(name: str) -> str:
 
 
 def table_7_1(per_run: pd.DataFrame, k_over_alpha: float, T_ref: float) -> pd.DataFrame:
+    """Table 7.1: τ, γ, k_T (means over the identified runs), k/α by Eq 7.11 (U_max/x_max, median
+    over the runs) beside Chapter 4's k/α, which the loss power P = (U − k/α·x)·I uses."""
     ours = {"tau [s]": per_run["tau [s]"].mean(), "gamma [K/W]": per_run["gamma [K/W]"].mean(),
             "k_T [W/(m² K)]": 0.5 * (per_run["k_T from tau [W/(m² K)]"].mean() + per_run["k_T from gamma [W/(m² K)]"].mean()),
-            "k/alpha [V/m]": k_over_alpha, "T_ref [°C]": T_ref}
+            "k/alpha [V/m]": float(np.median(per_run["U_max [V]"] / per_run["x_max [m]"])),
+            "k/alpha, Chapter 4 [V/m]": k_over_alpha, "T_ref [°C]": T_ref}
     spread = {"tau [s]": per_run["tau [s]"].std(ddof=1), "gamma [K/W]": per_run["gamma [K/W]"].std(ddof=1),
               "k_T [W/(m² K)]": abs(per_run["k_T from tau [W/(m² K)]"].mean() - per_run["k_T from gamma [W/(m² K)]"].mean()) / 2}
     return pd.DataFrame([{"parameter": k, "reproduced": v, "spread": spread.get(k, np.nan),
@@ -155,12 +160,14 @@ def table_7_1(per_run: pd.DataFrame, k_over_alpha: float, T_ref: float) -> pd.Da
 
 
 def steady_rise_trends(per_run: pd.DataFrame, freq_runs: Mapping[str, float]) -> pd.DataFrame:
-    """Fig 7.2: the steady rise (γ·P) against drive frequency at 100 V, with a linear fit."""
+    """Fig 7.2: the steady rise (γ·P) against drive frequency at 100 V, with a linear fit, and
+    the steady temperature it reaches from the run's ambient."""
     sel = per_run[per_run["run"].isin(freq_runs)]
     f = np.array([freq_runs[r] for r in sel["run"]])
     rise = (sel["gamma [K/W]"] * sel["heating power [W]"]).to_numpy()
     fit = linear_fit(f, rise)
-    return pd.DataFrame({"frequency [Hz]": f, "steady rise [K]": rise, "fit slope [K/Hz]": fit.slope,
+    return pd.DataFrame({"frequency [Hz]": f, "steady rise [K]": rise,
+                         "steady temperature [°C]": sel["T_amb [°C]"].to_numpy() + rise, "fit slope [K/Hz]": fit.slope,
                          "fit intercept [K]": fit.intercept, "fit R²": fit.r_squared})
 
 
@@ -188,14 +195,41 @@ def prediction_errors(series: Mapping[str, Mapping[str, np.ndarray]], model: The
     return pd.DataFrame(rows)
 
 
-def gamma_t(samples: Mapping[str, np.ndarray], T_mid_time, T_mid, orders=(4, 5, 6), order: int = 5):
-    """Tables 7.2 and 7.3 from C_e, position and the interpolated temperature (Eq 7.13)."""
+def gamma_t_data(samples: Mapping[str, np.ndarray], T_mid_time, T_mid) -> tuple[np.ndarray, ...]:
+    """C_e [F], x [m] and the middle thermometer interpolated to each window [°C] (Eq 7.13's data)."""
     T = np.interp(samples["time"], T_mid_time, T_mid)
     ok = np.isfinite(samples["C_e"]) & np.isfinite(samples["x_laser"])
-    C, x, T = samples["C_e"][ok], samples["x_laser"][ok], T[ok]
-    t72 = gamma_t_table(C, x, T, orders=tuple(orders), interaction_order=order)
-    fit = fit_gamma(C, x, order, temperature=T)
-    return t72, anova_table(fit).reset_index(names="source"), coefficient_table(fit).reset_index(names="coefficient"), fit
+    return samples["C_e"][ok], samples["x_laser"][ok], T[ok]
+
+
+def gamma_t_order(data, validation, candidates=(1, 2, 3, 4, 5, 6)) -> tuple[pd.DataFrame, int]:
+    """The order of Γ_T (Eq 7.13) by validation: fitted on ``data`` (the 50 Hz run), each order
+    predicts ``validation`` (a hotter run not used for fitting), and the smallest rms error wins.
+
+    Adjusted R² cannot choose here: C_e itself depends on temperature, so the polynomial in C
+    takes up part of what g should carry and higher orders "explain" more of the fitting run
+    while g drifts and the fit extrapolates badly to other temperatures."""
+    rows = []
+    for j in candidates:
+        fit = fit_gamma(*data, j, temperature=data[2])
+        error_um = (fit.predict(validation[0], validation[2]) - validation[1]) * 1e6
+        rows.append({"order": j, "adjusted R² (fit run)": fit.r2_adj, "g [µm/K]": float(fit.coefficients["g"]),
+                     "rms error on the validation run [µm]": float(np.sqrt(np.mean(error_um ** 2))),
+                     "max error on the validation run [µm]": float(np.max(np.abs(error_um)))})
+    table = pd.DataFrame(rows)
+    order = int(table.loc[table["rms error on the validation run [µm]"].idxmin(), "order"])
+    return table.assign(chosen=table["order"] == order), order
+
+
+def gamma_t(data, validation, orders=(4, 5, 6), order: int = 5, candidates=(1, 2, 3, 4, 5, 6)):
+    """Tables 7.2 and 7.3 (at the thesis's order n = 5) from C_e, position and temperature
+    (Eq 7.13), the order validated on another run, and both fits: (tables, {name: GammaFit})."""
+    selection, chosen = gamma_t_order(data, validation, candidates)
+    t72 = gamma_t_table(*data[:2], data[2], orders=tuple(orders), interaction_order=order)
+    fit = fit_gamma(*data[:2], order, temperature=data[2])
+    tables = {"table_7_2": t72, "anova": anova_table(fit).reset_index(names="source"),
+              "coefficients": coefficient_table(fit).reset_index(names="coefficient"), "order": selection}
+    return tables, {"gamma_t": fit_gamma(*data[:2], chosen, temperature=data[2]), "gamma_t_n5": fit}
 
 
 def figure_7_7(samples: Mapping[str, np.ndarray]):
@@ -274,14 +308,17 @@ def figure_coupled(name: str, run: str, traces: Mapping[str, np.ndarray], stats:
                                f"{run}: temperature from the laser and from the observer")
 
 
-def thermal_recovery(table_7_1: pd.DataFrame, truth: Mapping[str, float]) -> pd.DataFrame:
-    """τ, γ, k_T of Table 7.1 against the twin's truth (the capture's /truth attributes)."""
+def thermal_recovery(table_7_1: pd.DataFrame, truth: Mapping[str, float], g_um_per_K: float) -> pd.DataFrame:
+    """τ, γ, k_T of Table 7.1 and g of the validated Γ_T against the twin's truth (the capture's
+    /truth attributes; the twin's g is its C_P temperature slope over its position slope,
+    κ_T/|ΔCx|)."""
     identified = table_7_1.set_index("parameter")["reproduced"] if "parameter" in table_7_1 else pd.Series(dtype=float)
-    return pd.DataFrame([
-        {"parameter": name, "truth": float(truth[attr]), "identified": float(identified.get(key, float("nan"))),
-         "error [%]": 100 * (float(identified.get(key, float("nan"))) / float(truth[attr]) - 1)}
-        for name, attr, key in (("tau [s]", "thermal_tau", "tau [s]"), ("gamma [K/W]", "thermal_gamma", "gamma [K/W]"),
-                                ("k_T [W/(m² K)]", "thermal_k_T", "k_T [W/(m² K)]"))])
+    pairs = [(name, float(truth[attr]), float(identified.get(key, float("nan"))))
+             for name, attr, key in (("tau [s]", "thermal_tau", "tau [s]"), ("gamma [K/W]", "thermal_gamma", "gamma [K/W]"),
+                                     ("k_T [W/(m² K)]", "thermal_k_T", "k_T [W/(m² K)]"))]
+    pairs.append(("g [µm/K]", 1e6 * float(truth["stack_kappa_T"]) / abs(float(truth["stack_dC_x"])), g_um_per_K))
+    return pd.DataFrame([{"parameter": name, "truth": t, "identified": i, "error [%]": 100 * (i / t - 1)}
+                         for name, t, i in pairs])
 
 
 def frequency_run(series, capture, frequency: float) -> dict[str, np.ndarray | float]:
