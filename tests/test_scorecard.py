@@ -8,9 +8,9 @@ import pandas as pd
 import pytest
 
 from selfsense.manifest import ManifestError, load_yaml
-from selfsense.scorecard import (LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Entry, Locator, Tolerance, applicable,
-                                 band, judge, lookup, parse_registry, score, scorecard, scorecard_html,
-                                 landing_rst, out_of_band_rst, pending_rst, tables_read)
+from selfsense.scorecard import (INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Band, Entry, Locator,
+                                 Tolerance, applicable, band, judge, last_digit, lookup, parse_registry, score, scorecard,
+                                 scorecard_html, landing_rst, out_of_band_rst, pending_rst, summary, tables_read)
 
 from .conftest import ROOT
 
@@ -18,33 +18,66 @@ REGISTRY = ROOT / "workflow" / "scorecard.yaml"
 STACK = {"name": "stack_ds", "model": "stack", "twin": {}}
 
 
-def entry(published=10.0, tolerance=Tolerance(rel=10), bound=None, locate=None, **kw):
-    fields = dict(section="published", chapter="3", source="Table 9.9", model="stack", quantity="q",
-                  unit="%", published=published, tolerance=tolerance, justification="why", bound=bound,
-                  locate=locate)
+def entry(published=10.0, tolerance=Tolerance(rel=10), bound=None, locate=None, kind="emergent", printed=None, **kw):
+    fields = dict(section="published", kind=kind, chapter="3", source="Table 9.9", model="stack", quantity="q",
+                  unit="%", published=published, band=Band("a rule", "why", tolerance), bound=bound,
+                  locate=locate, printed=printed)
     return Entry(**(fields | kw))
 
 
+def limits(published, bound, tolerance, printed=None):
+    return band(published, entry(published, tolerance, bound, printed=printed))
+
+
 def group(**overrides):
-    g = {"source": "Table 9.9", "chapter": "9", "model": "stack", "unit": "V", "tolerance": {"abs": 1},
-         "justification": "why", "entries": [{"quantity": "a", "published": 1}]}
+    g = {"source": "Table 9.9", "chapter": "9", "model": "stack", "kind": "emergent", "unit": "V",
+         "band": {"name": "b", "tolerance": {"abs": 1}, "justification": "why"},
+         "entries": [{"quantity": "a", "published": 1}]}
     return {"groups": [g | overrides]}
+
+
+TABLE = pd.DataFrame({"ns": [4, 4, 12], "nf": [0, 2, 4], "fs [kHz]": [400.0, 80.0, 48.0],
+                      "loop": ["C_e–U", "C_e–x", "R–C"], "empty": [np.nan, 1.0, 2.0]})
 
 
 # --- bands and verdicts ---------------------------------------------------------------------------
 
 def test_band_of_a_value_is_symmetric_in_abs_or_percent():
-    assert band(10.0, None, Tolerance(abs=0.5)) == (9.5, 10.5)
-    assert band(-0.03, None, Tolerance(rel=2)) == pytest.approx((-0.0306, -0.0294))
+    assert limits(10.0, None, Tolerance(abs=0.5)) == (9.5, 10.5)
+    assert limits(-0.03, None, Tolerance(rel=2)) == pytest.approx((-0.0306, -0.0294))
 
 
 def test_band_of_a_bound_is_open_on_one_side_and_widened_by_the_tolerance():
-    assert band(3.0, "upper", Tolerance(abs=0)) == (-math.inf, 3.0)
-    assert band(45.0, "lower", Tolerance(abs=5)) == (40.0, math.inf)
+    assert limits(3.0, "upper", Tolerance(abs=0)) == (-math.inf, 3.0)
+    assert limits(45.0, "lower", Tolerance(abs=5)) == (40.0, math.inf)
+
+
+def test_a_log_band_goes_up_by_the_half_width_and_down_by_the_same_factor():
+    lo, hi = limits(0.42, None, Tolerance(abs=0.6, scale="log"))
+    assert hi == pytest.approx(1.02) and lo == pytest.approx(0.42 / (1.02 / 0.42)) and lo > 0
+    assert limits(4.0, None, Tolerance(factor=2, scale="log")) == pytest.approx((2.0, 8.0))
+
+
+def test_goodness_of_fit_is_compared_on_one_minus_r2_within_a_factor():
+    lo, hi = limits(0.999, None, Tolerance(factor=2, scale="log1m"))
+    assert (1 - hi, 1 - lo) == pytest.approx((0.0005, 0.002))
+
+
+@pytest.mark.parametrize("printed, unit", [("400", 1), ("0.637", 1e-3), ("0.33", 1e-2), ("213.60", 1e-2),
+                                           ("3.4e7", 1e6), ("6.0e-4", 1e-5), ("1.27", 1e-2)])
+def test_a_digit_tolerance_is_in_units_of_the_last_printed_digit(printed, unit):
+    assert last_digit(printed) == pytest.approx(unit)
+    assert limits(float(printed), None, Tolerance(digit=0.5), printed) == pytest.approx(
+        (float(printed) - unit / 2, float(printed) + unit / 2))
+
+
+def test_an_information_row_is_read_but_gets_no_verdict():
+    s = score(entry(tolerance=None, locate=Locator("t.csv", "fs [kHz]", (("ns", 12),))), {"t.csv": TABLE})
+    assert s.verdict == INFORMATION and s.reproduced == 48.0 and s.band == (-math.inf, math.inf)
 
 
 def test_verdict_includes_the_band_edges_despite_float_round_trips():
-    lo, hi = band(0.33, None, Tolerance(abs=0.005))
+    lo, hi = limits(0.33, None, Tolerance(abs=0.005))
     assert judge(0.335 + 1e-14, lo, hi) == WITHIN
     assert judge(0.3333, lo, hi) == WITHIN
     assert judge(0.336, lo, hi) == OUT
@@ -52,9 +85,6 @@ def test_verdict_includes_the_band_edges_despite_float_round_trips():
 
 
 # --- locating the reproduced value ----------------------------------------------------------------
-
-TABLE = pd.DataFrame({"ns": [4, 4, 12], "nf": [0, 2, 4], "fs [kHz]": [400.0, 80.0, 48.0],
-                      "loop": ["C_e–U", "C_e–x", "R–C"], "empty": [np.nan, 1.0, 2.0]})
 
 
 def test_lookup_selects_one_row_by_numbers_or_text_and_scales():
@@ -133,6 +163,7 @@ def test_the_tolerance_column_says_how_the_band_was_made():
                entry(quantity="d", published=0.33, bound="lower", tolerance=Tolerance(abs=0.28))]
     card = scorecard(entries, {}, STACK)
     assert card["tolerance"].tolist() == ["±0.5 %", "±10 %", "≤ published", "≥ published − 0.28"]
+    assert card["kind"].tolist() == ["emergent"] * 4 and card["band"].tolist() == ["a rule"] * 4
     assert card.loc[3, "band low"] == pytest.approx(0.05) and np.isnan(card.loc[3, "band high"])
 
 
@@ -165,7 +196,7 @@ def test_the_registry_lists_every_published_table(registry):
 
 def test_every_registry_table_is_a_relative_csv_and_every_band_has_a_reason(registry):
     assert all(not t.startswith(("/", "..")) and t.endswith(".csv") for t in tables_read(registry))
-    assert all(e.justification.strip() for e in registry)
+    assert all(e.band.justification.strip() and e.band.name.strip() for e in registry)
 
 
 def test_group_and_entry_locators_merge():
@@ -179,9 +210,14 @@ def test_group_and_entry_locators_merge():
 
 @pytest.mark.parametrize("doc, message", [
     (group(colour="red"), "unknown key|colour"),
-    ({"groups": [{k: v for k, v in group()["groups"][0].items() if k != "justification"}]}, "justification"),
+    ({"groups": [{k: v for k, v in group()["groups"][0].items() if k != "kind"}]}, "kind"),
+    (group(kind="sort of"), "kind"),
+    (group(band={"name": "b", "tolerance": {"abs": 1}}), "justification"),
+    (group(band={"name": "b", "tolerance": {"factor": 2}, "justification": "why"}), "factor needs scale"),
+    (group(band={"name": "b", "tolerance": {"abs": 1, "scale": "log"}, "justification": "why"},
+           entries=[{"quantity": "a", "published": 0}]), "log scale, which needs a positive value"),
     (group(entries=[{"quantity": "a", "published": "ten"}]), "published"),
-    (group(tolerance={"abs": 1, "rel": 2}), "tolerance"),
+    (group(band={"name": "b", "tolerance": {"abs": 1, "rel": 2}, "justification": "why"}), "tolerance"),
     (group(locate={"table": "/etc/passwd.csv", "column": "x"}), "table"),
     (group(locate={"where": {"ns": 4}}), "both table and column"),
     (group(entries=[{"quantity": "a", "published": 1}, {"quantity": "a", "published": 2}]), "listed twice"),
@@ -205,7 +241,7 @@ def test_summary_is_valid_restructuredtext_naming_what_is_out_and_why():
     card = scorecard(entries, {"t.csv": TABLE}, STACK)
     pages = [render({"stack_ds": card}) for render in (landing_rst, out_of_band_rst, pending_rst)]
     text = "\n".join(pages)
-    assert "1 of 3 reproduced numbers within band" in text and "(1 without a note" in text
+    assert "emergent 1 within band of 3 (1 not reproduced yet)" in text and "(1 without a note" in text
     html = "".join(docutils.core.publish_parts(page, writer="html",
                                                settings_overrides={"halt_level": 2, "report_level": 5})["body"]
                    for page in pages)

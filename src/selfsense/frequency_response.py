@@ -199,14 +199,17 @@ def response_table(measured: Measured, G: control.TransferFunction) -> pd.DataFr
     })
 
 
-def resonance_table(measured: Measured, G: control.TransferFunction) -> pd.DataFrame:
-    """Resonance of the measured response and of the model ``G`` (Eq 5.2), beside the thesis's ≈ 700 Hz."""
+def resonance_table(measured: Measured, G: control.TransferFunction, m: float) -> pd.DataFrame:
+    """Resonance of the measured response and of the model ``G`` (Eq 5.2, built with the moving
+    mass ``m`` [kg], an input), beside the thesis's ≈ 700 Hz; and the mass that would put the
+    model's peak on the measured one, m·(f_model/f_measured)² (Eq 5.2's poles go as 1/√m)."""
     f_meas, g_meas = measured_peak(measured.frequency, np.abs(measured.G))
     f_model, g_model = model_peak(G, float(measured.frequency.min()), float(measured.frequency.max()))
     return pd.DataFrame({
         "response": ["measured", "model"],
         "peak frequency [Hz]": [f_meas, f_model],
         "peak |G| [µm/µC]": [g_meas, g_model],
+        "moving mass [kg]": [m * (f_model / f_meas) ** 2, m],
         "thesis Fig 5.3 [Hz]": [THESIS_RESONANCE_HZ, THESIS_RESONANCE_HZ],
     })
 

@@ -1,7 +1,7 @@
 # Stage "control" (thesis Chapter 6): closed-loop runs on the twin with the real-time HPO, the
 # audit of the logged estimate, Tables 6.1–6.2, Figures 6.2–6.8.
 
-CH6_TABLES = ["table_6_1", "table_6_2", "p3", "tracking"]
+CH6_TABLES = ["table_6_1", "p1_summary", "table_6_2", "p3", "tracking"]
 
 from selfsense.figure_names import CH6 as CH6_FIGURES
 

@@ -13,6 +13,7 @@ rule gamma_fit:
     """Γ of orders 3–6 and ln on the 0.1 Hz data; ANOVA and coefficients (statsmodels) at the
     order the model selection picks and at the thesis's j = 5."""
     input:
+        unpack(lambda w: captures(w.dataset, capture=GAMMA_RUN)),  # its warm-up at 0 V is left out of the fit
         series=f"results/{{dataset}}/ripple/{GAMMA_RUN}.nc",
         library=library_sources("gamma_fit"),
     output:

@@ -61,15 +61,19 @@ rule ch3_tables:
 
 
 rule ch3_hysteresis:
-    """Loop widths C–U, C–x, R–C, x–U at 100 V, 10 Hz beside the thesis's percentages."""
+    """Loop widths C–U, C–x, R–C, x–U at 100 V, 10 Hz beside the thesis's percentages; the drive
+    and ripple U–I phases (Figs 3.3–3.4)."""
     input:
         series="results/{dataset}/ripple/ch3_sine_10hz.nc",
         library=library_sources("ch3_hysteresis"),
     output:
         table=report("results/{dataset}/ch3/hysteresis.csv", caption="../report/hysteresis.rst",
                      category="{dataset}", subcategory="Chapter 3"),
+        phases=report("results/{dataset}/ch3/phases.csv", caption="../report/phases.rst",
+                      category="{dataset}", subcategory="Chapter 3"),
     params:
         skip_s=0.1,
+        frequency=10.0,  # the drive of ch3_sine_10hz
     log:
         "logs/{dataset}/ch3_hysteresis.log",
     benchmark:

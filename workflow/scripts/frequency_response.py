@@ -21,7 +21,7 @@ def main(capture, model, protocol, settle_s, out, log=None):
     with open_capture(capture, require=fr.CHANNELS) as cap:
         measured = fr.measure_sweep(cap, drive_from_protocol(protocol).segments, settle_s)
     G = fr.transfer_function(params, measured.operating_position)
-    table, peaks = fr.response_table(measured, G), fr.resonance_table(measured, G)
+    table, peaks = fr.response_table(measured, G), fr.resonance_table(measured, G, params["m"])
     cfg = {"settle_s": settle_s, "operating position [µm]": measured.operating_position * 1e6,
            "model": {k: params[k] for k in ("C_P0", "dC_x", "alpha", "k", "m", "b")}}
     inputs = [capture, model]

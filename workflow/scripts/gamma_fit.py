@@ -1,13 +1,13 @@
 """Rule `gamma_fit`: Γ (Eq 5.4) on the 0.1 Hz data — Table 5.1, Table 5.2 at the chosen order
 and at the thesis's j = 5, both Γ.
 
-Alone: python workflow/scripts/gamma_fit.py results/pi_p885/ripple/ch5_sine_0p1hz.nc out_dir --np 4
+Alone: python workflow/scripts/gamma_fit.py raw/pi_p885/ch5_sine_0p1hz.nc results/pi_p885/ripple/ch5_sine_0p1hz.nc out_dir
 """
 
 import argparse
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.capture import open_capture, read_series
 from selfsense.chapters.ch5 import gamma_data, gamma_tables
 from selfsense.provenance import provenance, script_logging, write_json, write_table
 
@@ -16,25 +16,28 @@ NAMES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv", "coeffici
          "basis": "gamma_basis.csv", "gamma": "gamma.json", "gamma_j5": "gamma_j5.json"}
 
 
-def main(series, out, n_periods, orders=(3, 4, 5, 6), log=None):
+def main(capture, series, out, n_periods, orders=(3, 4, 5, 6), log=None):
     logger = script_logging(log)
-    C, x = gamma_data(read_series(series), n_periods)
+    with open_capture(capture) as cap:
+        warmup = float(cap.attrs.get("warmup_s", 0.0))
+    C, x = gamma_data(read_series(series), n_periods, warmup)
     tables, gammas = gamma_tables(C, x, orders)
-    cfg = {"n_periods": n_periods, "orders": list(orders)}
+    cfg = {"n_periods": n_periods, "orders": list(orders), "warmup_s": warmup}
     for name, table in tables.items():
-        write_table(table, out[name], inputs=[series], config=cfg)
+        write_table(table, out[name], inputs=[capture, series], config=cfg)
     for name, gamma in gammas.items():
-        write_json(gamma.record() | {"provenance": provenance([series], cfg)}, out[name])
+        write_json(gamma.record() | {"provenance": provenance([capture, series], cfg)}, out[name])
     logger.info("chosen order %d\n%s", gammas["gamma"].order, tables["table_5_1"].to_string())
 
 
 if "snakemake" in globals():
-    main(snakemake.input.series, dict(snakemake.output.items()), snakemake.params.n_periods,
+    main(snakemake.input.capture, snakemake.input.series, dict(snakemake.output.items()), snakemake.params.n_periods,
          snakemake.params.orders, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("capture")
     cli.add_argument("series")
     cli.add_argument("out_dir")
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
     a = cli.parse_args()
-    main(a.series, {k: str(Path(a.out_dir) / v) for k, v in NAMES.items()}, a.n_periods)
+    main(a.capture, a.series, {k: str(Path(a.out_dir) / v) for k, v in NAMES.items()}, a.n_periods)

@@ -61,6 +61,14 @@ def ripple_phase_deg(series: Mapping[str, np.ndarray]) -> float:
     return float(np.degrees(np.median(np.angle(current / voltage))))
 
 
+def phase_table(series: Mapping[str, np.ndarray], f: float) -> pd.DataFrame:
+    """The phases Figs 3.3–3.4 print in their titles: by how much the drive current leads the
+    drive voltage at the drive frequency ``f`` [Hz], and the ripple current the ripple voltage."""
+    return pd.DataFrame([
+        {"signal": "drive", "frequency [Hz]": f, "current leads voltage by [°]": phase_deg(series["time"], series["U"], series["I"], f)},
+        {"signal": "ripple", "frequency [Hz]": float("nan"), "current leads voltage by [°]": ripple_phase_deg(series)}])
+
+
 def figure_3_2(stack: Mapping[str, float], ripple_amplitude: float, fr: float):
     """Ripple-driven velocity of the stack free (≈ 40 kHz) and clamped in the bench (2.5 kHz).
 

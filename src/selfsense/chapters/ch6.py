@@ -63,7 +63,7 @@ def results(runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str
     """Tables 6.1 (P1 tests), 6.2 (P2 profiles), the P3 summary and the loop's tracking prediction."""
     settle = SETTLE_TIME_CONSTANTS / omega_c
     p1 = {"e_TOL": [], "e_TCL": [], "e_OCL": []}
-    rows62 = []
+    rows62, p1_stroke = [], 0.0
     for name, run in runs.items():
         protocol, closed = protocols[name], controls[name] == "closed_loop"
         warmup = float(protocol.get("warmup", 0.0))
@@ -74,12 +74,15 @@ def results(runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str
             for key, maxima in segment_maxima(run["t"], errs, starts, ends, settle).items():
                 if key in p1:
                     p1[key].append(maxima)
+            p1_stroke = max(p1_stroke, float(np.ptp(run["x_ref"])))
         elif name.startswith("ch6_p2"):
             profile = "P" + name.split("_")[1][1:]
             rows62 += profile_errors(profile, run["t"], errs, float(np.ptp(run["x_ref"])), warmup + settle)
     p3o, p3c, p3 = runs["ch6_p3_open"], runs["ch6_p3_closed"], protocols["ch6_p3_closed"]
     hold = float(p3.get("warmup", 0.0)) + p3["segments"][0]["duration"]
-    return {"table_6_1": table_6_1(p1), "table_6_2": pd.DataFrame(rows62), "p3": p3_summary(p3c["t"], p3o, p3c, hold),
+    t61 = table_6_1(p1)
+    return {"table_6_1": t61, "p1_summary": p1_summary(t61, p1_stroke), "table_6_2": pd.DataFrame(rows62),
+            "p3": p3_summary(p3c["t"], p3o, p3c, hold),
             "tracking": tracking_prediction(IntegralController(omega_c, k_over_alpha), TRACKING_FREQUENCIES_HZ,
                                             TRACKING_AMPLITUDE)}
 
@@ -119,6 +122,21 @@ def table_6_1(per_test: Mapping[str, list[list[float]]]) -> pd.DataFrame:
             row |= {f"thesis {seg} [µm]": p for seg, p in zip(SEGMENTS, published)}
             rows.append(row)
     return pd.DataFrame(rows)
+
+
+def p1_summary(t61: pd.DataFrame, stroke: float) -> pd.DataFrame:
+    """The thesis's P1 summary (Section 6.3): at the segment with the largest mean open-loop error,
+    the mean ε_TOL, ε_TCL, ε_OCL in µm and % of the P1 stroke, and how much closing the loop
+    improves on the open loop (1 − ε_TCL/ε_TOL)."""
+    mean = t61[t61["statistic"] == "mean"].set_index("error")
+    columns = [f"{seg} [µm]" for seg in SEGMENTS]
+    worst = max(columns, key=lambda c: mean.loc["e_TOL", c])
+    rows = [{"quantity": f"mean {name}, % of stroke", "segment": worst[0], "value": 100 * mean.loc[name, worst] * 1e-6 / stroke,
+             "mean [µm]": mean.loc[name, worst]} for name in ("e_TOL", "e_TCL", "e_OCL") if name in mean.index]
+    if {"e_TOL", "e_TCL"} <= set(mean.index):
+        rows.append({"quantity": "improvement of closed over open loop [%]", "segment": worst[0],
+                     "value": 100 * (1 - mean.loc["e_TCL", worst] / mean.loc["e_TOL", worst])})
+    return pd.DataFrame(rows).assign(**{"stroke [µm]": stroke * 1e6})
 
 
 def profile_errors(profile: str, t: np.ndarray, errs: Mapping[str, np.ndarray], stroke: float,

@@ -211,7 +211,7 @@ def gamma_t_order(data, validation, candidates=(1, 2, 3, 4, 5, 6)) -> tuple[pd.D
     while g drifts and the fit extrapolates badly to other temperatures."""
     rows = []
     for j in candidates:
-        fit = fit_gamma(*data, j, temperature=data[2])
+        fit = fit_gamma(data[0], data[1], j, temperature=data[2])
         error_um = (fit.predict(validation[0], validation[2]) - validation[1]) * 1e6
         rows.append({"order": j, "adjusted R² (fit run)": fit.r2_adj, "g [µm/K]": float(fit.coefficients["g"]),
                      "rms error on the validation run [µm]": float(np.sqrt(np.mean(error_um ** 2))),
@@ -225,11 +225,12 @@ def gamma_t(data, validation, orders=(4, 5, 6), order: int = 5, candidates=(1, 2
     """Tables 7.2 and 7.3 (at the thesis's order n = 5) from C_e, position and temperature
     (Eq 7.13), the order validated on another run, and both fits: (tables, {name: GammaFit})."""
     selection, chosen = gamma_t_order(data, validation, candidates)
-    t72 = gamma_t_table(*data[:2], data[2], orders=tuple(orders), interaction_order=order)
-    fit = fit_gamma(*data[:2], order, temperature=data[2])
+    C, x, T = data
+    t72 = gamma_t_table(C, x, T, orders=tuple(orders), interaction_order=order)
+    fit = fit_gamma(C, x, order, temperature=T)
     tables = {"table_7_2": t72, "anova": anova_table(fit).reset_index(names="source"),
               "coefficients": coefficient_table(fit).reset_index(names="coefficient"), "order": selection}
-    return tables, {"gamma_t": fit_gamma(*data[:2], chosen, temperature=data[2]), "gamma_t_n5": fit}
+    return tables, {"gamma_t": fit_gamma(C, x, chosen, temperature=T), "gamma_t_n5": fit}
 
 
 def figure_7_7(samples: Mapping[str, np.ndarray]):

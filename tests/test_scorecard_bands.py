@@ -1,0 +1,99 @@
+"""The registry's bands mean what their justifications say: one rule per kind of quantity, applied
+uniformly (workflow/scorecard.yaml, `bands:`)."""
+
+import math
+import re
+
+import pytest
+
+from selfsense.manifest import load_yaml
+from selfsense.scorecard import band, last_digit, parse_registry
+
+from .conftest import ROOT
+
+REGISTRY = ROOT / "workflow" / "scorecard.yaml"
+
+
+@pytest.fixture(scope="module")
+def registry():
+    return parse_registry(load_yaml(REGISTRY), str(REGISTRY))
+
+
+@pytest.fixture(scope="module")
+def rules():
+    return {b["name"]: b for b in load_yaml(REGISTRY)["bands"].values()}
+
+
+def numbers(registry, *, where):
+    return [e for e in registry if where(e)]
+
+
+def test_no_positive_quantity_gets_a_band_reaching_zero_or_below(registry):
+    """A position error of 0.42 µm cannot be compared as 0.42 ± 0.6 µm: the band would admit an
+    error of zero or below. Stated bounds ("< 3 %") are open on one side by nature."""
+    bad = [(e.source, e.quantity, band(e.published, e)) for e in registry
+           if e.published is not None and e.published > 0 and e.tolerance is not None and not e.bound
+           and band(e.published, e)[0] <= 0]
+    assert not bad
+
+
+def test_goodness_of_fit_is_compared_on_one_minus_r2(registry):
+    fits = numbers(registry, where=lambda e: "R²" in e.quantity)
+    assert len(fits) == 17 and {e.band.name for e in fits} == {"goodness of fit"}
+    for e in fits:  # a factor of two on the unexplained share, as the justification says
+        lo, hi = band(e.published, e)
+        assert (1 - lo) / (1 - e.published) == pytest.approx(2) and (1 - e.published) / (1 - hi) == pytest.approx(2)
+
+
+def test_ill_conditioned_coefficients_get_no_verdict_and_the_curves_are_compared(registry):
+    coefficient = re.compile(r"^(t Stat of )?bT?[0-5]$")
+    rows = numbers(registry, where=lambda e: coefficient.match(e.quantity))
+    assert len(rows) == 24 and all(e.tolerance is None and e.locate for e in rows)
+    curves = numbers(registry, where=lambda e: e.band.name == "fitted curve against the printed one")
+    assert {e.source for e in curves} == {"Table 5.2, the fitted curve", "Table 7.3, the fitted curve"}
+    assert all(e.locate and e.kind == "emergent" for e in curves)
+
+
+@pytest.mark.parametrize("rule, unit, pattern", [
+    ("position error", "µm", r"error|ε"),
+    ("error in % of stroke", "%", r"(error|ε).*% of stroke"),
+    ("temperature error", "K", r"temperature error"),
+])
+def test_errors_are_held_to_their_instruments_rule(registry, rule, unit, pattern):
+    """Every error of its kind uses the one rule, or the source's own stated bound."""
+    errors = numbers(registry, where=lambda e: e.unit == unit and re.search(pattern, e.quantity)
+                     and "standard error" not in e.quantity
+                     and not e.quantity.startswith("σ"))
+    assert errors and {e.band.name for e in errors} <= {rule, "stated bound"}
+    assert any(e.band.name == rule for e in errors)
+
+
+def test_closed_forms_are_held_to_half_a_unit_of_the_last_printed_digit(registry):
+    for e in numbers(registry, where=lambda e: e.band.name == "closed form"):
+        lo, hi = band(e.published, e)
+        assert hi - lo == pytest.approx(last_digit(e.printed or repr(e.published)))
+        assert e.kind == "closed form"
+
+
+def test_every_rule_is_used_and_every_own_band_is_for_one_reason(registry, rules):
+    used = {e.band.name for e in registry}
+    assert set(rules) <= used, set(rules) - used
+    own = {e.band for e in registry if e.band.name not in rules}
+    assert len(own) == len({b.name for b in own})  # a band of its own is not a rule applied unevenly
+
+
+def test_only_emergent_numbers_are_counted_as_reproductions(registry):
+    """Numbers that hold by construction are labelled so: every closed-form band is of a closed
+    form, the twin's inputs are recovery, and the calibration signatures are named."""
+    assert {e.kind for e in registry if e.band.name == "twin input"} == {"recovery"}
+    calibration = {(e.source, e.quantity) for e in registry if e.kind == "calibration"}
+    assert ("Table 6.2", "P2a, ε_TOL, % of stroke") in calibration
+    assert ("Chapter 7 results, self-heating", "steady temperature at 100 V, 100 Hz") in calibration
+    assert all(e.section == "twin recovery" or e.published is not None for e in registry)
+    assert not [e for e in registry if e.section == "twin recovery" and e.kind != "recovery"]
+
+
+def test_the_bounds_of_the_rules_are_finite_where_a_value_is_compared(registry):
+    for e in registry:
+        if e.tolerance is not None and not e.bound and e.published is not None:
+            assert all(math.isfinite(x) for x in band(e.published, e)), (e.source, e.quantity)
