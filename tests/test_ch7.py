@@ -114,3 +114,24 @@ def test_figure_7_9_shows_the_identified_values_or_says_why_not():
     assert shown["L_I"] == pytest.approx((2 * np.pi) ** 2 * 16.6) and shown["tau [s]"] == 106.9
     fig, shown = ch7.figure_7_9(*args, {"identified": False, "reason": "runs too short"}, 2.64e6, plan)
     assert "not identified" in texts(fig) and "runs too short" in texts(fig) and shown["tau [s]"] is None
+
+
+def _heating_run(rng, T_end, n=6000, kappa=7.9e-9, dC_x=-0.03, C0=3.13e-6, noise=2e-9):
+    """C_e, x, T of a 50 Hz-like run while the stack warms: C depends on x and on T (the twin's
+    C_P), so x = (C − C0 − κ(T − 23))/ΔCx exactly, g = κ/|ΔCx| [m/K]."""
+    x = 16.5e-6 * (1 - np.cos(np.linspace(0, 400 * np.pi, n)))
+    T = 23 + (T_end - 23) * (1 - np.exp(-np.linspace(0, 4, n)))
+    C = C0 + dC_x * x + kappa * (T - 23) + rng.normal(0, noise, n)
+    return C, x, T
+
+
+def test_gamma_t_order_is_validated_on_a_hotter_run_and_gives_g_back():
+    rng = np.random.default_rng(7)
+    fit_run, hotter = _heating_run(rng, 41.0), _heating_run(rng, 60.0)
+    table, order = ch7.gamma_t_order(fit_run, hotter)
+    assert order == 1 and table.loc[table["chosen"], "order"].item() == 1
+    g_true = 1e6 * 7.9e-9 / 0.03  # µm/K
+    # C_e noise of 2 nF (≈ 0.07 %) over 18 K of warming: g is determined to ≈ 0.1 %; 2 % is the
+    # scorecard's twin-input rule
+    assert table.loc[table["chosen"], "g [µm/K]"].item() == pytest.approx(g_true, rel=0.02)
+    assert (table["rms error on the validation run [µm]"] >= table.loc[table["chosen"], "rms error on the validation run [µm]"].item()).all()

@@ -490,7 +490,8 @@ def _describe(row: pd.Series) -> str:
     lo, hi = row["band low"], row["band high"]
     band_text = (f"≤ {hi:.6g}" if pd.isna(lo) else f"≥ {lo:.6g}" if pd.isna(hi) else f"{lo:.6g} … {hi:.6g}")
     change = "" if pd.isna(row["deviation [%]"]) else f" ({row['deviation [%]']:+.1f} %)"
-    return (f"{_rst(row['quantity'])}: published {row['published']:.6g}{unit}, "
+    kind = "" if row.get("kind", EMERGENT) == EMERGENT else f" ({row['kind']})"
+    return (f"{_rst(row['quantity'])}{kind}: published {row['published']:.6g}{unit}, "
             f"reproduced {row['reproduced']:.6g}{unit}{change}, band {band_text}{unit}")
 
 
@@ -529,3 +530,48 @@ def printed(entries: Sequence[Entry], model: str, source: str, quantity: str) ->
         if (e.model, e.source, e.quantity) == (model, source, quantity) and e.published is not None:
             return e.published
     raise RegistryError(f"the registry lists no {source}, {quantity!r} for model {model}")
+
+
+# --- the numbers the documentation quotes ---------------------------------------------------------
+
+#: a block of a Markdown page written by scripts/update_docs.py (never by hand) sits between these
+BEGIN, END = "<!-- scorecard:{name} begin (scripts/update_docs.py writes this block) -->", "<!-- scorecard:{name} end -->"
+
+
+def counts_markdown(counts_: pd.DataFrame, campaign: str) -> str:
+    """The README's numbers: emergent published numbers within band per dataset and chapter, then
+    the other kinds, from the summary the pipeline writes (results/scorecard_counts.csv)."""
+    lines = [f"Published numbers within their band on the `{campaign}` campaign (from `results/scorecard_counts.csv`):",
+             "", "| dataset | chapter | emergent: within band / reproduced | closed form | recovery | calibration |",
+             "|---|---|---|---|---|---|"]
+    for (dataset, chapter), part in counts_.groupby(["dataset", "chapter"], sort=False):
+        cells = {row["kind"]: f"{row[WITHIN]} / {row['reproduced']}" for _, row in part.iterrows()}
+        name = "**total**" if chapter == "total" else _chapter(chapter)
+        lines.append(f"| {dataset} | {name} | " + " | ".join(cells.get(k, "–") for k in KINDS) + " |")
+    return "\n".join(lines)
+
+
+def deviations_markdown(cards: Mapping[str, pd.DataFrame]) -> str:
+    """docs/deviations.md's list: every emergent number out of band, per dataset and chapter, with
+    published and reproduced values and the registry's note."""
+    lines = []
+    for dataset, card in _filled(cards).items():
+        out = card[(card["kind"] == EMERGENT) & (card["verdict"] == OUT)]
+        lines += [f"**{dataset}**: {len(out)} emergent numbers out of band.", ""]
+        for chapter, part in out.groupby("chapter", sort=False):
+            lines.append(f"- {_chapter(chapter)}:")
+            for _, row in part.iterrows():
+                unit = f" {row['unit']}" if row["unit"] else ""
+                lines.append(f"  - {row['source']}, {row['quantity']}: {row['published']:.4g} → {row['reproduced']:.4g}{unit}")
+        lines.append("")
+    return "\n".join(lines).rstrip()
+
+
+def replace_block(text: str, name: str, body: str) -> str:
+    """``text`` with its generated block ``name`` replaced by ``body``."""
+    begin, end = BEGIN.format(name=name), END.format(name=name)
+    head, sep, rest = text.partition(begin)
+    _, sep2, tail = rest.partition(end)
+    if not (sep and sep2):
+        raise ValueError(f"no block {name!r} ({begin} … {end})")
+    return f"{head}{begin}\n{body}\n{end}{tail}"

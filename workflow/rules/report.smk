@@ -100,10 +100,14 @@ rule scorecard_summary:
     output:
         summary=report("results/scorecard_summary.rst", caption="../report/scorecard_summary.rst",
                        category="Scorecard", subcategory="All datasets"),
+        counts=report("results/scorecard_counts.csv", caption="../report/scorecard_counts.rst",
+                      category="Scorecard", subcategory="All datasets"),
         out_of_band=report("results/scorecard_out_of_band.html", caption="../report/scorecard_out_of_band.rst",
                            category="Scorecard", subcategory="All datasets"),
         not_yet=report("results/scorecard_not_yet.html", caption="../report/scorecard_not_yet.rst",
                        category="Scorecard", subcategory="All datasets"),
+    params:
+        campaign=config["campaign"],
     log:
         "logs/scorecard_summary.log",
     benchmark:

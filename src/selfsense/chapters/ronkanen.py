@@ -230,7 +230,8 @@ TOLERANCES = {
                "left in the residual-velocity correction"),
     "a": (1.0, "charge balance over whole ramps; sensor noise 0.2 µm against 250 µm strokes"),
     "X": (3.0, "one constant X per ramp while i_C wanders by the compensation error"),
-    "c": (5.0, "c ≈ √((R/X)² − 1)/i: the errors of R and X add"),
+    "c": (2.0, "c ≈ √((R/X)² − 1)/i ≈ R/(X i): R's error (the ADC step, ±0.6 %) and that of the "
+                "ramps' mean X at each current (≈ 1 %) add; the scorecard's twin-input rule"),
 }
 
 
