@@ -126,8 +126,9 @@ rule observer_study:
 rule ch5_figures:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14."""
     input:
+        unpack(lambda w: captures(w.dataset, gamma_capture=GAMMA_RUN)),  # its warm-up, left out of the Γ fits
         series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
-        gamma_series="results/{dataset}/ripple/ch5_sine_0p1hz.nc",
+        gamma_series=f"results/{{dataset}}/ripple/{GAMMA_RUN}.nc",
         traces=lambda w: [f"results/{w.dataset}/observer/{e}.nc" for e in OBSERVED_SINES[w.dataset].values()],
         creep="results/{dataset}/observer/ch5_creep.nc",
         observer="results/{dataset}/ch5/observer.json",

@@ -228,7 +228,7 @@ def charge_estimate_figure(series, a0: float):
 FIGURES = figure_names.CH5
 
 
-def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep, gains) -> dict:
+def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep, gains, warmup: float = 0.0) -> dict:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14 from the chapter's series and observer traces."""
     from .. import figures
     from ..gamma import fit_log_gamma
@@ -253,7 +253,7 @@ def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep
     built.append(figures.loop([warm[f]["x_laser"] * 1e6 for f in low], [warm[f]["C_e"] * 1e6 for f in low],
                               "x [µm]", "C_e [µF]", "Capacitance against position at low frequencies",
                               labels=[f"{f:g} Hz" for f in low]))
-    C, x = gamma_data(gamma_series, n_periods)
+    C, x = gamma_data(gamma_series, n_periods, warmup)
     fits = {str(j): fit_gamma(C, x, j) for j in orders} | {"ln": fit_log_gamma(C, x)}
     grid = np.linspace(C.min(), C.max(), 200)
     built.append(figures.loop([C * 1e6] + [grid * 1e6] * len(fits), [x * 1e6] + [f.predict(grid) * 1e6 for f in fits.values()],
