@@ -156,7 +156,7 @@ def table_7_1(per_run: pd.DataFrame, k_over_alpha: float, T_ref: float) -> pd.Da
     spread = {"tau [s]": per_run["tau [s]"].std(ddof=1), "gamma [K/W]": per_run["gamma [K/W]"].std(ddof=1),
               "k_T [W/(m² K)]": abs(per_run["k_T from tau [W/(m² K)]"].mean() - per_run["k_T from gamma [W/(m² K)]"].mean()) / 2}
     return pd.DataFrame([{"parameter": k, "reproduced": v, "spread": spread.get(k, np.nan),
-                          "thesis": THESIS_TABLE_7_1[k]} for k, v in ours.items()])
+                          "thesis": THESIS_TABLE_7_1.get(k, np.nan)} for k, v in ours.items()])
 
 
 def steady_rise_trends(per_run: pd.DataFrame, freq_runs: Mapping[str, float]) -> pd.DataFrame:
