@@ -57,11 +57,21 @@ def synthetic(path, n=9600, channels=("U", "I", "Ur", "Ir", "x_laser")):
     values = {"U": 50 - 50 * np.cos(2 * np.pi * 10 * t), "I": 0.05 * np.sin(2 * np.pi * 10 * t),
               "Ur": 0.1 * np.sin(2 * np.pi * 4000 * t), "Ir": 0.05 * np.cos(2 * np.pi * 4000 * t),
               "x_laser": 1.5e-5 * (1 - np.cos(2 * np.pi * 10 * t))}
-    attrs = {"fs": FS, "fr_nominal": 1e5, "ns": 12, "nf": 4, "dataset": "bench", "experiment": Path(path).stem,
-             "source": "measured"}
+    attrs = {"fs": FS, "fr_nominal": 1e5, "ns": 12, "nf": 4, "warmup_s": 0.0, "dataset": "bench",
+             "experiment": Path(path).stem, "source": "measured"}
     with CaptureWriter(path, attrs, [channel_spec(c, *RANGES[c]) for c in channels], n) as w:
         w.write({c: values[c] for c in channels})
     return Path(path)
+
+
+def bench_manifest(tmp_path, **changes):
+    """raw/bench/dataset.yaml under tmp_path for the synthetic captures (check_capture compares
+    a capture with its manifest); its path as text."""
+    folder = tmp_path / "manifests" / "bench"
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(manifest("bench", []) | changes, sort_keys=False,
+                                                         allow_unicode=True))
+    return str(folder / "dataset.yaml")
 
 
 def set_codes(path, channel, start, n, code):
@@ -216,7 +226,7 @@ def _gap_middle(p):
 CAPTURE_FAULTS = {  # fault: (make it, what the one line must say)
     "truncated file": (_truncate, ""),
     "not a netCDF file": (_not_netcdf, "not a readable netCDF4 capture"),
-    "wrong units attribute": (_units, "channel U has units 'mV', the contract says 'V'"),
+    "wrong units attribute": (_units, "channel U is in 'mV', the manifest declares 'V'"),
     "time axis with a gap": (_gap_end, "gap or wrong fs"),
     "gap inside the time axis": (_gap_middle, "time axis breaks at sample 4000"),
     "wrong fs": (_wrong_fs, "fs = 50000"),
@@ -232,7 +242,7 @@ def test_bad_capture_stops_check_capture_with_one_line_and_no_output(tmp_path, f
     make(capture)
     report = tmp_path / "qc" / "ch3_sine_10hz.json"
     with pytest.raises(CaptureError) as e:
-        script("check_capture").main(str(capture), str(report))
+        script("check_capture").main(str(capture), bench_manifest(tmp_path), str(report))
     one_line(str(e.value), capture, fragment)
     assert not report.exists() and leftovers(tmp_path / "qc") == []
 
@@ -251,7 +261,7 @@ def test_short_nan_burst_and_clipping_are_counted_and_the_ripple_is_masked(tmp_p
     set_codes(capture, "Ur", 5000, 50, FILL)
     set_codes(capture, "I", 7000, 3, INT16_FULL)
     report = tmp_path / "qc.json"
-    script("check_capture").main(str(capture), str(report))
+    script("check_capture").main(str(capture), bench_manifest(tmp_path), str(report))
     qc = json.loads(report.read_text())
     assert qc["nan"] == {"U": 0, "I": 0, "Ur": 50, "Ir": 0, "x_laser": 0}
     assert qc["clipped"]["I"] == 3

@@ -96,10 +96,10 @@ def loop_measures(u: np.ndarray, x: np.ndarray, up: np.ndarray) -> dict[str, flo
     out = {"stroke": stroke, "gain_ls": float(np.polyfit(u, x, 1)[0]), "gain_end": end_gain,
            "loop_width": np.nan, "nonlinearity": np.nan}
     if _has_loop(up):
-        centres, rise, fall = branch_means(u, x, up)
-        chord = x_lo + end_gain * (centres - u_lo)
+        # the chord is taken off sample by sample: a bin's samples do not sit at its centre
+        _, rise, fall = branch_means(u, x - (x_lo + end_gain * (u - u_lo)), up)
         out["loop_width"] = 100 * branch_gap(u, x, up) / stroke
-        out["nonlinearity"] = 100 * float(np.nanmax(np.abs(0.5 * (rise + fall) - chord))) / stroke
+        out["nonlinearity"] = 100 * float(np.nanmax(np.abs(0.5 * (rise + fall)))) / stroke
     return out
 
 

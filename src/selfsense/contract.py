@@ -42,10 +42,10 @@ def required_attributes(manifest: Mapping[str, Any]) -> tuple[str, ...]:
 
 def check_agreement(path: os.PathLike | str, header: Header, manifest: Mapping[str, Any],
                     manifest_path: os.PathLike | str) -> None:
-    """fs, channels, units and attributes of a capture against its manifest; CaptureError in one
-    line naming both files on the first difference."""
+    """fs, channels and units of a capture against its manifest; CaptureError in one line naming
+    both files on the first difference."""
     def fail(problem: str) -> CaptureError:
-        return CaptureError(f"{path}: {problem} ({manifest_path})")
+        return _both(path, problem, manifest_path)
 
     fs = header.attrs.get("fs")
     declared_fs = float(manifest["daq"]["fs"])
@@ -60,10 +60,19 @@ def check_agreement(path: os.PathLike | str, header: Header, manifest: Mapping[s
         wanted = sensors.get(channel, {}).get("units", CHANNEL_UNITS[channel][0])
         if units != wanted:
             raise fail(f"channel {channel} is in {units!r}, the manifest declares {wanted!r}")
+
+
+def check_attributes(path: os.PathLike | str, header: Header, manifest: Mapping[str, Any],
+                     manifest_path: os.PathLike | str) -> None:
+    """The attributes this dataset's analyses read are all there (no default stands in for one)."""
     absent = [a for a in required_attributes(manifest) if a not in header.attrs]
     if absent:
-        raise fail(f"global attribute {absent[0]} is missing: this dataset's analyses read it "
-                   f"(docs/capture-contract.md)")
+        raise _both(path, f"global attribute {absent[0]} is missing: this dataset's analyses read it "
+                          "(docs/capture-contract.md)", manifest_path)
+
+
+def _both(path: os.PathLike | str, problem: str, manifest_path: os.PathLike | str) -> CaptureError:
+    return CaptureError(f"{path}: {problem} ({manifest_path})")
 
 
 def clipping_problem(channel: str, clipped: int, samples: int, lo: float, hi: float,

@@ -158,7 +158,7 @@ def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[En
     captures; no published rows where the dataset gives its own reference values (they replace
     the source's: :mod:`selfsense.reference_values`)."""
     return [e for e in entries if e.model == manifest.get("model")
-            and (e.section != RECOVERY or manifest["source"] == "simulated")
+            and (e.section != RECOVERY or ("twin" in manifest and manifest.get("source") != "measured"))
             and (e.section != PUBLISHED or "reference" not in manifest)]
 
 

@@ -8,16 +8,17 @@ import argparse
 from dataclasses import asdict
 
 from selfsense.capture import read_header, scan_capture
-from selfsense.contract import check_agreement, check_clipping
+from selfsense.contract import check_agreement, check_attributes, check_clipping
 from selfsense.manifest import load_manifest
 from selfsense.provenance import provenance, script_logging, write_json
 
 
 def main(capture, manifest, report, log=None):
     logger = script_logging(log)
-    header = read_header(capture)
-    check_agreement(capture, header, load_manifest(manifest), manifest)
+    header, meta = read_header(capture), load_manifest(manifest)
+    check_agreement(capture, header, meta, manifest)
     scan = scan_capture(capture)
+    check_attributes(capture, header, meta, manifest)
     check_clipping(capture, scan.clipped, header, manifest)
     write_json(asdict(scan) | {"provenance": provenance([capture, manifest])}, report)
     logger.info("%s: %d samples, NaN %s, clipped %s", capture, scan.n_samples,
