@@ -217,3 +217,111 @@ def test_reference_values_replace_the_published_numbers():
     assert list(rows["quantity"]) == ["stroke (full)", "gain x/U (least squares) (small)"]  # default: largest stroke
     assert list(rows["reproduced"]) == [31.0, 0.3] and list(rows["verdict"]) == [WITHIN, "out of band"]
     assert (rows["kind"] == KIND).all()
+
+
+# -- end to end (slow): an imported dataset, and a measured copy of the smoke bench ----------------
+
+def copy_without_truth(src, dst, dataset):
+    """A capture as a lab's DAQ would have written it: the same channels and attributes, no /truth."""
+    import netCDF4
+
+    with netCDF4.Dataset(src) as a, netCDF4.Dataset(dst, "w", format="NETCDF4") as b:
+        b.setncatts({k: a.getncattr(k) for k in a.ncattrs()} | {"dataset": dataset, "source": "measured"})
+        for name, dim in a.dimensions.items():
+            b.createDimension(name, len(dim))
+        for name, var in a.variables.items():
+            var.set_auto_maskandscale(False)
+            attrs = {k: var.getncattr(k) for k in var.ncattrs()}
+            out = b.createVariable(name, var.dtype, var.dimensions, zlib=True, complevel=1,
+                                   fill_value=attrs.pop("_FillValue", None))
+            out.set_auto_maskandscale(False)
+            out.setncatts(attrs)
+            out[:] = var[:]
+
+
+@pytest.fixture(scope="module")
+def measured_bench(smoke_run, tmp_path_factory):
+    """Every smoke capture of the ripple bench, /truth removed, as the measured dataset bench_lab
+    (the stack's manifest without its twin), run through the whole DAG."""
+    from .conftest import copy_repo
+    from .test_reliability import run_snakemake, write_config
+
+    repo = copy_repo(tmp_path_factory.mktemp("lab") / "repo")
+    folder = repo / "raw" / "bench_lab"
+    folder.mkdir()
+    runs = sorted(p.stem for p in (smoke_run / "raw" / "pi_p885").glob("*.nc"))
+    for run in runs:
+        copy_without_truth(smoke_run / "raw" / "pi_p885" / f"{run}.nc", folder / f"{run}.nc", "bench_lab")
+    doc = {k: v for k, v in load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml").items() if k not in ("twin", "seed")}
+    doc |= {"name": "bench_lab", "source": "measured", "experiments": runs}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+    run = run_snakemake(repo, write_config(repo, "lab", ["bench_lab"]))
+    return repo, run, smoke_run
+
+
+@pytest.mark.slow
+def test_a_measured_ripple_bench_runs_every_analysis_to_the_end(measured_bench):
+    repo, run, smoke = measured_bench
+    assert run.returncode == 0, run.stderr[-4000:]
+    res = repo / "results" / "bench_lab"
+    coupled = pd.read_csv(res / "ch7" / "coupled.csv")
+    assert len(coupled) == 3
+    for n in (10, 11, 12):
+        assert (repo / "figures" / "bench_lab" / f"fig_7_{n}.png").exists()
+    # the same captures give the same published numbers as the simulated dataset, and no twin recovery
+    card = pd.read_csv(res / "scorecard.csv")
+    twin = pd.read_csv(smoke / "results" / "pi_p885" / "scorecard.csv")
+    twin = twin[twin["section"] == PUBLISHED].reset_index(drop=True)
+    assert (card["section"] == PUBLISHED).all()
+    pd.testing.assert_series_equal(card["reproduced"], twin["reproduced"])
+    assert (card["verdict"] == WITHIN).sum() == (twin["verdict"] == WITHIN).sum() > 0
+    assert not (res / "twin").exists()  # every step that reads /truth is absent, not failed
+    stages = pd.read_csv(res / "stages.csv").set_index("stage")
+    assert (stages["status"] == "runs").all()
+    assert len(pd.read_csv(res / "characterise" / "summary.csv")) == len(list((repo / "raw" / "bench_lab").glob("*.nc")))
+
+
+@pytest.fixture(scope="module")
+def lab_csv(tmp_path_factory):
+    """A U–x CSV imported into a scratch copy as lab_stack (no model, a data sheet's stroke), and
+    a second import whose manifest was then edited to another fs (lab_fs)."""
+    from .conftest import copy_repo
+    from .test_reliability import run_snakemake, write_config
+
+    repo = copy_repo(tmp_path_factory.mktemp("csv") / "repo")
+    source = write_csv(repo / "sine.csv")
+    for dataset in ("lab_stack", "lab_fs"):
+        imported(repo, source, "U=U [V]:V", "x_laser=x [um]:um", dataset=dataset, extra=["--time", "t [s]:s"])
+    path = repo / "raw" / "lab_stack" / "dataset.yaml"
+    path.write_text(path.read_text() + "reference:\n  stroke_um: {value: 31, tolerance_percent: 10, source: data sheet}\n")
+    path = repo / "raw" / "lab_fs" / "dataset.yaml"
+    path.write_text(path.read_text().replace("fs: 5000.0", "fs: 5120.0"))
+    good = run_snakemake(repo, write_config(repo, "good", ["lab_stack"]))
+    bad = run_snakemake(repo, write_config(repo, "bad", ["lab_fs"]))
+    return repo, good, bad
+
+
+@pytest.mark.slow
+def test_an_imported_csv_gets_its_table_figure_and_a_scorecard_of_its_own(lab_csv):
+    repo, good, _ = lab_csv
+    assert good.returncode == 0, good.stderr[-4000:]
+    res = repo / "results" / "lab_stack"
+    table = pd.read_csv(res / "characterise" / "summary.csv")
+    assert list(table["experiment"]) == ["sine_1hz"]
+    assert abs(table.loc[0, "x–U loop width [% of stroke]"] - 100 * np.sin(PHI)) < 0.5
+    assert (repo / "figures" / "lab_stack" / "loop_sine_1hz.png").exists()
+    card = pd.read_csv(res / "scorecard.csv")  # no published rows: the data sheet's stroke only
+    assert list(card["section"]) == ["reference values"] and list(card["verdict"]) == [WITHIN]
+    stages = pd.read_csv(res / "stages.csv").set_index("stage")
+    assert stages.loc["characterise", "status"] == "runs"
+    assert "this dataset lacks: channel Ur, channel Ir, channel I, daq.ripple" in stages.loc["ripple (Ch. 3)", "needs"]
+
+
+@pytest.mark.slow
+def test_a_capture_that_contradicts_its_manifest_stops_the_run_and_its_log_says_why(lab_csv):
+    repo, _, bad = lab_csv
+    assert bad.returncode != 0
+    reason = "raw/lab_fs/sine_1hz.nc: fs = 5000 Hz, the manifest declares daq.fs = 5120 Hz (raw/lab_fs/dataset.yaml)"
+    assert reason in bad.stdout + bad.stderr
+    assert reason in (repo / "logs" / "lab_fs" / "check_capture" / "sine_1hz.log").read_text()
+    assert not (repo / "results" / "lab_fs" / "qc" / "sine_1hz.json").exists()

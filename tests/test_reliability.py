@@ -343,6 +343,17 @@ def parse_repo(tmp_path_factory):
     folder.mkdir()
     doc = manifest("bench_typo", []) | {"experimnts": ["ch3_sine_10hz"]}
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc))
+    folder = repo / "raw" / "bench_hyphen"
+    folder.mkdir()
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(manifest("bench_hyphen", ["ch3-sine-10hz"])))
+    folder = repo / "raw" / "bench_nomass"  # the Chapter 4 runs, an actuator without its moving mass
+    folder.mkdir()
+    runs = ["ch4_sine_10hz_s1", "ch4_static_free", "ch4_static_blocked"]
+    actuator = {k: v for k, v in PI["actuator"].items() if k != "moving_mass_kg"}
+    doc = manifest("bench_nomass", runs, actuator=actuator, protocols=["ch3", "ch4"])
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
+    for run in runs:  # present: the check is made before any capture is read
+        (folder / f"{run}.nc").touch()
     return repo
 
 
@@ -353,6 +364,11 @@ PIPELINE_FAULTS = [  # config changes, the file the line must name, what it must
     pytest.param({"datasets": ["bench_typo"]}, "raw/bench_typo/dataset.yaml", ["unknown key experimnts"],
                  id="unknown key in a manifest"),
     pytest.param({"datasets": ["nope"]}, "raw/nope/dataset.yaml", ["unknown dataset 'nope'"], id="unknown dataset"),
+    pytest.param({"datasets": ["bench_hyphen"]}, "raw/bench_hyphen/dataset.yaml",
+                 ["experiment name 'ch3-sine-10hz' must be letters, digits or '_'"], id="hyphenated experiment name"),
+    pytest.param({"datasets": ["bench_nomass"]}, "raw/bench_nomass/dataset.yaml",
+                 ["key actuator.moving_mass_kg is missing: the identify (Ch. 4) stage computes with it"],
+                 id="a key an analysis computes with"),
     pytest.param({"datasets": ["../pi_p885"]}, "fault.yaml", ["dataset name '../pi_p885'", "no path separators"],
                  id="dataset name with '..'"),
     pytest.param({"datasets": ["raw/pi_p885"]}, "fault.yaml", ["dataset name 'raw/pi_p885'", "no path separators"],
