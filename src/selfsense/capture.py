@@ -476,8 +476,9 @@ def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Captur
 @dataclass(frozen=True)
 class Header:
     """What a capture declares, read without judging it: its global attributes, and per channel
-    its units, sample count and the full scale its packing spans (a comparison with the dataset's manifest names both files, so it
-    runs before :func:`open_capture` refuses a capture for its own contract alone)."""
+    its units, sample count and the full scale its packing spans. A comparison with the
+    dataset's manifest names both files, so it runs before :func:`open_capture` refuses a
+    capture for its own contract alone."""
 
     attrs: dict[str, object]
     units: dict[str, str | None]

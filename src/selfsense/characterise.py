@@ -175,6 +175,18 @@ def row(experiment: str, measures: Mapping[str, float], x_channel: str | None, r
             | values | {"note": note})
 
 
+def instruments(manifest: Mapping) -> list[dict]:
+    """The manifest's description of the actuator and of each channel's sensor, one row per
+    property, for the report (values as the manifest gives them, units in the key's name)."""
+    rows = [{"item": "actuator", "property": k, "value": str(v)} for k, v in manifest.get("actuator", {}).items()]
+    for channel in manifest["daq"]["channels"]:
+        sensor = manifest.get("sensors", {}).get(channel, {})
+        item = f"channel {channel}"
+        rows += [{"item": item, "property": "ADC range", "value": str(manifest["daq"]["ranges"][channel])}]
+        rows += [{"item": item, "property": k, "value": str(v)} for k, v in sensor.items()]
+    return rows
+
+
 def loop_figure(reduced: Reduced, x_channel: str, title: str, max_points: int = 20000):
     """x–U loop, and beside it the q–U loop where the capture has the current."""
     d = reduced.data

@@ -35,13 +35,16 @@ rule characterise:
 
 
 rule characterise_table:
-    """The dataset's characterisation table: one row per capture."""
+    """The dataset's characterisation table (one row per capture), and its actuator and sensors."""
     input:
         rows=lambda w: [f"results/{w.dataset}/characterise/{e}.json" for e in EXPERIMENTS[w.dataset]],
+        manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("characterise_table"),
     output:
         table=report("results/{dataset}/characterise/summary.csv", caption="../report/characterise.rst",
                      category="{dataset}", subcategory="Characterisation"),
+        instruments=report("results/{dataset}/characterise/instruments.csv", caption="../report/instruments.rst",
+                           category="{dataset}", subcategory="Characterisation"),
     log:
         "logs/{dataset}/characterise_table.log",
     benchmark:
