@@ -167,6 +167,10 @@ def characterise(reduced: Reduced, x_channel: str, settle_s: float, min_hold_s: 
     return out
 
 
+#: the dataset table's columns, in order
+TABLE_COLUMNS = ["experiment", "displacement channel", "rate used [Hz]", *(c[0] for c in COLUMNS), "note"]
+
+
 def row(experiment: str, measures: Mapping[str, float], x_channel: str | None, rate: float | None,
         note: str = "") -> dict:
     """One row of the dataset's table (µm, µF; empty where the capture does not allow it)."""

@@ -9,14 +9,14 @@ import argparse
 
 import pandas as pd
 
-from selfsense.characterise import instruments
+from selfsense.characterise import TABLE_COLUMNS, instruments
 from selfsense.manifest import load_manifest
 from selfsense.provenance import read_records, script_logging, write_table
 
 
 def main(manifest, rows, table, instruments_table, log=None):
     logger = script_logging(log)
-    df = pd.DataFrame(read_records(rows))
+    df = pd.DataFrame(read_records(rows), columns=TABLE_COLUMNS)  # the JSON rows come with sorted keys
     write_table(df, table, inputs=rows)
     write_table(pd.DataFrame(instruments(load_manifest(manifest)), columns=["item", "property", "value"]),
                 instruments_table, inputs=[manifest])

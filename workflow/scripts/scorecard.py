@@ -25,7 +25,9 @@ def main(manifest, results_dir, table, page, tables=None, registry=REGISTRY, log
         tables = [p for t in tables_read(applicable(entries, meta)) + reference_tables(meta)
                   if (p := Path(results_dir) / t).exists()]
     read = {Path(t).relative_to(results_dir).as_posix(): pd.read_csv(t) for t in tables}
-    card = pd.concat([scorecard(entries, read, meta), reference_rows(meta, read)], ignore_index=True)
+    card, own = scorecard(entries, read, meta), reference_rows(meta, read)
+    if not own.empty:  # concatenating an empty frame would turn the float columns to object (no %.10g)
+        card = own if card.empty else pd.concat([card, own], ignore_index=True)
     inputs = [registry, manifest, *map(str, tables)]
     write_table(card, table, inputs=inputs)
     with atomic_path(page) as tmp:
