@@ -447,9 +447,12 @@ def test_measured_dataset_with_fewer_channels_skips_with_a_reason(bench):
     res = bench.repo / "results" / "bench_ux"
     table = pd.read_csv(res / "qc" / "captures.csv")
     assert sorted(table["experiment"]) == sorted(CH3) and (table["channels"] == "U x_laser").all()
-    stages = pd.read_csv(res / "stages.csv")
-    assert stages["status"].str.startswith("skipped").all()  # every analysis needs more channels
-    assert stages["needs"].str.len().gt(0).all()
+    stages = pd.read_csv(res / "stages.csv").set_index("stage")
+    assert stages.loc["characterise", "status"] == "runs"  # U and x are all it needs
+    thesis = stages.drop("characterise")
+    assert thesis["status"].str.startswith("skipped").all()  # every other analysis needs more channels
+    assert thesis["needs"].str.contains("this dataset lacks: ").all()
+    assert len(pd.read_csv(res / "characterise" / "summary.csv")) == len(CH3)
     assert "runs" in set(pd.read_csv(bench.repo / "results" / "bench_nan" / "stages.csv")["status"])
     assert not (res / "ch3").exists() and not (res / "ripple").exists()
     assert (res / "scorecard.csv").exists()
