@@ -90,7 +90,7 @@ def test_nonlinearity_is_the_middle_lines_largest_distance_from_the_end_point_ch
     # a parabola added to the ellipse bends its middle line by d·(u² − A²) from the chord: d·A² at u = 0
     t, u, x = ellipse()
     d = 2e-6 / A ** 2
-    out = ch.loop_measures(u, x + d * u ** 2, ch.rising(u, FS))
+    out = ch.loop_measures(u, x + d * u ** 2, ch.rising(u))
     # the chord's ends are means over the last 2 % of the range, where u² is ≈ 2 % short of A²
     assert abs(out["nonlinearity"] / (100 * d * A ** 2 / out["stroke"]) - 1) < 0.05
     assert abs(out["loop_width"] - 100 * 2 * B * np.sin(PHI) / out["stroke"]) < 0.5
@@ -110,7 +110,7 @@ def test_a_held_step_gives_its_creep_and_the_current_its_charge_slope():
     u = 50 * np.sin(2 * np.pi * t)
     current, C = 3e-6 * np.gradient(u, 1 / fs), 3e-6
     q = ch.charge(current, fs)
-    measures = ch.charge_measures(u, 2e-7 * u, q, ch.rising(u, fs))
+    measures = ch.charge_measures(u, 2e-7 * u, q, ch.rising(u))
     assert abs(measures["capacitance"] / C - 1) < 1e-3 and abs(measures["dx_dq"] / (2e-7 / C) - 1) < 1e-3
 
 

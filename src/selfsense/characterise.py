@@ -67,7 +67,7 @@ def reduction_factor(n: int) -> int:
     return max(1, -(-int(n) // MAX_POINTS))
 
 
-def rising(u: np.ndarray, fs: float) -> np.ndarray:
+def rising(u: np.ndarray) -> np.ndarray:
     """+1 where the drive rises, −1 where it falls, taken on the drive smoothed over
     SMOOTH_PERIOD_FRACTION of its dominant period (noise would flip it sample by sample)."""
     spectrum = np.abs(np.fft.rfft(u - u.mean()))
@@ -159,7 +159,7 @@ def characterise(reduced: Reduced, x_channel: str, settle_s: float, min_hold_s: 
     ok = np.isfinite(d["U"]) & np.isfinite(d[x_channel])
     t = np.arange(len(ok))[ok] / reduced.fs
     u, x = d["U"][ok], d[x_channel][ok]
-    up = rising(u, reduced.fs)
+    up = rising(u)
     out = loop_measures(u, x, up) | creep_after_step(t, u, x, settle_s, min_hold_s)
     if "I" in d:
         q = charge(np.nan_to_num(d["I"]), reduced.fs)[ok]

@@ -51,9 +51,9 @@ def entries(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> 
     for key, ref in manifest.get("reference", {}).items():
         quantity, unit, table, column = QUANTITIES[key]
         where = ()
-        if table == CHARACTERISE:
+        if table == CHARACTERISE:  # no capture with a stroke matches no row: "missing from table"
             capture = _capture(ref, tables)
-            where = (("experiment", capture),) if capture else (("experiment", "(no capture with a stroke)"),)
+            where = (("experiment", capture or ""),)
             quantity = f"{quantity} ({capture})" if capture else quantity
         out.append(Entry(section=SECTION, chapter="reference", source=ref["source"], model=manifest.get("model"),
                          quantity=quantity, unit=unit, published=float(ref["value"]),
