@@ -18,6 +18,7 @@ include: "workflow/rules/observer.smk"
 include: "workflow/rules/control.smk"
 include: "workflow/rules/thermal.smk"
 include: "workflow/rules/powerloss.smk"
+include: "workflow/rules/characterise.smk"
 include: "workflow/rules/stages.smk"
 include: "workflow/rules/report.smk"
 
@@ -32,6 +33,7 @@ rule all:
         CONTROL_OUTPUTS,
         THERMAL_OUTPUTS,
         POWERLOSS_OUTPUTS,
+        CHARACTERISE_OUTPUTS,
         STAGE_PLAN_OUTPUTS,
         REPORT_OUTPUTS,
     default_target: True

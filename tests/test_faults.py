@@ -22,8 +22,8 @@ from selfsense.manifest import ManifestError, load_dataset, load_yaml, validate_
 from selfsense.provenance import script_logging
 
 from .conftest import ROOT, copy_repo
-from .test_reliability import (CH3, RANGES, add_measured, assert_same_capture, error_line, leftovers, manifest,
-                               one_line, run_snakemake, script, synthetic, write_config)
+from .test_reliability import (CH3, RANGES, add_measured, assert_same_capture, bench_manifest, error_line, leftovers,
+                               manifest, one_line, run_snakemake, script, synthetic, write_config)
 
 
 # -- packing attributes and all-NaN channels (capture level, fast) -------------------------------
@@ -46,7 +46,7 @@ def test_packing_attributes_are_checked_on_open(tmp_path, attr, value, shown):
     _packing(attr, value)(capture)
     report = tmp_path / "qc" / "ch3_sine_10hz.json"
     with pytest.raises(CaptureError) as e:
-        script("check_capture").main(str(capture), str(report))
+        script("check_capture").main(str(capture), bench_manifest(tmp_path), str(report))
     one_line(str(e.value), capture, "channel U has", shown, "finite, positive scale")
     assert not report.exists()
 

@@ -57,11 +57,21 @@ def synthetic(path, n=9600, channels=("U", "I", "Ur", "Ir", "x_laser")):
     values = {"U": 50 - 50 * np.cos(2 * np.pi * 10 * t), "I": 0.05 * np.sin(2 * np.pi * 10 * t),
               "Ur": 0.1 * np.sin(2 * np.pi * 4000 * t), "Ir": 0.05 * np.cos(2 * np.pi * 4000 * t),
               "x_laser": 1.5e-5 * (1 - np.cos(2 * np.pi * 10 * t))}
-    attrs = {"fs": FS, "fr_nominal": 1e5, "ns": 12, "nf": 4, "dataset": "bench", "experiment": Path(path).stem,
-             "source": "measured"}
+    attrs = {"fs": FS, "fr_nominal": 1e5, "ns": 12, "nf": 4, "warmup_s": 0.0, "dataset": "bench",
+             "experiment": Path(path).stem, "source": "measured"}
     with CaptureWriter(path, attrs, [channel_spec(c, *RANGES[c]) for c in channels], n) as w:
         w.write({c: values[c] for c in channels})
     return Path(path)
+
+
+def bench_manifest(tmp_path, **changes):
+    """raw/bench/dataset.yaml under tmp_path for the synthetic captures (check_capture compares
+    a capture with its manifest); its path as text."""
+    folder = tmp_path / "manifests" / "bench"
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(manifest("bench", []) | changes, sort_keys=False,
+                                                         allow_unicode=True))
+    return str(folder / "dataset.yaml")
 
 
 def set_codes(path, channel, start, n, code):
@@ -216,7 +226,7 @@ def _gap_middle(p):
 CAPTURE_FAULTS = {  # fault: (make it, what the one line must say)
     "truncated file": (_truncate, ""),
     "not a netCDF file": (_not_netcdf, "not a readable netCDF4 capture"),
-    "wrong units attribute": (_units, "channel U has units 'mV', the contract says 'V'"),
+    "wrong units attribute": (_units, "channel U is in 'mV', the manifest declares 'V'"),
     "time axis with a gap": (_gap_end, "gap or wrong fs"),
     "gap inside the time axis": (_gap_middle, "time axis breaks at sample 4000"),
     "wrong fs": (_wrong_fs, "fs = 50000"),
@@ -232,7 +242,7 @@ def test_bad_capture_stops_check_capture_with_one_line_and_no_output(tmp_path, f
     make(capture)
     report = tmp_path / "qc" / "ch3_sine_10hz.json"
     with pytest.raises(CaptureError) as e:
-        script("check_capture").main(str(capture), str(report))
+        script("check_capture").main(str(capture), bench_manifest(tmp_path), str(report))
     one_line(str(e.value), capture, fragment)
     assert not report.exists() and leftovers(tmp_path / "qc") == []
 
@@ -251,7 +261,7 @@ def test_short_nan_burst_and_clipping_are_counted_and_the_ripple_is_masked(tmp_p
     set_codes(capture, "Ur", 5000, 50, FILL)
     set_codes(capture, "I", 7000, 3, INT16_FULL)
     report = tmp_path / "qc.json"
-    script("check_capture").main(str(capture), str(report))
+    script("check_capture").main(str(capture), bench_manifest(tmp_path), str(report))
     qc = json.loads(report.read_text())
     assert qc["nan"] == {"U": 0, "I": 0, "Ur": 50, "Ir": 0, "x_laser": 0}
     assert qc["clipped"]["I"] == 3
@@ -333,6 +343,17 @@ def parse_repo(tmp_path_factory):
     folder.mkdir()
     doc = manifest("bench_typo", []) | {"experimnts": ["ch3_sine_10hz"]}
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc))
+    folder = repo / "raw" / "bench_hyphen"
+    folder.mkdir()
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(manifest("bench_hyphen", ["ch3-sine-10hz"])))
+    folder = repo / "raw" / "bench_nomass"  # the Chapter 4 runs, an actuator without its moving mass
+    folder.mkdir()
+    runs = ["ch4_sine_10hz_s1", "ch4_static_free", "ch4_static_blocked"]
+    actuator = {k: v for k, v in PI["actuator"].items() if k != "moving_mass_kg"}
+    doc = manifest("bench_nomass", runs, actuator=actuator, protocols=["ch3", "ch4"])
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
+    for run in runs:  # present: the check is made before any capture is read
+        (folder / f"{run}.nc").touch()
     return repo
 
 
@@ -343,6 +364,11 @@ PIPELINE_FAULTS = [  # config changes, the file the line must name, what it must
     pytest.param({"datasets": ["bench_typo"]}, "raw/bench_typo/dataset.yaml", ["unknown key experimnts"],
                  id="unknown key in a manifest"),
     pytest.param({"datasets": ["nope"]}, "raw/nope/dataset.yaml", ["unknown dataset 'nope'"], id="unknown dataset"),
+    pytest.param({"datasets": ["bench_hyphen"]}, "raw/bench_hyphen/dataset.yaml",
+                 ["experiment name 'ch3-sine-10hz' must be letters, digits or '_'"], id="hyphenated experiment name"),
+    pytest.param({"datasets": ["bench_nomass"]}, "raw/bench_nomass/dataset.yaml",
+                 ["key actuator.moving_mass_kg is missing: the identify (Ch. 4) stage computes with it"],
+                 id="a key an analysis computes with"),
     pytest.param({"datasets": ["../pi_p885"]}, "fault.yaml", ["dataset name '../pi_p885'", "no path separators"],
                  id="dataset name with '..'"),
     pytest.param({"datasets": ["raw/pi_p885"]}, "fault.yaml", ["dataset name 'raw/pi_p885'", "no path separators"],
@@ -421,9 +447,12 @@ def test_measured_dataset_with_fewer_channels_skips_with_a_reason(bench):
     res = bench.repo / "results" / "bench_ux"
     table = pd.read_csv(res / "qc" / "captures.csv")
     assert sorted(table["experiment"]) == sorted(CH3) and (table["channels"] == "U x_laser").all()
-    stages = pd.read_csv(res / "stages.csv")
-    assert stages["status"].str.startswith("skipped").all()  # every analysis needs more channels
-    assert stages["needs"].str.len().gt(0).all()
+    stages = pd.read_csv(res / "stages.csv").set_index("stage")
+    assert stages.loc["characterise", "status"] == "runs"  # U and x are all it needs
+    thesis = stages.drop("characterise")
+    assert thesis["status"].str.startswith("skipped").all()  # every other analysis needs more channels
+    assert thesis["needs"].str.contains("this dataset lacks: ").all()
+    assert len(pd.read_csv(res / "characterise" / "summary.csv")) == len(CH3)
     assert "runs" in set(pd.read_csv(bench.repo / "results" / "bench_nan" / "stages.csv")["status"])
     assert not (res / "ch3").exists() and not (res / "ripple").exists()
     assert (res / "scorecard.csv").exists()

@@ -361,6 +361,13 @@ class Capture:
         self._require([name])
         return float(self._nc[name].scale_factor)
 
+    def attribute(self, name: str) -> object:
+        """A global attribute an analysis computes with: absent, it stops with one line (never a
+        default that would change the result)."""
+        if name not in self.attrs:
+            raise _fail(self.path, f"missing global attribute {name!r} (docs/capture-contract.md)")
+        return self.attrs[name]
+
     @property
     def has_truth(self) -> bool:
         return "truth" in self._nc.groups
@@ -464,6 +471,40 @@ def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Captur
         nc.close()
         raise _fail(path, f"unreadable capture ({type(err).__name__}: {err})") from None
     return Capture(path, nc, require)
+
+
+@dataclass(frozen=True)
+class Header:
+    """What a capture declares, read without judging it: its global attributes, and per channel
+    its units, sample count and the full scale its packing spans. A comparison with the
+    dataset's manifest names both files, so it runs before :func:`open_capture` refuses a
+    capture for its own contract alone."""
+
+    attrs: dict[str, object]
+    units: dict[str, str | None]
+    samples: dict[str, int]
+    ranges: dict[str, tuple[float, float]]
+
+
+def read_header(path: os.PathLike | str) -> Header:
+    """The capture's :class:`Header`; CaptureError if the file is not a readable netCDF4 file."""
+    path = Path(path)
+    if not path.exists():
+        raise _fail(path, "no such capture")
+    try:
+        with netCDF4.Dataset(path, "r") as nc:
+            channels = [nc[v] for v in nc.variables if v in CHANNEL_UNITS]
+            return Header({k: nc.getncattr(k) for k in nc.ncattrs()},
+                          {v.name: getattr(v, "units", None) for v in channels},
+                          {v.name: int(v.shape[0]) for v in channels},
+                          {v.name: _full_scale(v) for v in channels})
+    except OSError as err:
+        raise _fail(path, f"not a readable netCDF4 capture ({err.strerror or err})") from None
+
+
+def _full_scale(var: netCDF4.Variable) -> tuple[float, float]:
+    scale, offset = float(getattr(var, "scale_factor", 1.0)), float(getattr(var, "add_offset", 0.0))
+    return offset - scale * INT16_FULL, offset + scale * INT16_FULL
 
 
 def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) -> None:

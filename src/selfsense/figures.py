@@ -38,6 +38,17 @@ def loop(x, y, xlabel, ylabel, title, labels=None):
     return fig
 
 
+def loops(panels, title):
+    """Loops side by side, each panel (x, y, xlabel, ylabel); the title over the first."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels) + 1.0, 4.2), constrained_layout=True)
+    for ax, (x, y, xlabel, ylabel) in zip(np.atleast_1d(axes), panels):
+        ax.plot(x, y, lw=0.6)
+        ax.set(xlabel=xlabel, ylabel=ylabel)
+        ax.grid(alpha=0.3)
+    np.atleast_1d(axes)[0].set_title(title)
+    return fig
+
+
 def time_traces(t, traces: list[tuple[np.ndarray | dict[str, np.ndarray], str]], title):
     """Stacked panels sharing a time axis [s]; each is (values, axis label with unit), values an
     array or {legend: array} for several traces in one panel."""

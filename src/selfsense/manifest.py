@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import jsonschema
 import yaml
@@ -186,6 +186,18 @@ def load_dataset(raw_dir: str | Path, name: str) -> dict:
     for experiment in manifest.get("experiments", ()):
         check_experiment_name(experiment, path)
     return manifest
+
+
+def require_keys(manifest: Mapping[str, Any], keys: Sequence[str], source: str | Path, why: str) -> None:
+    """Keys (dotted) an analysis computes with and the schema leaves optional: the first one
+    absent stops with one line naming the file, the key and the analysis, before anything runs."""
+    for key in keys:
+        node: Any = manifest
+        for part in key.split("."):
+            if not isinstance(node, Mapping) or part not in node:
+                raise ManifestError(f"{source}: key {key} is missing: {why} computes with it "
+                                    "(src/selfsense/schemas/dataset.schema.yaml)", key)
+            node = node[part]
 
 
 def load_manifest(path: str | Path) -> dict:

@@ -118,6 +118,11 @@ def write_json(obj: Any, path: str | os.PathLike) -> None:
         tmp.write_text(json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n")
 
 
+def read_records(paths: Iterable[str | os.PathLike]) -> list[dict[str, Any]]:
+    """JSON reports written with :func:`write_json`, without their provenance (a summary table's rows)."""
+    return [{k: v for k, v in json.loads(Path(p).read_text()).items() if k != "provenance"} for p in paths]
+
+
 def _jsonable(value: Any) -> Any:
     if hasattr(value, "tolist"):
         return value.tolist()

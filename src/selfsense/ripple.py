@@ -167,7 +167,8 @@ def plan_from_fs(
 def plan_from_capture(capture, n_periods: int) -> SamplingPlan:
     """The plan an open :class:`~selfsense.capture.Capture` was sampled with, from its ``fs`` and its
     ``fr_nominal``/``ns`` attributes, checked as :func:`plan_from_fs` checks it (Eq 3.3-3.5)."""
-    return plan_from_fs(capture.fs, float(capture.attrs["fr_nominal"]), int(capture.attrs["ns"]), int(n_periods))
+    return plan_from_fs(capture.fs, float(capture.attribute("fr_nominal")), int(capture.attribute("ns")),
+                        int(n_periods))
 
 
 def table_3_1(fr: float = 100e3) -> pd.DataFrame:

@@ -226,9 +226,13 @@ def _locator(locate: Mapping[str, Any], where: str) -> Locator | None:
 
 
 def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[Entry]:
-    """Entries for this dataset's actuator; twin recovery only where there is a twin."""
+    """Entries for this dataset's actuator (none for a model absent or ``other``: a foreign
+    actuator has no published numbers here); twin recovery only where the twin made the
+    captures; no published rows where the dataset gives its own reference values (they replace
+    the source's: :mod:`selfsense.reference_values`)."""
     return [e for e in entries if e.model == manifest.get("model")
-            and (e.section != RECOVERY or "twin" in manifest)]
+            and (e.section != RECOVERY or ("twin" in manifest and manifest.get("source") != "measured"))
+            and (e.section != PUBLISHED or "reference" not in manifest)]
 
 
 def tables_read(entries: Sequence[Entry]) -> list[str]:

@@ -32,9 +32,11 @@ if SIMULATED:
 
 
 rule check_capture:
-    """Validate one capture and count its NaN and clipped samples (streamed once)."""
+    """Check one capture against its manifest, validate it and count its NaN and clipped samples
+    (streamed once)."""
     input:
         capture=RAW / "{dataset}" / "{experiment}.nc",
+        manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("check_capture"),
     output:
         report="results/{dataset}/qc/{experiment}.json",

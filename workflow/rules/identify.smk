@@ -103,5 +103,5 @@ rule model_recovery:
 IDENTIFY_OUTPUTS = (
     expand([*rules.static_stiffness.output, *rules.identify.output, *rules.ch4_figures.output],
            dataset=IDENTIFY_DATASETS)
-    + expand(rules.model_recovery.output, dataset=[d for d in IDENTIFY_DATASETS if "twin" in DATASETS[d]])
+    + expand(rules.model_recovery.output, dataset=[d for d in IDENTIFY_DATASETS if d in SIMULATED])
 )

@@ -150,5 +150,5 @@ rule powerloss_recovery:
 POWERLOSS_OUTPUTS = (
     expand([*rules.powerloss_identify.output, *rules.powerloss_table_2.output, *rules.powerloss_performance.output,
             *rules.powerloss_figures.output], dataset=POWERLOSS_DATASETS)
-    + expand(rules.powerloss_recovery.output, dataset=[d for d in POWERLOSS_DATASETS if "twin" in DATASETS[d]])
+    + expand(rules.powerloss_recovery.output, dataset=[d for d in POWERLOSS_DATASETS if d in SIMULATED])
 )

@@ -2,6 +2,7 @@
 # verdict) per dataset, and the summary that opens `snakemake --report` (workflow/report/workflow.rst).
 
 from selfsense.manifest import load_yaml
+from selfsense.reference_values import tables_read as reference_tables
 from selfsense.scorecard import applicable, parse_registry, tables_read
 
 SCORECARD_REGISTRY = "workflow/scorecard.yaml"
@@ -56,11 +57,13 @@ CURVE_OUTPUTS = [f"results/{d}/{c['folder']}/{fit}_vs_thesis.csv" for fit, c in 
 
 #: everything the stages promise to make (each stage's *_OUTPUTS, as rule all collects them)
 STAGE_OUTPUTS = set(ACQUIRE_OUTPUTS + RIPPLE_OUTPUTS + IDENTIFY_OUTPUTS + GAMMA_OUTPUTS + OBSERVER_OUTPUTS
-                    + CONTROL_OUTPUTS + THERMAL_OUTPUTS + POWERLOSS_OUTPUTS + CURVE_OUTPUTS)
+                    + CONTROL_OUTPUTS + THERMAL_OUTPUTS + POWERLOSS_OUTPUTS + CHARACTERISE_OUTPUTS + CURVE_OUTPUTS)
 
-#: per dataset, the registry's tables that some stage makes: the scorecard reads (and reruns after)
-#: exactly these; the registry's other entries show as "not reproduced yet"
-SCORECARD_TABLES = {d: [t for t in (f"results/{d}/{t}" for t in tables_read(applicable(SCORECARD, DATASETS[d])))
+#: per dataset, the registry's tables (and those its reference values are compared with) that some
+#: stage makes: the scorecard reads (and reruns after) exactly these; the other entries show as
+#: "not reproduced yet"
+SCORECARD_TABLES = {d: [t for t in (f"results/{d}/{t}" for t in tables_read(applicable(SCORECARD, DATASETS[d]))
+                                    + reference_tables(DATASETS[d]))
                         if t in STAGE_OUTPUTS] for d in DATASETS}
 
 

@@ -181,6 +181,7 @@ rule ce_np_study:
 RIPPLE_OUTPUTS = (
     expand(rules.ch3_tables.output, dataset=RIPPLE_DATASETS)
     + expand([*rules.ch3_hysteresis.output, *rules.ch3_figures.output], dataset=CH3_DATASETS)
-    + expand([*rules.ch3_model_figure.output, *rules.ce_recovery.output, *rules.ce_np_study.output],
+    + expand([*rules.ch3_model_figure.output, *rules.ce_np_study.output],
              dataset=[d for d in CH3_DATASETS if "twin" in DATASETS[d]])
+    + expand(rules.ce_recovery.output, dataset=[d for d in CH3_DATASETS if d in SIMULATED])  # reads /truth
 )

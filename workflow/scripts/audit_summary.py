@@ -4,18 +4,16 @@ Alone: python workflow/scripts/audit_summary.py out.csv results/pi_p885/audit/*.
 """
 
 import argparse
-import json
 from pathlib import Path
 
 import pandas as pd
 
-from selfsense.provenance import script_logging, write_table
+from selfsense.provenance import read_records, script_logging, write_table
 
 
 def main(reports, table, log=None):
     logger = script_logging(log)
-    rows = [{k: v for k, v in json.loads(Path(p).read_text()).items() if k != "provenance"} | {"run": Path(p).stem}
-            for p in reports]
+    rows = [r | {"run": Path(p).stem} for r, p in zip(read_records(reports), reports)]
     df = pd.DataFrame(rows)[["run", "max |offline − logged| [nm]", "log resolution [nm]"]]
     write_table(df, table, inputs=reports)
     logger.info("\n%s", df.to_string())

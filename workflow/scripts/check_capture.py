@@ -1,27 +1,35 @@
-"""Rule `check_capture`: validate a capture and count NaN / clipped samples → qc/<experiment>.json.
+"""Rule `check_capture`: a capture against its manifest (fs, channels, units, attributes), then
+validated and streamed once to count NaN / clipped samples → qc/<experiment>.json.
 
-Alone: python workflow/scripts/check_capture.py raw/pi_p885/ch3_sine_10hz.nc out.json
+Alone: python workflow/scripts/check_capture.py raw/pi_p885/ch3_sine_10hz.nc raw/pi_p885/dataset.yaml out.json
 """
 
 import argparse
 from dataclasses import asdict
 
-from selfsense.capture import scan_capture
+from selfsense.capture import read_header, scan_capture
+from selfsense.contract import check_agreement, check_attributes, check_clipping
+from selfsense.manifest import load_manifest
 from selfsense.provenance import provenance, script_logging, write_json
 
 
-def main(capture, report, log=None):
+def main(capture, manifest, report, log=None):
     logger = script_logging(log)
+    header, meta = read_header(capture), load_manifest(manifest)
+    check_agreement(capture, header, meta, manifest)
     scan = scan_capture(capture)
-    write_json(asdict(scan) | {"provenance": provenance([capture])}, report)
+    check_attributes(capture, header, meta, manifest)
+    check_clipping(capture, scan.clipped, header, manifest)
+    write_json(asdict(scan) | {"provenance": provenance([capture, manifest])}, report)
     logger.info("%s: %d samples, NaN %s, clipped %s", capture, scan.n_samples,
                 sum(scan.nan.values()), sum(scan.clipped.values()))
 
 
 if "snakemake" in globals():
-    main(snakemake.input.capture, snakemake.output.report, snakemake.log[0])
+    main(snakemake.input.capture, snakemake.input.manifest, snakemake.output.report, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("capture")
+    cli.add_argument("manifest")
     cli.add_argument("report")
     main(**vars(cli.parse_args()))

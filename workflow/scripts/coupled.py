@@ -32,7 +32,7 @@ def main(capture, power, gamma_t, observer, thermal_model, model, traces, stats,
     with open_capture(capture, require=CHANNELS) as cap:
         out, result = coupled_estimation(cap.iter_chunks(CHANNELS), cap.fs, plan_from_capture(cap, n_periods),
                                          load_gamma(gamma_t), load_gains(observer), ThermalModel(th["tau"], th["gamma"]),
-                                         load_k_over_alpha(model), th["T_amb"], float(cap.attrs.get("warmup_s", 0.0)))
+                                         load_k_over_alpha(model), th["T_amb"], float(cap.attribute("warmup_s")))
     out, result = against_measured(out, result, read_series(power, ["time", "T_mid"]))
     with SeriesWriter(traces, UNITS) as w:
         w.write(out)

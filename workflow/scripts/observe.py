@@ -21,7 +21,7 @@ def main(capture, gamma, observer, traces, stats, n_periods, log=None):
     poly, gains = load_gamma(gamma), load_gains(observer)
     with open_capture(capture, require=("Ur", "Ir", "I", "x_laser")) as cap:
         plan = plan_from_capture(cap, n_periods)
-        settle = float(cap.attrs.get("warmup_s", 0.0))
+        settle = float(cap.attribute("warmup_s"))
         result, trace = run_observer(cap.iter_chunks(("Ur", "Ir", "I", "x_laser")), plan, poly, gains, cap.fs, settle)
         nan = dict(cap.stats.nan)
     with SeriesWriter(traces, UNITS, {"capture": capture}) as out:

@@ -21,7 +21,7 @@ def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, lo
     a0 = load_gains(observer).a0
     with open_capture(capture, require=CHANNELS) as cap:
         plan = plan_from_capture(cap, n_periods)
-        settle, fs = float(cap.attrs.get("warmup_s", 0.0)), cap.fs
+        settle, fs = float(cap.attribute("warmup_s")), cap.fs
     def chunks():
         with open_capture(capture) as cap:
             yield from cap.iter_chunks(CHANNELS)

@@ -11,6 +11,7 @@ import pandas as pd
 
 from selfsense.manifest import load_dataset, load_yaml
 from selfsense.provenance import atomic_path, provenance, script_logging, write_json, write_table
+from selfsense.reference_values import reference_rows, tables_read as reference_tables
 from selfsense.scorecard import applicable, counts, parse_registry, scorecard, scorecard_html, tables_read
 
 REGISTRY = "workflow/scorecard.yaml"
@@ -21,9 +22,12 @@ def main(manifest, results_dir, table, page, tables=None, registry=REGISTRY, log
     meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
     entries = parse_registry(load_yaml(registry), registry)
     if tables is None:  # run alone: the registry's tables that exist
-        tables = [p for t in tables_read(applicable(entries, meta)) if (p := Path(results_dir) / t).exists()]
+        tables = [p for t in tables_read(applicable(entries, meta)) + reference_tables(meta)
+                  if (p := Path(results_dir) / t).exists()]
     read = {Path(t).relative_to(results_dir).as_posix(): pd.read_csv(t) for t in tables}
-    card = scorecard(entries, read, meta)
+    card, own = scorecard(entries, read, meta), reference_rows(meta, read)
+    if not own.empty:  # concatenating an empty frame would turn the float columns to object (no %.10g)
+        card = own if card.empty else pd.concat([card, own], ignore_index=True)
     inputs = [registry, manifest, *map(str, tables)]
     write_table(card, table, inputs=inputs)
     with atomic_path(page) as tmp:

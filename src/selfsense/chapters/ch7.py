@@ -328,7 +328,7 @@ def frequency_run(series, capture, frequency: float) -> dict[str, np.ndarray | f
     with open_capture(capture, require=("T_mid",)) as cap:
         T = cap.read(["T_mid"], dim="time_slow")["T_mid"]
         rate = cap.n_slow / cap.duration  # the thermometers span the capture at their own rate
-        warmup = float(cap.attrs.get("warmup_s", 0.0))
+        warmup = float(cap.attribute("warmup_s"))
     return read_series(series) | {"frequency": frequency, "warmup": warmup, "T_time": np.arange(T.size) / rate,
                                   "T_mid": T}
 

@@ -1,0 +1,334 @@
+"""Bring your own data (docs/bring-your-own-data.md): a lab's recording imported with `selfsense
+import`, analysed by what its channels allow (stage characterise), refused in one line where it
+contradicts its manifest; a foreign actuator gets no published numbers, its own reference values
+instead."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from scipy.io import savemat
+
+from selfsense import characterise as ch
+from selfsense.capture import INT16_FULL, CaptureError, open_capture
+from selfsense.cli import main as cli
+from selfsense.manifest import ManifestError, load_dataset, load_yaml
+from selfsense.reference_values import KIND, reference_rows
+from selfsense.scorecard import PUBLISHED, WITHIN, applicable, parse_registry, scorecard
+
+from .conftest import ROOT
+from .test_reliability import bench_manifest, leftovers, one_line, script, set_codes, synthetic
+
+FS, F, A, B = 5000.0, 1.0, 150.0, 15e-6  # a 1 Hz, ±150 V sine at 5 kHz; x = B sin(ωt − φ) + B [m]
+PHI = np.arcsin(0.12)  # the ellipse's width is 2B·sin φ: 12 % of its stroke 2B
+
+
+def ellipse(periods=3):
+    t = np.arange(int(periods * FS / F)) / FS
+    return t, A * np.sin(2 * np.pi * F * t), B * np.sin(2 * np.pi * F * t - PHI) + B
+
+
+def write_csv(path, t0=2.0):
+    t, u, x = ellipse()
+    pd.DataFrame({"t [s]": t + t0, "U [V]": u, "x [um]": x * 1e6}).to_csv(path, index=False)
+    return path
+
+
+def imported(tmp_path, source, *channel_args, experiment="sine_1hz", dataset="lab_stack", extra=()):
+    raw = tmp_path / "raw"
+    args = [str(source), "--dataset", dataset, "--experiment", experiment, "--raw-dir", str(raw), *extra]
+    for c in channel_args:
+        args += ["--channel", c]
+    assert cli(["import", *args]) == 0
+    return raw / dataset
+
+
+def characterised(tmp_path, folder, experiment="sine_1hz"):
+    """The rule characterise on one capture: its row and figure."""
+    row, figure = tmp_path / f"{folder.name}_{experiment}.json", tmp_path / f"{folder.name}_loop.png"
+    script("characterise").main(str(folder / f"{experiment}.nc"), str(row), str(figure))
+    return json.loads(row.read_text()), figure
+
+
+def test_a_csv_of_u_and_x_gives_stroke_gain_loop_width_and_the_loop_figure(tmp_path):
+    folder = imported(tmp_path, write_csv(tmp_path / "sine.csv"), "U=U [V]:V", "x_laser=x [um]:um",
+                      extra=["--time", "t [s]:s"])
+    manifest = load_dataset(folder.parent, "lab_stack")  # scaffolded, valid, no model
+    assert "model" not in manifest and manifest["daq"]["fs"] == FS and manifest["experiments"] == ["sine_1hz"]
+    with open_capture(folder / "sine_1hz.nc") as cap:
+        assert cap.n == 3 * FS and "shifted to 0" in cap.attrs["import_note"]
+        steps = {c: cap.resolution(c) for c in ("U", "x_laser")}
+    row, figure = characterised(tmp_path, folder)
+    assert figure.exists() and figure.with_suffix(".pdf").exists()
+    # the ellipse's loop: width 100·sin φ % of stroke, gain B·cos φ / A by either definition
+    assert abs(row["x–U loop width [% of stroke]"] - 100 * np.sin(PHI)) < 0.5
+    assert abs(row["stroke [µm]"] - 2e6 * B) <= 2 * steps["x_laser"] * 1e6  # the ADC's steps at the two peaks
+    gain = 1e6 * B * np.cos(PHI) / A
+    # quantisation of both channels bounds either gain's error: a few steps relative to the amplitudes
+    quantisation = 4 * (steps["x_laser"] / B + steps["U"] / A)
+    assert abs(row["gain (least squares) [µm/V]"] / gain - 1) < quantisation
+    assert abs(row["gain (end points) [µm/V]"] / gain - 1) < quantisation
+    assert row["nonlinearity vs end-point chord [% of stroke]"] < 0.05  # an ellipse's middle line is straight
+    assert np.isnan(row["creep after step [µm]"]) and np.isnan(row["dx/dq [µm/µC]"])  # no step, no current
+
+
+def test_a_mat_file_with_the_same_content_gives_the_same_table(tmp_path):
+    t, u, x = ellipse()
+    savemat(tmp_path / "sine.mat", {"rec": {"t": t, "data": np.column_stack([u, x * 1e6])}})
+    from_mat = imported(tmp_path, tmp_path / "sine.mat", "U=rec.data[0]:V", "x_laser=rec.data[1]:um",
+                        dataset="lab_mat", extra=["--fs", str(FS)])
+    from_csv = imported(tmp_path, write_csv(tmp_path / "sine.csv", t0=0.0), "U=1:V", "x_laser=2:um",
+                        dataset="lab_csv", extra=["--time", "t [s]:s"])
+    rows = [characterised(tmp_path, f)[0] for f in (from_mat, from_csv)]
+    tables = [pd.DataFrame([{k: v for k, v in r.items() if k != "provenance"}]) for r in rows]
+    pd.testing.assert_frame_equal(*tables)
+
+
+def test_nonlinearity_is_the_middle_lines_largest_distance_from_the_end_point_chord():
+    # a parabola added to the ellipse bends its middle line by d·(u² − A²) from the chord: d·A² at u = 0
+    t, u, x = ellipse()
+    d = 2e-6 / A ** 2
+    out = ch.loop_measures(u, x + d * u ** 2, ch.rising(u))
+    # the chord's ends are means over the last 2 % of the range, where u² is ≈ 2 % short of A²
+    assert abs(out["nonlinearity"] / (100 * d * A ** 2 / out["stroke"]) - 1) < 0.05
+    assert abs(out["loop_width"] - 100 * 2 * B * np.sin(PHI) / out["stroke"]) < 0.5
+
+
+def test_a_held_step_gives_its_creep_and_the_current_its_charge_slope():
+    fs, n = 1000.0, 20000
+    t = np.arange(n) / fs
+    u = np.where(t < 2.0, 0.0, 100.0)
+    creep = 1e-6 * (1 - np.exp(-(t - 2.0) / 5.0)) * (t >= 2.0)
+    x = 2e-7 * u + creep
+    out = ch.creep_after_step(t, u, x, settle_s=0.1, min_hold_s=1.0)
+    expected = 1e-6 * (np.exp(-0.1 / 5.0) - np.exp(-(t[-1] - 2.0) / 5.0))
+    assert abs(out["creep"] / expected - 1) < 0.01  # the last 1 % of the hold is averaged
+    assert out["hold_s"] == pytest.approx(t[-1] - 2.0, abs=2 / fs)
+    # q = C·U through the current I = C·dU/dt: the q–U slope is C, dx/dq = gain / C
+    u = 50 * np.sin(2 * np.pi * t)
+    current, C = 3e-6 * np.gradient(u, 1 / fs), 3e-6
+    q = ch.charge(current, fs)
+    measures = ch.charge_measures(u, 2e-7 * u, q, ch.rising(u))
+    assert abs(measures["capacitance"] / C - 1) < 1e-3 and abs(measures["dx_dq"] / (2e-7 / C) - 1) < 1e-3
+
+
+# -- the manifest and the captures must agree (one line each, naming both files) ------------------
+
+def _check(tmp_path, capture, manifest):
+    report = tmp_path / "qc" / "report.json"
+    with pytest.raises(CaptureError) as e:
+        script("check_capture").main(str(capture), manifest, str(report))
+    assert not report.exists() and leftovers(tmp_path / "qc") == []
+    return str(e.value)
+
+
+@pytest.mark.parametrize("change,fragments", [
+    pytest.param({"daq": {"fs": 50000.0}}, ["fs = 48000 Hz, the manifest declares daq.fs = 50000 Hz"], id="fs"),
+    pytest.param({"daq": {"channels": ["U", "I", "Ur", "Ir"], "ranges": {}}},
+                 ["channel x_laser is not declared in the manifest's daq.channels"], id="channels"),
+    pytest.param({"sensors": {"x_laser": {"type": "laser vibrometer", "units": "um"}}},
+                 ["channel x_laser is in 'm', the manifest declares 'um'"], id="units"),
+])
+def test_a_capture_that_contradicts_its_manifest_stops_in_one_line_naming_both(tmp_path, change, fragments):
+    capture = synthetic(tmp_path / "raw" / "ch3_sine_10hz.nc")
+    doc = load_yaml(bench_manifest(tmp_path))
+    for key, value in change.items():
+        doc[key] = doc.get(key, {}) | value if isinstance(value, dict) and key == "daq" else value
+    manifest = bench_manifest(tmp_path, **doc)
+    message = _check(tmp_path, capture, manifest)
+    one_line(message, capture, *fragments)
+    assert message.endswith(f"({manifest})")
+
+
+def test_a_missing_attribute_the_analyses_read_stops_in_one_line(tmp_path):
+    capture = synthetic(tmp_path / "raw" / "ch3_sine_10hz.nc")
+    import netCDF4
+
+    with netCDF4.Dataset(capture, "a") as nc:
+        nc.delncattr("warmup_s")
+    one_line(_check(tmp_path, capture, bench_manifest(tmp_path)), capture, "global attribute warmup_s is missing")
+
+
+def test_a_channel_clipped_beyond_1_percent_names_the_channel_and_the_likely_cause(tmp_path):
+    capture = synthetic(tmp_path / "raw" / "ch3_sine_10hz.nc")  # 9600 samples
+    set_codes(capture, "x_laser", 100, 97, INT16_FULL)  # 1.01 %
+    message = _check(tmp_path, capture, bench_manifest(tmp_path))
+    one_line(message, capture, "channel x_laser is clipped in 1.01 % of its 9600 samples", "daq.ranges.x_laser",
+             "too narrow", "µm written as m")
+    capture = synthetic(tmp_path / "raw" / "ch3_sine_1hz.nc")
+    set_codes(capture, "x_laser", 100, 96, INT16_FULL)  # 1.00 %: counted, not refused
+    script("check_capture").main(str(capture), bench_manifest(tmp_path), str(tmp_path / "ok.json"))
+    assert json.loads((tmp_path / "ok.json").read_text())["clipped"]["x_laser"] == 96
+
+
+def test_an_import_in_the_wrong_unit_is_refused_before_anything_is_written(tmp_path, capsys):
+    folder = imported(tmp_path, write_csv(tmp_path / "sine.csv"), "U=U [V]:V", "x_laser=x [um]:um",
+                      extra=["--time", "t [s]:s"])
+    before = (folder / "dataset.yaml").read_text()
+    args = ["import", str(tmp_path / "sine.csv"), "--dataset", "lab_stack", "--experiment", "again",
+            "--raw-dir", str(folder.parent), "--time", "t [s]:s", "--channel", "U=U [V]:V",
+            "--channel", "x_laser=x [um]:m"]
+    assert cli(args) == 1
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith("selfsense import: ") and "channel x_laser is clipped" in line and "µm written as m" in line
+    assert (folder / "dataset.yaml").read_text() == before and not (folder / "again.nc").exists()
+    assert leftovers(folder) == []
+    # a capture is never overwritten, and experiment names follow the wildcard's rule
+    args[args.index("again")] = "sine_1hz"
+    assert cli(args) == 1 and "never overwritten" in capsys.readouterr().err
+    args[args.index("sine_1hz")] = "sine-1hz"
+    assert cli(args) == 1 and "experiment name 'sine-1hz' must be letters, digits or '_'" in capsys.readouterr().err
+
+
+def test_a_hyphenated_experiment_name_in_a_manifest_is_one_line(tmp_path):
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    doc = {"name": "lab", "description": "x", "source": "measured", "daq": {"fs": 1000.0, "channels": ["U"],
+           "ranges": {"U": [-10, 10]}}, "protocols": [], "experiments": ["sine-1hz"]}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(ManifestError) as e:
+        load_dataset(tmp_path, "lab")
+    one_line(str(e.value), folder / "dataset.yaml", "experiment name 'sine-1hz'")
+
+
+# -- actuators that are not the thesis's -----------------------------------------------------------
+
+REGISTRY = parse_registry(load_yaml(ROOT / "workflow" / "scorecard.yaml"))
+
+
+@pytest.mark.parametrize("model", [None, "other"])
+def test_a_foreign_actuator_gets_no_published_rows(model):
+    manifest = {"name": "lab", "source": "measured"} | ({"model": model} if model else {})
+    assert applicable(REGISTRY, manifest) == []
+    assert scorecard(REGISTRY, {}, manifest).empty
+
+
+def test_reference_values_replace_the_published_numbers():
+    stack = {"name": "lab", "source": "measured", "model": "stack"}
+    assert {e.section for e in applicable(REGISTRY, stack)} == {PUBLISHED}
+    reference = {"stroke_um": {"value": 30.0, "tolerance_percent": 10, "source": "data sheet"},
+                 "gain_um_per_V": {"value": 0.2, "tolerance_percent": 10, "source": "data sheet",
+                                   "experiment": "small"}}
+    assert applicable(REGISTRY, stack | {"reference": reference}) == []
+    table = pd.DataFrame({"experiment": ["small", "full"], "stroke [µm]": [10.0, 31.0],
+                          "gain (least squares) [µm/V]": [0.3, 0.21]})
+    rows = reference_rows(stack | {"reference": reference}, {"characterise/summary.csv": table})
+    assert list(rows["quantity"]) == ["stroke (full)", "gain x/U (least squares) (small)"]  # default: largest stroke
+    assert list(rows["reproduced"]) == [31.0, 0.3] and list(rows["verdict"]) == [WITHIN, "out of band"]
+    assert (rows["kind"] == KIND).all()
+
+
+# -- end to end (slow): an imported dataset, and a measured copy of the smoke bench ----------------
+
+def copy_without_truth(src, dst, dataset):
+    """A capture as a lab's DAQ would have written it: the same channels and attributes, no /truth."""
+    import netCDF4
+
+    with netCDF4.Dataset(src) as a, netCDF4.Dataset(dst, "w", format="NETCDF4") as b:
+        b.setncatts({k: a.getncattr(k) for k in a.ncattrs()} | {"dataset": dataset, "source": "measured"})
+        for name, dim in a.dimensions.items():
+            b.createDimension(name, len(dim))
+        for name, var in a.variables.items():
+            var.set_auto_maskandscale(False)
+            attrs = {k: var.getncattr(k) for k in var.ncattrs()}
+            out = b.createVariable(name, var.dtype, var.dimensions, zlib=True, complevel=1,
+                                   fill_value=attrs.pop("_FillValue", None))
+            out.set_auto_maskandscale(False)
+            out.setncatts(attrs)
+            out[:] = var[:]
+
+
+@pytest.fixture(scope="module")
+def measured_bench(smoke_run, tmp_path_factory):
+    """Every smoke capture of the ripple bench, /truth removed, as the measured dataset bench_lab
+    (the stack's manifest without its twin), run through the whole DAG."""
+    from .conftest import copy_repo
+    from .test_reliability import run_snakemake, write_config
+
+    repo = copy_repo(tmp_path_factory.mktemp("lab") / "repo")
+    folder = repo / "raw" / "bench_lab"
+    folder.mkdir()
+    runs = sorted(p.stem for p in (smoke_run / "raw" / "pi_p885").glob("*.nc"))
+    for run in runs:
+        copy_without_truth(smoke_run / "raw" / "pi_p885" / f"{run}.nc", folder / f"{run}.nc", "bench_lab")
+    doc = {k: v for k, v in load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml").items()
+           if k not in ("twin", "seed")}
+    doc |= {"name": "bench_lab", "source": "measured", "experiments": runs}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+    run = run_snakemake(repo, write_config(repo, "lab", ["bench_lab"]))
+    return repo, run, smoke_run
+
+
+@pytest.mark.slow
+def test_a_measured_ripple_bench_runs_every_analysis_to_the_end(measured_bench):
+    repo, run, smoke = measured_bench
+    assert run.returncode == 0, run.stderr[-4000:]
+    res = repo / "results" / "bench_lab"
+    coupled = pd.read_csv(res / "ch7" / "coupled.csv")
+    assert len(coupled) == 3
+    for n in (10, 11, 12):
+        assert (repo / "figures" / "bench_lab" / f"fig_7_{n}.png").exists()
+    # the same captures give the same published numbers as the simulated dataset, and no twin recovery
+    card = pd.read_csv(res / "scorecard.csv")
+    twin = pd.read_csv(smoke / "results" / "pi_p885" / "scorecard.csv")
+    twin = twin[twin["section"] == PUBLISHED].reset_index(drop=True)
+    assert (card["section"] == PUBLISHED).all()
+    pd.testing.assert_series_equal(card["reproduced"], twin["reproduced"])
+    assert (card["verdict"] == WITHIN).sum() == (twin["verdict"] == WITHIN).sum() > 0
+    assert not (res / "twin").exists()  # every step that reads /truth is absent, not failed
+    stages = pd.read_csv(res / "stages.csv").set_index("stage")
+    assert (stages.drop("powerloss (Ronkanen)")["status"] == "runs").all()  # every thesis stage, to the end
+    captures = sorted(p.stem for p in (repo / "raw" / "bench_lab").glob("*.nc"))
+    assert sorted(pd.read_csv(res / "characterise" / "summary.csv")["experiment"]) == captures
+
+
+@pytest.fixture(scope="module")
+def lab_csv(tmp_path_factory):
+    """A U–x CSV imported into a scratch copy as lab_stack (no model, a data sheet's stroke), and
+    a second import whose manifest was then edited to another fs (lab_fs)."""
+    from .conftest import copy_repo
+    from .test_reliability import run_snakemake, write_config
+
+    repo = copy_repo(tmp_path_factory.mktemp("csv") / "repo")
+    source = write_csv(repo / "sine.csv")
+    for dataset in ("lab_stack", "lab_fs"):
+        imported(repo, source, "U=U [V]:V", "x_laser=x [um]:um", dataset=dataset, extra=["--time", "t [s]:s"])
+    path = repo / "raw" / "lab_stack" / "dataset.yaml"
+    path.write_text(path.read_text()
+                    + "reference:\n  stroke_um: {value: 31, tolerance_percent: 10, source: data sheet}\n"
+                    "sensors:\n  x_laser: {type: laser vibrometer, resolution: 3.0e-7, units: m}\n")
+    path = repo / "raw" / "lab_fs" / "dataset.yaml"
+    path.write_text(path.read_text().replace("fs: 5000.0", "fs: 5120.0"))
+    good = run_snakemake(repo, write_config(repo, "good", ["lab_stack"]))
+    bad = run_snakemake(repo, write_config(repo, "bad", ["lab_fs"]))
+    return repo, good, bad
+
+
+@pytest.mark.slow
+def test_an_imported_csv_gets_its_table_figure_and_a_scorecard_of_its_own(lab_csv):
+    repo, good, _ = lab_csv
+    assert good.returncode == 0, good.stderr[-4000:]
+    res = repo / "results" / "lab_stack"
+    table = pd.read_csv(res / "characterise" / "summary.csv")
+    assert list(table["experiment"]) == ["sine_1hz"]
+    assert abs(table.loc[0, "x–U loop width [% of stroke]"] - 100 * np.sin(PHI)) < 0.5
+    assert (repo / "figures" / "lab_stack" / "loop_sine_1hz.png").exists()
+    sensors = pd.read_csv(res / "characterise" / "instruments.csv").set_index(["item", "property"])["value"]
+    assert sensors[("channel x_laser", "type")] == "laser vibrometer"
+    card = pd.read_csv(res / "scorecard.csv")  # no published rows: the data sheet's stroke only
+    assert list(card["section"]) == ["reference values"] and list(card["verdict"]) == [WITHIN]
+    stages = pd.read_csv(res / "stages.csv").set_index("stage")
+    assert stages.loc["characterise", "status"] == "runs"
+    assert "this dataset lacks: channel Ur, channel Ir, channel I, daq.ripple" in stages.loc["ripple (Ch. 3)", "needs"]
+
+
+@pytest.mark.slow
+def test_a_capture_that_contradicts_its_manifest_stops_the_run_and_its_log_says_why(lab_csv):
+    repo, _, bad = lab_csv
+    assert bad.returncode != 0
+    reason = "raw/lab_fs/sine_1hz.nc: fs = 5000 Hz, the manifest declares daq.fs = 5120 Hz (raw/lab_fs/dataset.yaml)"
+    assert reason in bad.stdout + bad.stderr
+    assert reason in (repo / "logs" / "lab_fs" / "check_capture" / "sine_1hz.log").read_text()
+    assert not (repo / "results" / "lab_fs" / "qc" / "sine_1hz.json").exists()

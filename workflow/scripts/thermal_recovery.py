@@ -1,0 +1,33 @@
+"""Rule `thermal_recovery`: Table 7.1's τ, γ, k_T and Γ_T's g against the twin's truth (simulated datasets).
+
+Alone: python workflow/scripts/thermal_recovery.py results/pi_p885/ch7/table_7_1.csv results/pi_p885/ch7/gamma_t.json \
+    raw/pi_p885/ch7_freq_100hz.nc out.csv
+"""
+
+import argparse
+
+import pandas as pd
+
+from selfsense.capture import open_capture
+from selfsense.chapters import ch7
+from selfsense.gamma import load_gamma
+from selfsense.provenance import script_logging, write_table
+
+
+def main(table_7_1, gamma_t, truth_capture, recovery, log=None):
+    logger = script_logging(log)
+    with open_capture(truth_capture) as cap:
+        truth, _ = cap.read_truth()
+    result = ch7.thermal_recovery(pd.read_csv(table_7_1), truth, load_gamma(gamma_t).g)
+    write_table(result, recovery, inputs=[table_7_1, gamma_t, truth_capture])
+    logger.info("\n%s", result.to_string())
+
+
+if "snakemake" in globals():
+    main(snakemake.input.table_7_1, snakemake.input.gamma_t, snakemake.input.truth_capture, snakemake.output.recovery,
+         snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("table_7_1", "gamma_t", "truth_capture", "recovery"):
+        cli.add_argument(name)
+    main(**vars(cli.parse_args()))
