@@ -35,6 +35,8 @@ from pathlib import Path
 import numpy as np
 import psutil
 
+from selfsense.capture import TWIN_COMPRESSION
+
 ROOT = Path(__file__).resolve().parents[1]
 FS = 48000.0
 # what a scratch copy leaves out: outputs, captures, caches (as tests/conftest.py's copy_repo)
@@ -71,13 +73,15 @@ def bench_kernel(seconds):
     print(f"twin kernel (numba, 1 core):           {n / t / 1e6:8.2f} M samples/s")
 
 
-def simulate(path, seconds, zlib=True):
+def simulate(path, seconds, compression=TWIN_COMPRESSION):
+    """A capture of ``seconds`` of 50 Hz drive on the twin, with (compression, complevel)."""
     from selfsense.twin import Drive, simulate_capture
     from selfsense.twin.drive import Segment
 
     p, daq = params()
     drive = Drive("voltage", (Segment(seconds, 50.0, 0.0, 100.0),))
-    return simulate_capture(path, p, daq, drive, {}, 1, "bench", zlib=zlib)
+    return simulate_capture(path, p, daq, drive, {}, 1, "bench", compression=compression[0],
+                            complevel=compression[1]).path
 
 
 def bench_capture(seconds, tmp):

@@ -123,7 +123,7 @@ def test_kernel_is_chunk_invariant(stack_params):
 
 def _capture(tmp_path, name, params, daq, seed, chunk_len=4096):
     drive = Drive("voltage", (Segment(0.1, 10.0, 0.0, 100.0),))
-    return simulate_capture(tmp_path / name, params, daq, drive, {}, seed, "det", chunk_len=chunk_len)
+    return simulate_capture(tmp_path / name, params, daq, drive, {}, seed, "det", chunk_len=chunk_len).path
 
 
 def test_same_seed_gives_identical_capture_data(tmp_path, stack_params, stack_daq):
@@ -170,7 +170,7 @@ def test_controller_hook_drives_the_bench_and_logs(tmp_path, stack_params, stack
     ctl = Hold()
     drive = Drive("position", (Segment(0.05, 0.0, 0.0, 0.0),))
     path = simulate_capture(tmp_path / "cl.nc", stack_params, stack_daq, drive, {}, 1, "cl",
-                            controller=ctl, chunk_len=1000)
+                            controller=ctl, chunk_len=1000).path
     with open_capture(path, require=["x_hpo_rt", "u_cmd"]) as cap:
         d = cap.read(["U", "u_cmd", "x_hpo_rt", "x_laser"])
     assert ctl.seen == cap.n

@@ -16,14 +16,14 @@ import logging
 import math
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Iterator, Mapping, Sequence
 
 import netCDF4
 import numpy as np
 
-from .provenance import temporary_path
+from .provenance import provenance, temporary_path, write_json
 
 LOG = logging.getLogger("selfsense.capture")
 
@@ -39,6 +39,14 @@ FS_RTOL = 1e-6
 CHUNK_CACHE_BYTES = 1 << 20
 #: long writes and streamed reads log their progress this often (fraction of the samples)
 PROGRESS_STEP = 0.1
+#: the compressions a capture's channels may use (None: uncompressed): netCDF-C 4.9+ reads them
+#: with the filter plugins it ships, as the pinned netCDF4 wheel does. CaptureWriter stores any
+#: data with zlib level 1; the twin writes with TWIN_COMPRESSION, which keeps zlib's size at twice
+#: its speed on the twin's captures (docs/capture-contract.md)
+COMPRESSIONS = ("zlib", "zstd", "blosc_lz4", "blosc_zstd")
+TWIN_COMPRESSION = ("blosc_zstd", 3)
+#: chunks smaller than this are never stored with blosc (see _filters)
+BLOSC_MIN_CHUNK_BYTES = 4096
 
 
 class CaptureError(ValueError):
@@ -160,7 +168,7 @@ class CaptureWriter:
         n_slow: int = 0,
         fs_slow: float | None = None,
         chunk_len: int = 1 << 16,
-        zlib: bool = True,
+        compression: str | None = "zlib",
         complevel: int = 1,
         truth: Sequence[str] = (),
         truth_decimation: int = 1,
@@ -177,8 +185,8 @@ class CaptureWriter:
         self._attrs = dict(attrs)
         self._rate = {"time": float(attrs["fs"]), "time_slow": fs_slow}
         self._chunk_len = chunk_len
-        self._zlib = zlib
-        self._complevel = complevel
+        self._compression = (compression, complevel)
+        self.stats = ChunkStats()
         self._nc: netCDF4.Dataset | None = None
         self._digest: dict[str, "hashlib._Hash"] = {}
         self._progress = _Progress(f"{self.path} written", self.n_samples)
@@ -195,10 +203,9 @@ class CaptureWriter:
             self._time_var(nc, "time_slow", self.n_slow)
         for spec in self.channels.values():
             n = self.n_samples if spec.dim == "time" else self.n_slow
-            v = nc.createVariable(
-                spec.name, "i2", (spec.dim,), zlib=self._zlib, complevel=self._complevel,
-                shuffle=True, fletcher32=True, chunksizes=(max(1, min(self._chunk_len, n)),), fill_value=FILL,
-            )
+            chunk = max(1, min(self._chunk_len, n))
+            v = nc.createVariable(spec.name, "i2", (spec.dim,), **_filters(*self._compression, 2 * chunk),
+                                  chunksizes=(chunk,), fill_value=FILL)
             v.set_auto_maskandscale(False)
             v.setncatts({
                 "units": spec.units, "long_name": spec.long_name,
@@ -211,15 +218,16 @@ class CaptureWriter:
             n_truth = -(-self.n_samples // self.truth_decimation)
             g.createDimension("time_truth", n_truth)
             for name in self.truth:
-                g.createVariable(name, "f4", ("time_truth",), zlib=self._zlib, complevel=self._complevel,
-                                 shuffle=True, fletcher32=True, chunksizes=(max(1, min(self._chunk_len, n_truth)),))
+                chunk = max(1, min(self._chunk_len, n_truth))
+                g.createVariable(name, "f4", ("time_truth",), **_filters(*self._compression, 4 * chunk),
+                                 chunksizes=(chunk,))
         _limit_chunk_cache(nc)
         self._nc = nc
         return self
 
     def _time_var(self, nc: netCDF4.Dataset, dim: str, n: int) -> None:
-        v = nc.createVariable(dim, "f8", (dim,), zlib=True, complevel=1, shuffle=True, fletcher32=True,
-                              chunksizes=(max(1, min(self._chunk_len, n)),))
+        chunk = max(1, min(self._chunk_len, n))
+        v = nc.createVariable(dim, "f8", (dim,), **_filters(*self._compression, 8 * chunk), chunksizes=(chunk,))
         v.units = "s"
         v.standard_name = "time"
         v.sampling_rate = float(self._rate[dim])
@@ -241,6 +249,7 @@ class CaptureWriter:
         for name, values in data.items():
             codes, clipped = self.channels[name].pack(values)
             self.clipped[name] += clipped
+            self.stats.add(name, codes)
             self._put(name, start, codes)
         if dim == "time":
             self._progress(start + n)
@@ -248,8 +257,15 @@ class CaptureWriter:
     def _put(self, name: str, start: int, values: np.ndarray) -> None:
         """Write one variable's next values and hash them for the read-back (in order: the
         writer appends sequentially)."""
-        self._nc[name][start:start + len(values)] = values
+        try:
+            self._nc[name][start:start + len(values)] = values
+        except RuntimeError as err:  # a chunk the cache flushed failed its filters
+            raise self._unstorable(err) from None
         self._digest.setdefault(name, hashlib.blake2b()).update(np.ascontiguousarray(values).tobytes())
+
+    def _unstorable(self, err: RuntimeError) -> CaptureError:
+        return _fail(self.path, f"HDF5 could not store a chunk ({err}) with compression {self._compression[0]}, "
+                                f"whose blosc filter fails on data it cannot shrink; zlib stores any data")
 
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
         """The twin's true parameters, as attributes of /truth (states go through ``write``)."""
@@ -258,10 +274,15 @@ class CaptureWriter:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         nc, self._nc = self._nc, None
-        if nc is not None:
+        try:
+            if nc is not None:
+                if exc_type is None:
+                    nc.clipped_samples = int(sum(self.clipped.values()))
+                nc.close()  # flushes the chunks still cached
+        except RuntimeError as err:
+            self.tmp.unlink(missing_ok=True)
             if exc_type is None:
-                nc.clipped_samples = int(sum(self.clipped.values()))
-            nc.close()
+                raise self._unstorable(err) from None
         if exc_type is not None:
             self.tmp.unlink(missing_ok=True)
             return
@@ -276,6 +297,17 @@ class CaptureWriter:
             self.tmp.unlink(missing_ok=True)
             raise _fail(self.path, f"not renamed into place: {problem}")
         os.replace(self.tmp, self.path)
+
+    def scan_report(self) -> "ScanReport":
+        """What :func:`scan_capture` reports for the capture written, without reading it again: the
+        counts are taken from the codes as they were written, which the read-back showed to be the
+        codes on disk; the structure is checked as :func:`open_capture` checks it."""
+        open_capture(self.path).close()
+        fs = self._rate["time"]
+        scanned = [c for c, spec in self.channels.items() if spec.dim == "time" or self.n_slow]
+        return ScanReport(str(self.path), self.n_samples, fs, self.n_samples / fs, tuple(self.channels),
+                          {c: self.stats.nan.get(c, 0) for c in scanned},
+                          {c: self.stats.clipped.get(c, 0) for c in scanned})
 
 
 def _read_back(path: Path, digests: Mapping[str, "hashlib._Hash"], chunk_len: int) -> str | None:
@@ -295,6 +327,28 @@ def _read_back(path: Path, digests: Mapping[str, "hashlib._Hash"], chunk_len: in
     except Exception as err:  # HDF5 checksum or structure errors surface as RuntimeError/OSError
         return f"read-back failed ({type(err).__name__}: {err})"
     return None
+
+
+def compression_settings(capture: Mapping[str, object]) -> dict[str, object]:
+    """A :class:`CaptureWriter`'s compression arguments from the config's ``capture`` block
+    (``compression``: one of COMPRESSIONS or ``none``; ``complevel``)."""
+    name = capture["compression"]
+    return {"compression": None if name == "none" else name, "complevel": int(capture["complevel"])}
+
+
+def _filters(compression: str | None, complevel: int, chunk_bytes: int) -> dict[str, object]:
+    """createVariable's filters for chunks of ``chunk_bytes``: a compression of the contract's, with
+    HDF5's shuffle before zlib and zstd (blosc shuffles bytes itself), and a Fletcher-32 checksum on
+    every chunk. HDF5's blosc filter fails on a chunk it cannot shrink, which every chunk of a few
+    samples is (blosc adds a 16-byte header): those variables (the 10 Hz thermometers of a short
+    run) are stored with zlib level 1 instead."""
+    if compression is not None and compression not in COMPRESSIONS:
+        raise ValueError(f"capture compression {compression!r} is none of {', '.join(COMPRESSIONS)} (or none)")
+    if compression is not None and compression.startswith("blosc"):
+        if chunk_bytes >= BLOSC_MIN_CHUNK_BYTES:
+            return {"compression": compression, "complevel": complevel, "shuffle": False, "fletcher32": True}
+        compression, complevel = "zlib", 1
+    return {"compression": compression, "complevel": complevel, "shuffle": compression is not None, "fletcher32": True}
 
 
 def _limit_chunk_cache(group: netCDF4.Dataset | netCDF4.Group) -> None:
@@ -466,6 +520,14 @@ def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Captur
     return Capture(path, nc, require)
 
 
+def compression_of(var: netCDF4.Variable) -> str | None:
+    """The compression a variable's chunks are stored with (None: uncompressed)."""
+    filters = var.filters() or {}
+    if filters.get("blosc"):
+        return filters["blosc"]["compressor"]
+    return next((name for name in ("zlib", "zstd", "bzip2", "szip") if filters.get(name)), None)
+
+
 def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) -> None:
     if "time" not in nc.dimensions:
         raise _fail(path, "no 'time' dimension")
@@ -489,6 +551,10 @@ def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) ->
             raise _fail(path, f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}")
         if var.dtype != np.int16 or "scale_factor" not in var.ncattrs():
             raise _fail(path, f"channel {name} is not packed int16 with scale_factor/add_offset")
+        compression = compression_of(var)
+        if compression not in (*COMPRESSIONS, None):
+            raise _fail(path, f"channel {name} is compressed with {compression}: the contract allows "
+                              f"{', '.join(COMPRESSIONS)} or none")
         scale, offset = float(var.scale_factor), float(getattr(var, "add_offset", 0.0))
         if not (math.isfinite(scale) and scale > 0 and math.isfinite(offset)):
             raise _fail(path, f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}: "
@@ -518,6 +584,11 @@ class ScanReport:
     channels: tuple[str, ...]
     nan: dict[str, int]
     clipped: dict[str, int]
+
+
+def write_scan_report(scan: ScanReport, path: os.PathLike | str) -> None:
+    """A capture's QC report (qc/<experiment>.json): the scan and the capture's provenance."""
+    write_json(asdict(scan) | {"provenance": provenance([scan.path])}, path)
 
 
 def scan_capture(path: os.PathLike | str, require: Sequence[str] = (),

@@ -4,16 +4,15 @@ Alone: python workflow/scripts/check_capture.py raw/pi_p885/ch3_sine_10hz.nc out
 """
 
 import argparse
-from dataclasses import asdict
 
-from selfsense.capture import scan_capture
-from selfsense.provenance import provenance, script_logging, write_json
+from selfsense.capture import scan_capture, write_scan_report
+from selfsense.provenance import script_logging
 
 
 def main(capture, report, log=None):
     logger = script_logging(log)
     scan = scan_capture(capture)
-    write_json(asdict(scan) | {"provenance": provenance([capture])}, report)
+    write_scan_report(scan, report)
     logger.info("%s: %d samples, NaN %s, clipped %s", capture, scan.n_samples,
                 sum(scan.nan.values()), sum(scan.clipped.values()))
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Mapping
 
+from ..capture import ScanReport, compression_settings
 from ..manifest import ManifestError, expand_protocols, load_dataset
 from .bench import Bench, Controller, DaqPlan, simulate_capture
 from .drive import Drive, drive_from_protocol
@@ -32,8 +33,9 @@ def daq_plan(manifest: Mapping) -> DaqPlan:
 
 def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
                         output: str | Path | None = None,
-                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None) -> Path:
-    """Make raw/<dataset>/<experiment>.nc with the twin, as configured.
+                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None) -> ScanReport:
+    """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
+    capture is validated as it is written, :meth:`selfsense.capture.CaptureWriter.scan_report`).
 
     Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
     bench's real-time loop (:func:`selfsense.control.realtime_controller`). It is passed in rather
@@ -69,5 +71,5 @@ def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, conf
     return simulate_capture(
         path, params, daq, drive, attrs, manifest.get("seed", 0), experiment,
         load_stiffness=exp.load_stiffness, controller=controller, chunk_len=cap["chunk_len"],
-        truth_decimation=cap["truth_decimation"], zlib=cap["zlib"], complevel=cap["complevel"])
+        truth_decimation=cap["truth_decimation"], **compression_settings(cap))
 

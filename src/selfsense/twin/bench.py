@@ -20,7 +20,7 @@ from typing import Mapping, Protocol
 import numpy as np
 
 from .. import __version__
-from ..capture import CaptureWriter, channel_spec, SLOW_CHANNELS
+from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
 from . import kernel
 from .drive import Drive
 from .instruments import HighPass, RippleSource, SlowProcess, effective_resistance
@@ -145,10 +145,10 @@ def simulate_capture(
     controller: Controller | None = None,
     chunk_len: int = 1 << 16,
     truth_decimation: int = 12,
-    zlib: bool = True,
-    complevel: int = 1,
-) -> Path:
-    """Run one experiment on the twin and write its capture (atomically)."""
+    compression: str | None = TWIN_COMPRESSION[0],
+    complevel: int = TWIN_COMPRESSION[1],
+) -> ScanReport:
+    """Run one experiment on the twin and write its capture (atomically); returns its QC scan."""
     fs = daq.fs
     n = int(round(drive.duration * fs))
     fast = [c for c in daq.channels if c not in SLOW_CHANNELS]
@@ -170,7 +170,7 @@ def simulate_capture(
             all_attrs[key] = getattr(daq, key)
     path = Path(path)
     with CaptureWriter(path, all_attrs, specs, n, n_slow, params.instruments.T_rate,
-                       chunk_len=chunk_len, zlib=zlib, complevel=complevel,
+                       chunk_len=chunk_len, compression=compression, complevel=complevel,
                        truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
         w.write_truth_attrs(params.truth_attrs())
         for start in range(0, n, chunk_len):
@@ -188,7 +188,7 @@ def simulate_capture(
             if slow:
                 pick = (start + np.arange(len(t))) % slow_every == 0
                 w.write(bench.temperatures(truth["T"][pick]), dim="time_slow")
-    return path
+    return w.scan_report()
 
 
 def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
