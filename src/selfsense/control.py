@@ -79,7 +79,9 @@ class HPOIntegralController:
     logs = ("x_ref", "x_hpo_rt", "u_cmd")
 
     def __init__(self, chain: SelfSensingChain, gains: IntegralController, reference: Callable[[np.ndarray], np.ndarray],
-                 fs: float, block_len: int, engage_at: float, u_limits: tuple[float, float] = (-20.0, 120.0)):
+                 fs: float, block_len: int, engage_at: float, u_limits: tuple[float, float] = (-20.0, 120.0),
+                 compiled: bool = False):
+        self.compiled = compiled  # the twin runs this loop in selfsense.twin.realtime's numba loop
         self.chain = chain
         self.gains = gains
         self.reference = reference
@@ -114,9 +116,11 @@ class HPOIntegralController:
 
 
 def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int, gamma: GammaPolynomial,
-                        observer: HPOGains, controller: IntegralController) -> HPOIntegralController:
+                        observer: HPOGains, controller: IntegralController,
+                        compiled: bool = True) -> HPOIntegralController:
     """The bench's real-time loop (Chapter 6) configured as the bench's was: the identified Γ and
-    observer gains (a0, ω_S, ζ_S) estimate x̂, ``controller`` (ω_C, k/α) drives the stack from it."""
+    observer gains (a0, ω_S, ζ_S) estimate x̂, ``controller`` (ω_C, k/α) drives the stack from it.
+    ``compiled=False``: the Python reference, stepped block by block."""
     plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
     chain = SelfSensingChain(plan, gamma, observer, daq.fs)
-    return HPOIntegralController(chain, controller, drive, daq.fs, plan.ns, warmup)
+    return HPOIntegralController(chain, controller, drive, daq.fs, plan.ns, warmup, compiled=compiled)
