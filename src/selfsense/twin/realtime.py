@@ -21,6 +21,7 @@ import math
 import numba
 import numpy as np
 
+from ..lti import filter_step
 from ..observer import hpo_update
 from .kernel import N_OUT, run_kernel
 
@@ -37,15 +38,6 @@ def _quantize(value, scale, offset):
         return value
     code = np.rint((value - offset) / scale)
     return min(max(code, -32767.0), 32767.0) * scale + offset
-
-
-@numba.njit(cache=True)
-def _highpass(x, b, a, z):
-    """One sample of scipy.signal.lfilter's transposed direct form II (order 2), state z."""
-    y = z[0] + b[0] * x
-    z[0] = z[1] + x * b[1] - y * a[1]
-    z[1] = x * b[2] - y * a[2]
-    return y
 
 
 @numba.njit(cache=True)
@@ -98,8 +90,8 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
             ur = complex(sig[1, j], sig[2, j])
             h = complex(sig[3, j], sig[4, j])
             i_r = ur * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * sig[0, j] * C_P)))
-            leak_u = _highpass(U[k], hp_b, hp_a, zi_u)
-            leak_i = _highpass(I, hp_b, hp_a, zi_i)
+            leak_u = filter_step(U[k], hp_b, hp_a, zi_u)
+            leak_i = filter_step(I, hp_b, hp_a, zi_i)
             values = (U[k] + ur.real + sig[7, j],
                       I + i_r.real + sig[5, j] + sig[8, j],
                       (ur * h).real + leak_u + sig[9, j],
@@ -176,9 +168,7 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
     rp = p.ripple
     constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
                           p.instruments.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb])
-    hp = bench.hp_u  # both channels' filters have the same coefficients
-    hp_b, hp_a = hp.b / hp.a[0], hp.a / hp.a[0]
-    zi = [np.zeros(2) if f.zi is None else np.array(f.zi, dtype=float) for f in (bench.hp_u, bench.hp_i)]
+    hp_b, hp_a = bench.hp_u.b, bench.hp_u.a  # both channels' filters have the same coefficients
     adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
                     for c in MEASURED])
     tail = np.zeros((2, ns))
@@ -196,11 +186,10 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
     measured, truth, logs = np.empty((6, n)), np.empty((9, n)), np.empty((3, n))
     kc = bench.kc
     closed_loop_kernel(np.ascontiguousarray(controller.reference(t), float), sig, constants, kc.scalars, kc.C_h,
-                       kc.v_h, kc.creep_decay, kc.creep_R, bench.state, hp_b, hp_a, zi[0], zi[1], adc,
+                       kc.v_h, kc.creep_decay, kc.creep_R, bench.state, hp_b, hp_a, bench.hp_u.zi, bench.hp_i.zi, adc,
                        np.ascontiguousarray(windows._weights, float), tail, sums,
                        np.ascontiguousarray(chain.gamma.coefficients, float), np.stack(obs.matrices), obs.state, loop,
                        pending, measured, truth, logs)
-    bench.hp_u.zi, bench.hp_i.zi = zi
     windows._periods_done += (tail_len + n) // ns
     tail_len, sums_len, pend_len = int(loop[9]), int(loop[10]), int(loop[15])
     windows._tail = tail[:, :tail_len].copy()
