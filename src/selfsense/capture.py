@@ -190,6 +190,7 @@ class CaptureWriter:
         self._nc: netCDF4.Dataset | None = None
         self._digest: dict[str, "hashlib._Hash"] = {}
         self._progress = _Progress(f"{self.path} written", self.n_samples)
+        self._seconds = {"packing and writing": 0.0, "reading back": 0.0}  # logged: benchmarks/run.py's shares
 
     def __enter__(self) -> "CaptureWriter":
         self.tmp = temporary_path(self.path)
@@ -242,15 +243,19 @@ class CaptureWriter:
         start = self._pos[dim]
         self._pos[dim] = start + n
         if dim == "time_truth":
+            began = time.perf_counter()
             for name, values in data.items():
                 self._put(f"truth/{name}", start, np.asarray(values, dtype=np.float32))
+            self._seconds["packing and writing"] += time.perf_counter() - began
             return
+        began = time.perf_counter()
         self._put(dim, start, (start + np.arange(n)) / self._rate[dim])
         for name, values in data.items():
             codes, clipped = self.channels[name].pack(values)
             self.clipped[name] += clipped
             self.stats.add(name, codes)
             self._put(name, start, codes)
+        self._seconds["packing and writing"] += time.perf_counter() - began
         if dim == "time":
             self._progress(start + n)
 
@@ -278,7 +283,9 @@ class CaptureWriter:
             if nc is not None:
                 if exc_type is None:
                     nc.clipped_samples = int(sum(self.clipped.values()))
+                began = time.perf_counter()
                 nc.close()  # flushes the chunks still cached
+                self._seconds["packing and writing"] += time.perf_counter() - began
         except RuntimeError as err:
             self.tmp.unlink(missing_ok=True)
             if exc_type is None:
@@ -292,7 +299,10 @@ class CaptureWriter:
         if short:
             self.tmp.unlink(missing_ok=True)
             raise ValueError(f"{self.path}: writer stopped early at {short} samples")
+        began = time.perf_counter()
         problem = _read_back(self.tmp, self._digest, self._chunk_len)
+        self._seconds["reading back"] = time.perf_counter() - began
+        LOG.info("%s: %s", self.path, ", ".join(f"{what} {s:.2f} s" for what, s in self._seconds.items()))
         if problem:
             self.tmp.unlink(missing_ok=True)
             raise _fail(self.path, f"not renamed into place: {problem}")
