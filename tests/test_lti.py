@@ -47,3 +47,27 @@ def test_filter_run_is_lfilter_and_carries_its_state(split, seed):
     tol = sums(1 / (1 - poles.max()))
     assert_close(y, y_ref, tol, atol=tol * np.abs(x).max())
     assert_close(z, z_ref, tol, atol=tol * np.abs(x).max())
+
+
+def test_two_processes_compiling_at_once_leave_a_cache_both_later_load(tmp_path):
+    """numba writes its cache files under temporary names and renames them, so two jobs of a clean
+    tree that compile the same kernel at once each leave a whole cache entry; a third process loads
+    it instead of compiling (cache=True: compiled once per tree, not once per job)."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import numpy as np; from selfsense.lti import filter_run; y = np.empty(4); "
+            "filter_run(np.array([1.0, -1.0]), np.array([1.0, -0.5]), np.ones(4), np.zeros(1), y); "
+            "print(list(y), len(filter_run.stats.cache_hits), len(filter_run.stats.cache_misses))")
+    env = os.environ | {"NUMBA_CACHE_DIR": str(tmp_path)}
+    both = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, text=True)
+            for _ in range(2)]
+    outputs = [p.communicate(timeout=300)[0] for p in both]
+    assert all(p.returncode == 0 for p in both)
+    third = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    values, hits, misses = third.stdout.rsplit(" ", 2)
+    assert (int(hits), int(misses)) == (1, 0)
+    y = np.empty(4)
+    filter_run(np.array([1.0, -1.0]), np.array([1.0, -0.5]), np.ones(4), np.zeros(1), y)
+    assert values == str(list(y)) and all(o.rsplit(" ", 2)[0] == values for o in outputs)
