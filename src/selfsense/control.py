@@ -83,7 +83,7 @@ class HPOIntegralController:
     def __init__(self, chain: SelfSensingChain, gains: IntegralController, reference: Callable[[np.ndarray], np.ndarray],
                  fs: float, block_len: int, engage_at: float, u_limits: tuple[float, float] = (-20.0, 120.0),
                  compiled: bool = False):
-        self.compiled = compiled  # the twin runs this loop in selfsense.twin.realtime's numba loop
+        self.compiled = compiled  # the twin runs the engaged samples through run_blocks
         self.chain = chain
         self.gains = gains
         self.reference = reference
@@ -105,6 +105,13 @@ class HPOIntegralController:
         self.pending = np.zeros(0)
         self.last_command = u
         return u
+
+    def run_blocks(self, bench, t: np.ndarray, signals: Mapping[str, np.ndarray]):
+        """The engaged samples t of a chunk, block by block as :meth:`command` and :meth:`observe`
+        step them, in one numba loop with the bench (:func:`selfsense.twin.realtime.run_blocks`)."""
+        from .twin.realtime import run_blocks
+
+        return run_blocks(bench, self, t, signals)
 
     def observe(self, t: np.ndarray, measured: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         x_hat = self.chain.process(measured["Ur"], measured["Ir"], measured["I"])["x_hat"]

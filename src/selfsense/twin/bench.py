@@ -8,8 +8,9 @@ blocks of ``controller.block_len`` samples; before each block the controller cho
 voltage from what it has observed so far, after it the controller sees the block's measured
 channels and returns the signals it logs (``x_ref``, ``x_hpo_rt``, ``u_cmd``), which go into
 the capture as the bench's real-time logs. A controller whose ``compiled`` is true (the HPO
-loop of Chapter 6) runs the engaged samples of a chunk in one numba loop instead
-(:mod:`.realtime`), which the tests hold to this per-block reference.
+loop of Chapter 6) runs the engaged samples of a chunk in one numba loop instead, through its
+``run_blocks(bench, t, signals)`` (:mod:`.realtime`), which the tests hold to this per-block
+reference. Open-loop chunks run through :func:`.compiled.step`, held to :meth:`Bench.step`.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import numpy as np
 
 from .. import __version__
 from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
-from . import kernel
+from . import compiled, kernel
 from .drive import Drive
 from .instruments import HighPass, RippleSource, SlowProcess, effective_resistance
 from .params import TwinParams
@@ -180,7 +181,7 @@ def simulate_capture(
             reference = drive(t)
             if controller is None:
                 U = reference * k_over_alpha if drive.quantity == "position" else reference
-                measured, truth = bench.step(t, U)
+                measured, truth = compiled.step(bench, t, U)
             else:
                 measured, truth, logs = _closed_loop_chunk(bench, controller, t)
                 measured |= logs
@@ -203,9 +204,7 @@ def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
     b, rest = controller.block_len, t[idle:]
     signals = bench.time_signals(rest)  # once for the chunk: per 12-sample block they cost a third of a step
     if getattr(controller, "compiled", False) and len(rest):
-        from .realtime import run_blocks
-
-        parts.append(run_blocks(bench, controller, rest, signals))
+        parts.append(controller.run_blocks(bench, rest, signals))
         return tuple({k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3))
     for s in range(0, len(rest), b):
         tb = rest[s:s + b]

@@ -2,16 +2,14 @@
 numba loop (Chapter 6).
 
 :func:`run_blocks` does over a stretch of engaged samples what the Python reference does block by
-block (:func:`selfsense.twin.bench._closed_loop_chunk` with
-:class:`selfsense.control.HPOIntegralController`): the controller's command from the errors of the
-block before (Eq 6.1–6.3), the stack's response (:func:`.kernel.run_kernel`), the instruments
-(:meth:`.bench.Bench.step`: ripple current through R_e–C_e, high-pass, ADC), then the real-time
-chain on the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq
-3.12), x_CP = Γ(C_e) (Eq 5.4) held until the next window, and the HPO (Eq 5.5–5.9,
-:func:`selfsense.observer.hpo_update`). The twin's time-only signals (ripple carrier, drifts,
-noise) are made beforehand, as the reference makes them once per chunk. Every state lives in the
-Python objects before and after, so the two paths can take turns; the tests hold this loop to the
-reference.
+block (:func:`.bench._closed_loop_chunk` with :class:`selfsense.control.HPOIntegralController`,
+whose ``run_blocks`` calls it): the controller's command from the errors of the block before (Eq
+6.1–6.3), the stack and the instruments (:func:`.compiled.record_sample`), then the real-time chain
+on the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq 3.12),
+x_CP = Γ(C_e) (Eq 5.4) held until the next window, and the HPO (Eq 5.5–5.9,
+:func:`selfsense.observer.hpo_update`). Every state lives in the Python objects before and after,
+so the two paths can take turns; the tests hold this loop to the reference. The open-loop twin
+does not import this module (nor the observer it uses).
 """
 
 from __future__ import annotations
@@ -21,23 +19,9 @@ import math
 import numba
 import numpy as np
 
-from ..lti import filter_step
 from ..observer import hpo_update
+from .compiled import MEASURED, TRUTH, bench_arrays, record_sample
 from .kernel import N_OUT, run_kernel
-
-#: measured channels in the loop's order (rows of its `measured` output)
-MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
-#: rows of the truth output, as bench.TRUTH_STATES
-TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "R_e", "I_offset", "U_drive")
-
-
-@numba.njit(cache=True)
-def _quantize(value, scale, offset):
-    """ChannelSpec.quantize for one sample (scale 0: the channel is not recorded by the ADC)."""
-    if scale == 0.0:
-        return value
-    code = np.rint((value - offset) / scale)
-    return min(max(code, -32767.0), 32767.0) * scale + offset
 
 
 @numba.njit(cache=True)
@@ -45,9 +29,7 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
                        adc, weights, tail, sums, gamma, hpo, hpo_state, loop, pending, measured, truth, logs):
     """Advance the closed loop over len(t_ref) samples, block by block; see the module docstring.
 
-    sig rows: f_r, Re u, Im u, Re h, Im h, I_offset, laser_drift, noise of MEASURED (6).
-    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb.
-    adc: (scale, offset) per MEASURED channel. weights: sin and cos rows (ns).
+    sig, bench, adc: as record_sample. weights: sin and cos rows (ns).
     tail: (2, ns) samples of the open period; sums: (4, np − 1) last whole periods' sums, oldest
     first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
     loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np, pending_len,
@@ -64,11 +46,10 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
     pend_len = int(loop[15])
     ns = weights.shape[1]
     Ad, Bd, Cd, Dd = hpo[0], hpo[1], hpo[2], hpo[3]
-    R_ref, R_slope, C_ref, F_pre, k_load, m, T_amb = bench[0], bench[1], bench[2], bench[3], bench[4], bench[5], bench[6]
     out = np.empty((b, N_OUT))
     U = np.empty(b)
     zeros = np.zeros(b)
-    ambient = np.full(b, T_amb)
+    ambient = np.full(b, bench[6])
     window = np.empty(4)
     i0_hat = loop[16]
     for s in range(0, n, b):
@@ -84,24 +65,7 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
         run_kernel(U[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb])
         for k in range(nb):
             j = s + k
-            x, a, q, U_P, U_H, T, I, C_P = out[k, 0], out[k, 2], out[k, 3], out[k, 4], out[k, 5], out[k, 6], \
-                out[k, 7], out[k, 8]
-            R_e = R_ref + R_slope * (C_P - C_ref)
-            ur = complex(sig[1, j], sig[2, j])
-            h = complex(sig[3, j], sig[4, j])
-            i_r = ur * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * sig[0, j] * C_P)))
-            leak_u = filter_step(U[k], hp_b, hp_a, zi_u)
-            leak_i = filter_step(I, hp_b, hp_a, zi_i)
-            values = (U[k] + ur.real + sig[7, j],
-                      I + i_r.real + sig[5, j] + sig[8, j],
-                      (ur * h).real + leak_u + sig[9, j],
-                      (i_r * h).real + leak_i + sig[10, j],
-                      x + sig[6, j] + sig[11, j],
-                      F_pre + k_load * x + m * a + sig[12, j])
-            for c in range(6):
-                measured[c, j] = _quantize(values[c], adc[c, 0], adc[c, 1])
-            truth[0, j], truth[1, j], truth[2, j], truth[3, j], truth[4, j] = x, q, U_P, U_H, T
-            truth[5, j], truth[6, j], truth[7, j], truth[8, j] = C_P, R_e, sig[5, j], U[k]
+            record_sample(j, U[k], out[k], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth)
             # the real-time chain sees this sample with the x_CP of windows ended before it
             current = measured[1, j] if np.isfinite(measured[1, j]) else 0.0
             x_hat, i0_hat = hpo_update(Ad, Bd, Cd, Dd, hpo_state, current, x_cp)
@@ -157,20 +121,10 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
     state of ``bench`` (a :class:`.bench.Bench`) and ``controller`` (an
     :class:`selfsense.control.HPOIntegralController`); returns (measured, truth, logs) as
     :meth:`.bench.Bench.step` and the controller's ``observe`` do."""
-    from .instruments import effective_resistance
-
-    n, p, chain = len(t), bench.p, controller.chain
+    n, chain = len(t), controller.chain
     windows, obs = chain.extractor._windows, chain.observer
     ns, n_periods = windows.ns, windows.n_periods
-    sig = np.vstack([signals["f_r"], signals["u_ripple"].real, signals["u_ripple"].imag, signals["h"].real,
-                     signals["h"].imag, signals["I_offset"], signals["laser_drift"],
-                     *(signals[f"noise_{c}"] for c in MEASURED)])
-    rp = p.ripple
-    constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
-                          p.instruments.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb])
-    hp_b, hp_a = bench.hp_u.b, bench.hp_u.a  # both channels' filters have the same coefficients
-    adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
-                    for c in MEASURED])
+    sig, constants, adc = bench_arrays(bench, signals)
     tail = np.zeros((2, ns))
     tail_len = windows._tail.shape[1]
     tail[:, :tail_len] = windows._tail
@@ -186,7 +140,8 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
     measured, truth, logs = np.empty((6, n)), np.empty((9, n)), np.empty((3, n))
     kc = bench.kc
     closed_loop_kernel(np.ascontiguousarray(controller.reference(t), float), sig, constants, kc.scalars, kc.C_h,
-                       kc.v_h, kc.creep_decay, kc.creep_R, bench.state, hp_b, hp_a, bench.hp_u.zi, bench.hp_i.zi, adc,
+                       kc.v_h, kc.creep_decay, kc.creep_R, bench.state, bench.hp_u.b, bench.hp_u.a, bench.hp_u.zi,
+                       bench.hp_i.zi, adc,
                        np.ascontiguousarray(windows._weights, float), tail, sums,
                        np.ascontiguousarray(chain.gamma.coefficients, float), np.stack(obs.matrices), obs.state, loop,
                        pending, measured, truth, logs)
