@@ -53,6 +53,11 @@ class CaptureError(ValueError):
     """A capture that breaks the contract; the message is one line naming the file."""
 
 
+class UnshrinkableChunk(CaptureError):
+    """HDF5's blosc filter failed on a chunk it could not shrink (noise-like data): the capture
+    was not written; zlib stores any data."""
+
+
 @dataclass(frozen=True)
 class ChannelSpec:
     """One DAQ channel: its CF units and the ADC full-scale range it is packed into."""
@@ -271,8 +276,9 @@ class CaptureWriter:
         self._crc[name] = zlib.crc32(np.ascontiguousarray(values), self._crc.get(name, 0))
 
     def _unstorable(self, err: RuntimeError) -> CaptureError:
-        return _fail(self.path, f"HDF5 could not store a chunk ({err}) with compression {self._compression[0]}, "
-                                f"whose blosc filter fails on data it cannot shrink; zlib stores any data")
+        return UnshrinkableChunk(f"{self.path}: HDF5 could not store a chunk ({err}) with compression "
+                                 f"{self._compression[0]}, whose blosc filter fails on data it cannot shrink; "
+                                 f"zlib stores any data")
 
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
         """The twin's true parameters, as attributes of /truth (states go through ``write``)."""

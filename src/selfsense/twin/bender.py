@@ -45,7 +45,7 @@ from scipy.optimize import brentq
 
 from .. import __version__
 from .. import powerloss as pl
-from ..capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, channel_spec, compression_settings
+from ..capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, channel_spec
 from ..manifest import Experiment
 from .bench import DaqPlan, experiment_seed
 from .drive import Drive, drive_from_protocol
@@ -397,9 +397,9 @@ def compensation_of(experiment: Experiment) -> Compensation:
 
 def simulate_experiment(path: Path | str, twin: Mapping[str, Any], daq: DaqPlan, experiment: Experiment,
                         attrs: Mapping[str, object], seed: int, capture: Mapping[str, Any],
-                        where: str = "twin") -> ScanReport:
+                        compression: Mapping[str, Any], where: str = "twin") -> ScanReport:
     """One catalogue experiment on the bender twin, as :func:`selfsense.twin.simulate_experiment` resolved it."""
     return simulate_bender_capture(
         path, BenderParams.from_manifest(twin, where), daq, drive_from_protocol(experiment.protocol),
         compensation_of(experiment), attrs, seed, experiment.name, chunk_len=capture["chunk_len"],
-        truth_decimation=capture["truth_decimation"], **compression_settings(capture))
+        truth_decimation=capture["truth_decimation"], **compression)
