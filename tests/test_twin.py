@@ -259,3 +259,31 @@ def test_compiled_open_loop_step_follows_bench_step(stack_params, stack_daq):
         for k, values in t_ref.items():
             np.testing.assert_allclose(t_fast[k], values, rtol=0, atol=rtol(1.0, 45) * np.max(np.abs(values)),
                                        err_msg=k)
+
+
+def test_a_capture_blosc_cannot_store_is_written_again_with_zlib(tmp_path, monkeypatch):
+    """HDF5's blosc filter fails on a chunk it cannot shrink (the thesis's ch5_sweep has one): the
+    twin, being deterministic, writes the capture again with zlib level 1."""
+    import netCDF4
+
+    import selfsense.twin as twin
+    from selfsense.capture import UnshrinkableChunk, compression_of
+    from selfsense.manifest import load_config
+
+    from .conftest import ROOT
+
+    tried, simulate = [], twin.simulate_capture
+
+    def refusing_blosc(path, *args, compression, **kwargs):
+        tried.append(compression)
+        if compression.startswith("blosc"):
+            raise UnshrinkableChunk(f"{path}: HDF5 could not store a chunk")
+        return simulate(path, *args, compression=compression, **kwargs)
+
+    monkeypatch.setattr(twin, "simulate_capture", refusing_blosc)
+    config = load_config(ROOT / "tests" / "config" / "smoke.yaml")
+    scan = twin.simulate_experiment(ROOT / "raw", "pi_p885", "ch3_sine_10hz", config, tmp_path / "c.nc")
+    assert tried == ["blosc_zstd", "zlib"]
+    with netCDF4.Dataset(scan.path) as nc:
+        assert compression_of(nc["U"]) == "zlib"
+    assert scan.n_samples > 0 and list(tmp_path.iterdir()) == [tmp_path / "c.nc"]
