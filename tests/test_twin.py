@@ -240,27 +240,6 @@ def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_param
     assert np.ptp(ref["x_hpo_rt"]) > 10e-6  # the loop tracked the 15 µm profile
 
 
-def test_compiled_open_loop_step_follows_bench_step(stack_params, stack_daq):
-    """twin.compiled.step (stack and instruments in one numba loop) against Bench.step, the
-    reference, over consecutive chunks from the same seed: the measured channels to one ADC step
-    (a rounding-level difference can cross one rounding boundary of the ADC), the noiseless
-    states to the rounding of their few closed-form operations."""
-    from selfsense.capture import channel_spec
-    from selfsense.twin import compiled
-
-    ref, fast = (Bench(stack_params, stack_daq, experiment_seed(1, "step")) for _ in range(2))
-    for start in (0, 7001):  # the second chunk starts off any period: state carries across
-        t = (start + np.arange(7001)) / FS
-        U = 50 - 50 * np.cos(2 * np.pi * 50 * t)
-        (m_ref, t_ref), (m_fast, t_fast) = ref.step(t, U), compiled.step(fast, t, U)
-        for c, values in m_ref.items():
-            step = channel_spec(c, *stack_daq.ranges[c]).scale_factor
-            np.testing.assert_allclose(m_fast[c], values, rtol=0, atol=step, err_msg=c)
-        for k, values in t_ref.items():
-            np.testing.assert_allclose(t_fast[k], values, rtol=0, atol=rtol(1.0, 45) * np.max(np.abs(values)),
-                                       err_msg=k)
-
-
 def test_a_capture_blosc_cannot_store_is_written_again_with_zlib(tmp_path, monkeypatch):
     """HDF5's blosc filter fails on a chunk it cannot shrink (the thesis's ch5_sweep has one): the
     twin, being deterministic, writes the capture again with zlib level 1."""

@@ -10,7 +10,7 @@ channels and returns the signals it logs (``x_ref``, ``x_hpo_rt``, ``u_cmd``), w
 the capture as the bench's real-time logs. A controller whose ``compiled`` is true (the HPO
 loop of Chapter 6) runs the engaged samples of a chunk in one numba loop instead, through its
 ``run_blocks(bench, t, signals)`` (:mod:`.realtime`), which the tests hold to this per-block
-reference. Open-loop chunks run through :func:`.compiled.step`, held to :meth:`Bench.step`.
+reference.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import __version__
 from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
-from . import compiled, kernel
+from . import kernel
 from .drive import Drive
 from .instruments import HighPass, RippleSource, SlowProcess, effective_resistance
 from .params import TwinParams
@@ -181,7 +181,7 @@ def simulate_capture(
             reference = drive(t)
             if controller is None:
                 U = reference * k_over_alpha if drive.quantity == "position" else reference
-                measured, truth = compiled.step(bench, t, U)
+                measured, truth = bench.step(t, U)
             else:
                 measured, truth, logs = _closed_loop_chunk(bench, controller, t)
                 measured |= logs

@@ -4,12 +4,18 @@ numba loop (Chapter 6).
 :func:`run_blocks` does over a stretch of engaged samples what the Python reference does block by
 block (:func:`.bench._closed_loop_chunk` with :class:`selfsense.control.HPOIntegralController`,
 whose ``run_blocks`` calls it): the controller's command from the errors of the block before (Eq
-6.1–6.3), the stack and the instruments (:func:`.compiled.record_sample`), then the real-time chain
-on the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq 3.12),
+6.1–6.3), the stack's response (:func:`.kernel.run_kernel`), the instruments as
+:meth:`.bench.Bench.step` makes them (:func:`record_sample`: ripple current through R_e–C_e, the
+ripple channels' high-pass, the probes' offsets and drifts, the ADC), then the real-time chain on
+the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq 3.12),
 x_CP = Γ(C_e) (Eq 5.4) held until the next window, and the HPO (Eq 5.5–5.9,
-:func:`selfsense.observer.hpo_update`). Every state lives in the Python objects before and after,
-so the two paths can take turns; the tests hold this loop to the reference. The open-loop twin
-does not import this module (nor the observer it uses).
+:func:`selfsense.observer.hpo_update`). The reference's operations in its order, so the captures
+are the reference's bit for bit here; the twin's time-only signals (ripple carrier, drifts, noise)
+are made beforehand by :meth:`.bench.Bench.time_signals`, as the reference makes them once per
+chunk. Every state lives in the Python objects before and after, so the two paths can take turns;
+the tests hold this loop to the reference. Open-loop chunks stay with :meth:`.bench.Bench.step`:
+numpy's whole-chunk arithmetic is faster there than this per-sample loop (440 against 540 ns a
+sample), and the open-loop twin imports no self-sensing code.
 """
 
 from __future__ import annotations
@@ -19,9 +25,52 @@ import math
 import numba
 import numpy as np
 
+from ..lti import filter_step
 from ..observer import hpo_update
-from .compiled import MEASURED, TRUTH, bench_arrays, record_sample
 from .kernel import N_OUT, run_kernel
+
+
+#: measured channels in the loop's order (rows of its `measured` output)
+MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
+#: rows of the truth output, as bench.TRUTH_STATES
+TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "R_e", "I_offset", "U_drive")
+
+
+@numba.njit(cache=True)
+def _quantize(value, scale, offset):
+    """ChannelSpec.quantize for one sample (scale 0: the channel is not recorded by the ADC)."""
+    if scale == 0.0:
+        return value
+    code = np.rint((value - offset) / scale)
+    return min(max(code, -32767.0), 32767.0) * scale + offset
+
+
+@numba.njit(cache=True)
+def record_sample(j, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth):
+    """What the DAQ records at sample j, from the drive U and the stack's outputs ``out`` (a row
+    of kernel.OUTPUTS): measured (quantised) and truth columns j, high-pass states updated.
+
+    sig: the arrays f_r, u (complex ripple voltage), h (high-pass at f_r), I_offset, laser_drift and
+    the noise of each MEASURED channel (signal_arrays).
+    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb.
+    adc: (scale, offset) per MEASURED channel.
+    """
+    x, a, q, U_P, U_H, T, I, C_P = out[0], out[2], out[3], out[4], out[5], out[6], out[7], out[8]
+    R_e = bench[0] + bench[1] * (C_P - bench[2])  # instruments.effective_resistance
+    ur, h = sig[1][j], sig[2][j]
+    i_r = ur * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * sig[0][j] * C_P)))  # RippleSource.current
+    leak_u = filter_step(U, hp_b, hp_a, zi_u)
+    leak_i = filter_step(I, hp_b, hp_a, zi_i)
+    values = (U + ur.real + sig[5][j],
+              I + i_r.real + sig[3][j] + sig[6][j],
+              (ur * h).real + leak_u + sig[7][j],
+              (i_r * h).real + leak_i + sig[8][j],
+              x + sig[4][j] + sig[9][j],
+              bench[3] + bench[4] * x + bench[5] * a + sig[10][j])
+    for c in range(6):
+        measured[c, j] = _quantize(values[c], adc[c, 0], adc[c, 1])
+    truth[0, j], truth[1, j], truth[2, j], truth[3, j], truth[4, j] = x, q, U_P, U_H, T
+    truth[5, j], truth[6, j], truth[7, j], truth[8, j] = C_P, R_e, sig[3][j], U
 
 
 @numba.njit(cache=True)
@@ -114,6 +163,23 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
         done += nb
     loop[3], loop[6], loop[7], loop[8] = u, x_cp, done, masked
     loop[9], loop[10], loop[15], loop[16] = tail_len, sums_len, pend_len, i0_hat
+
+
+def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
+    """The (sig, bench, adc) arguments of :func:`record_sample` for a :class:`.bench.Bench` and its
+    :meth:`~.bench.Bench.time_signals` (the signals as they are: stacking them cost as much as the
+    loop)."""
+    from .instruments import effective_resistance
+
+    p = bench.p
+    sig = tuple(np.ascontiguousarray(signals[k]) for k in ("f_r", "u_ripple", "h", "I_offset", "laser_drift",
+                                                            *(f"noise_{c}" for c in MEASURED)))
+    rp = p.ripple
+    constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
+                          p.instruments.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb])
+    adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
+                    for c in MEASURED])
+    return sig, constants, adc
 
 
 def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, dict]:
