@@ -333,6 +333,8 @@ def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | Non
     differs, or None."""
     try:
         with netCDF4.Dataset(path, "r") as nc:
+            # netCDF-C's default cache, 64 MB per variable, grew the writer with the capture (0.9 GB at 77 M samples)
+            _limit_chunk_cache(nc)
             for name, written in crcs.items():
                 var = nc[name]
                 var.set_auto_maskandscale(False)
