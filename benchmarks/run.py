@@ -1,16 +1,19 @@
 """Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
-    .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--skip-hot] [--skip-dag] [--skip-stream]
+    .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh] [--skip-hot] [--skip-dag]
+                                       [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
 - hot paths: the twin kernel (samples/s per core), a whole simulated capture (samples/s), capture
-  write and read throughput with and without zlib, ripple extraction and HPO throughput with their
-  ratio to just reading the channels they consume;
-- the DAG: `snakemake --cores 2` on the small and on the full configuration, each from scratch in
-  a scratch copy of the repository,
-  its wall time and the peak memory of its whole process tree, the rules' own figures from their
-  `benchmark:` files (summed and per rule: seconds, max_rss), and a no-op `snakemake -n` on the
-  up-to-date tree;
+  write and read throughput with zlib level 1, with the twin's compression and uncompressed,
+  ripple extraction and HPO throughput with their ratio to just reading the channels they consume;
+- the DAG: `snakemake --cores 2` on the small and on the full configuration, each from scratch:
+  in a scratch copy run by this interpreter (warm), or with --fresh in a new clone of HEAD with a
+  new venv (the README's first command: no bytecode, no numba cache) and then again in that
+  clone with its caches (warm). Each run: its wall time and the peak memory of its whole process
+  tree, the rules' own figures from their `benchmark:` files (summed and per rule: seconds,
+  max_rss), the share of the time per cause (simulating, writing captures, analysis, per-job
+  start-up, idle cores), and without --fresh a no-op `snakemake -n` on the up-to-date tree;
 - streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
   `thermal_extract` for a capture of --seconds and one 10× longer (each in a fresh process, so
   peaks do not mix).
@@ -23,6 +26,7 @@ import csv
 import json
 import os
 import platform
+import re
 import runpy
 import shutil
 import subprocess
@@ -34,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 import psutil
+
+from selfsense.capture import TWIN_COMPRESSION
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = 48000.0
@@ -71,24 +77,26 @@ def bench_kernel(seconds):
     print(f"twin kernel (numba, 1 core):           {n / t / 1e6:8.2f} M samples/s")
 
 
-def simulate(path, seconds, zlib=True):
+def simulate(path, seconds, compression=TWIN_COMPRESSION):
+    """A capture of ``seconds`` of 50 Hz drive on the twin, with (compression, complevel)."""
     from selfsense.twin import Drive, simulate_capture
     from selfsense.twin.drive import Segment
 
     p, daq = params()
     drive = Drive("voltage", (Segment(seconds, 50.0, 0.0, 100.0),))
-    return simulate_capture(path, p, daq, drive, {}, 1, "bench", zlib=zlib)
+    return simulate_capture(path, p, daq, drive, {}, 1, "bench", compression=compression[0],
+                            complevel=compression[1]).path
 
 
 def bench_capture(seconds, tmp):
     from selfsense.capture import open_capture
 
     n = int(seconds * FS)
-    for zlib in (True, False):
-        path = tmp / f"cap_{zlib}.nc"
-        t = best_of(lambda: simulate(path, seconds, zlib), repeats=1)
-        label = "zlib" if zlib else "none"
-        print(f"simulate whole capture ({label:4s}, 9 ch):   {n / t / 1e6:8.2f} M time steps/s "
+    for compression in (("zlib", 1), TWIN_COMPRESSION, (None, 0)):
+        label = f"{compression[0]} {compression[1]}" if compression[0] else "none"
+        path = tmp / f"cap_{label.replace(' ', '')}.nc"
+        t = best_of(lambda: simulate(path, seconds, compression), repeats=1)
+        print(f"simulate whole capture ({label:12s}, 9 ch): {n / t / 1e6:8.2f} M time steps/s "
               f"({path.stat().st_size / n / 9:.2f} B/sample)")
 
         def read():
@@ -96,8 +104,8 @@ def bench_capture(seconds, tmp):
                 for _ in cap.iter_chunks(["U", "I", "Ur", "Ir", "x_laser", "F"]):
                     pass
         t = best_of(read)
-        print(f"read+unpack 6 channels ({label}):          {6 * n / t / 1e6:8.2f} M samples/s")
-    return tmp / "cap_True.nc"
+        print(f"read+unpack 6 channels ({label:12s}):  {6 * n / t / 1e6:8.2f} M samples/s")
+    return tmp / f"cap_{TWIN_COMPRESSION[0]}{TWIN_COMPRESSION[1]}.nc"
 
 
 def bench_ripple_and_hpo(path):
@@ -223,39 +231,117 @@ def print_rss_by_capture_length(repo, out, rules=("simulate", "check_capture", "
                   f"(largest of {len(jobs)} jobs {max(j[1] for j in jobs):5.0f} MB)")
 
 
+def job_rows(out):
+    """{rule: [(s, max_rss, cpu_time) per job]} from the DAG's benchmark files."""
+    rules = defaultdict(list)
+    for tsv in sorted(out.rglob("*.tsv")):
+        with tsv.open() as f:
+            row = next(csv.DictReader(f, delimiter="\t"))
+        rules[rule_of(tsv, out)].append((float(row["s"]), float(row["max_rss"]), float(row["cpu_time"])))
+    return rules
+
+
+def startup_seconds(repo, python, rule):
+    """A job's start-up: a fresh interpreter importing Snakemake's script module (the preamble of
+    every script job) and the rule's script with its imports (best of 2, wall)."""
+    script = repo / "workflow" / "scripts" / f"{rule}.py"
+    code = ("import sys, runpy, snakemake.script; sys.argv = ['x', '--help']; "
+            f"runpy.run_path({str(script)!r}, run_name='__main__')")
+    times = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        subprocess.run([str(python), "-c", code], cwd=repo, capture_output=True, check=False)
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+CAPTURE_WRITE = re.compile(r"packing and writing ([\d.]+) s, reading back ([\d.]+) s")
+SIMULATING = ("simulate", "simulate_closed_loop")
+
+
+def print_shares(repo, python, rules, wall):
+    """Where the jobs' time went: per-job start-up (measured per rule, times its jobs), writing
+    captures (packing, compressing, writing, reading back: the writers' log lines), simulating the
+    bench (the twin's jobs less those two) and analysis (every other job less its start-up)."""
+    startup = {rule: startup_seconds(repo, python, rule) * len(js) for rule, js in rules.items()}
+    write = sum(float(a) + float(b) for log in (repo / "logs").glob("*/simulate*/*.log")
+                for a, b in CAPTURE_WRITE.findall(log.read_text()))
+    busy = {rule: sum(j[0] for j in js) for rule, js in rules.items()}
+    total = sum(busy.values())
+    simulate = sum(busy.get(r, 0) - startup.get(r, 0) for r in SIMULATING) - write
+    analysis = sum(b - startup[r] for r, b in busy.items() if r not in SIMULATING)
+    print(f"  share of the jobs' {total:.0f} s (2 cores × wall {wall:.0f} s = {2 * wall:.0f} s):")
+    for cause, seconds in (("simulate (twin kernel, instruments, real-time loop)", simulate),
+                           ("capture write (pack, compress, write, read back)", write),
+                           ("analysis (every other job's own work)", analysis),
+                           ("per-job start-up (interpreter, Snakemake preamble, imports)", sum(startup.values())),
+                           ("cores idle (scheduling, the DAG's narrow parts)", 2 * wall - total)):
+        print(f"    {cause:62s} {seconds:7.0f} s  {100 * seconds / (2 * wall):5.1f} %")
+
+
+def report_dag(label, repo, python, config, wall, peak):
+    out = repo / "benchmarks" / "out"
+    rules = job_rows(out)
+    jobs = [j for js in rules.values() for j in js]
+    job_s, cpu_s = sum(j[0] for j in jobs), sum(j[2] for j in jobs)
+    print(f"DAG ({config}, --cores 2, {label}): {len(jobs)} jobs, wall {wall:.0f} s, peak RSS of the process "
+          f"tree {peak:.0f} MB (sampled every 0.5 s)")
+    print(f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall), "
+          f"CPU {cpu_s:.0f} s; largest job max_rss {max(j[1] for j in jobs):.0f} MB")
+    print(f"  {'rule':24s} {'jobs':>4s} {'s (sum)':>8s} {'s (max)':>8s} {'max_rss MB':>10s}")
+    for rule, js in sorted(rules.items(), key=lambda kv: -sum(j[0] for j in kv[1])):
+        print(f"  {rule:24s} {len(js):4d} {sum(j[0] for j in js):8.1f} {max(j[0] for j in js):8.1f} "
+              f"{max(j[1] for j in js):10.0f}")
+    print_shares(repo, python, rules, wall)
+    print_rss_by_capture_length(repo, out)
+
+
+def noop_dry_run(snakemake, repo):
+    times = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        dry = subprocess.run([*snakemake, "-n"], cwd=repo, capture_output=True, text=True)
+        times.append(time.perf_counter() - t0)
+        if "Nothing to be done" not in dry.stdout + dry.stderr:
+            sys.exit(f"the tree is not up to date after the run:\n{dry.stdout[-3000:]}")
+    print(f"no-op `snakemake -n` on the up-to-date tree: {min(times):.1f} s (best of 3; "
+          f"{', '.join(f'{t:.1f}' for t in times)})")
+
+
 def bench_dag(config):
-    """The whole DAG on one configuration in a scratch copy, then a no-op dry run."""
+    """The whole DAG on one configuration from nothing in a scratch copy, run by this interpreter
+    (warm: its installed packages, bytecode and numba cache), then a no-op dry run."""
     snakemake = [sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", config]
     with tempfile.TemporaryDirectory() as tmp:
         repo = Path(tmp) / "repo"
         shutil.copytree(ROOT, repo, ignore=SCRATCH_IGNORE)
         wall, peak = run_sampled(snakemake, repo)
-        out = repo / "benchmarks" / "out"
-        rules = defaultdict(list)
-        for tsv in sorted(out.rglob("*.tsv")):
-            with tsv.open() as f:
-                row = next(csv.DictReader(f, delimiter="\t"))
-            rules[rule_of(tsv, out)].append((float(row["s"]), float(row["max_rss"]), float(row["cpu_time"])))
-        jobs = [j for js in rules.values() for j in js]
-        job_s, cpu_s = sum(j[0] for j in jobs), sum(j[2] for j in jobs)
-        print(f"DAG ({config}, --cores 2): {len(jobs)} jobs, wall {wall:.0f} s, peak RSS of the process tree "
-              f"{peak:.0f} MB (sampled every 0.5 s)")
-        print(f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall), "
-              f"CPU {cpu_s:.0f} s; largest job max_rss {max(j[1] for j in jobs):.0f} MB")
-        print(f"  {'rule':24s} {'jobs':>4s} {'s (sum)':>8s} {'s (max)':>8s} {'max_rss MB':>10s}")
-        for rule, js in sorted(rules.items(), key=lambda kv: -sum(j[0] for j in kv[1])):
-            print(f"  {rule:24s} {len(js):4d} {sum(j[0] for j in js):8.1f} {max(j[0] for j in js):8.1f} "
-                  f"{max(j[1] for j in js):10.0f}")
-        print_rss_by_capture_length(repo, out)
-        times = []
-        for _ in range(3):
-            t0 = time.perf_counter()
-            dry = subprocess.run([*snakemake, "-n"], cwd=repo, capture_output=True, text=True)
-            times.append(time.perf_counter() - t0)
-            if "Nothing to be done" not in dry.stdout + dry.stderr:
-                sys.exit(f"the tree is not up to date after the run:\n{dry.stdout[-3000:]}")
-        print(f"no-op `snakemake -n` on the up-to-date tree: {min(times):.1f} s (best of 3; "
-              f"{', '.join(f'{t:.1f}' for t in times)})")
+        report_dag("warm", repo, sys.executable, config, wall, peak)
+        noop_dry_run(snakemake, repo)
+
+
+def bench_fresh_clone(config):
+    """The README's first command as a new user runs it: a new clone of the committed HEAD, a new
+    venv with the pinned packages, `snakemake --cores 2` (no bytecode, no numba cache); then the
+    same clone again from nothing but with its venv and caches (warm)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        repo = Path(tmp) / "repo"
+        subprocess.run(["git", "clone", "--quiet", str(ROOT), str(repo)], check=True)
+        python = repo / ".venv" / "bin" / "python"
+        t0 = time.perf_counter()
+        subprocess.run([shutil.which("python3.11") or sys.executable, "-m", "venv", ".venv"], cwd=repo, check=True)
+        subprocess.run([str(python), "-m", "pip", "install", "-q", "-c", "constraints.txt", "-e", "."], cwd=repo,
+                       check=True, capture_output=True)
+        install = time.perf_counter() - t0
+        snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
+        fresh, peak = run_sampled(snakemake, repo)
+        report_dag("fresh clone", repo, python, config, fresh, peak)
+        # outputs, captures and logs go; the venv, bytecode and numba's cache (src/**/__pycache__) stay
+        subprocess.run(["git", "clean", "-fdxq", "-e", ".venv", "-e", "__pycache__"], cwd=repo, check=True)
+        warm, peak = run_sampled(snakemake, repo)
+        report_dag("the same clone again, warm", repo, python, config, warm, peak)
+        print(f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
+              f"(README's first command {install + fresh:.0f} s); warm {warm:.0f} s")
 
 
 def main():
@@ -265,6 +351,8 @@ def main():
                      help="configfiles of the DAG part, each run from scratch (default: small, then full)")
     cli.add_argument("--skip-hot", action="store_true", help="skip the hot-path throughputs")
     cli.add_argument("--skip-dag", action="store_true", help="skip the whole-DAG run")
+    cli.add_argument("--fresh", action="store_true",
+                     help="run the DAG part from a new clone of HEAD with a new venv, then warm in that clone")
     cli.add_argument("--skip-stream", action="store_true", help="skip the streaming peak memories")
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
@@ -277,7 +365,7 @@ def main():
             bench_ripple_and_hpo(path)
     if not args.skip_dag:
         for config in args.configs:
-            bench_dag(config)
+            (bench_fresh_clone if args.fresh else bench_dag)(config)
     if not args.skip_stream:
         with tempfile.TemporaryDirectory() as tmp:
             bench_streaming(args.seconds, Path(tmp))

@@ -154,7 +154,7 @@ def test_kernel_is_chunk_invariant():
 # ---------------------------------------------------------------------------------------------
 def _capture(tmp_path, name, seed):
     return B.simulate_bender_capture(tmp_path / name, PARAMS, daq_plan(MANIFEST), current((3.0, 300e-9)),
-                                     EQ15, {"dataset": "tokin_nb40"}, seed, "det", chunk_len=128)
+                                     EQ15, {"dataset": "tokin_nb40"}, seed, "det", chunk_len=128).path
 
 
 def test_capture_carries_channels_settings_and_truth(tmp_path):
@@ -182,7 +182,7 @@ def test_same_seed_same_capture(tmp_path):
 
 def test_simulate_experiment_dispatches_model_bender(tmp_path):
     config = load_config(ROOT / "tests" / "config" / "smoke.yaml")
-    path = simulate_experiment(ROOT / "raw", "tokin_nb40", "rk_ramp_300na_1g", config, tmp_path / "r.nc")
+    path = simulate_experiment(ROOT / "raw", "tokin_nb40", "rk_ramp_300na_1g", config, tmp_path / "r.nc").path
     with open_capture(path) as cap:
         assert cap.attrs["compensation"] == "impedance" and cap.attrs["compensation_X"] == 1e9
         assert cap.attrs["dataset"] == "tokin_nb40" and cap.duration == pytest.approx(100.0)

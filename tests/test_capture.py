@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.capture import (FILL, CaptureError, CaptureWriter, channel_spec, folded_fs, open_capture,
-                               scan_capture)
+from selfsense.capture import (FILL, CaptureError, CaptureWriter, channel_spec, compression_of, folded_fs,
+                               open_capture, scan_capture)
 
 FS = 48000.0
 
@@ -56,7 +56,7 @@ def test_storage_is_packed_int16_with_cf_attributes(tmp_path):
         v = nc["U"]
         assert v.dtype == np.int16 and v.units == "V"
         assert {"scale_factor", "add_offset"} <= set(v.ncattrs())
-        assert v.filters()["zlib"] and v.chunking() != "contiguous"
+        assert compression_of(v) == "zlib" and v.filters()["fletcher32"] and v.chunking() != "contiguous"
         assert nc.Conventions.startswith("CF")
 
 
@@ -178,3 +178,55 @@ def test_quantize_equals_unpacking_the_packed_codes(values):
     codes, _ = spec.pack(np.array(values))
     unpacked = np.where(codes == FILL, np.nan, codes * spec.scale_factor + spec.add_offset)
     np.testing.assert_array_equal(spec.quantize(np.array(values)), unpacked)
+
+
+@pytest.mark.parametrize("compression", ["zlib", "zstd", "blosc_lz4", "blosc_zstd", None])
+def test_every_allowed_compression_round_trips_and_the_written_scan_is_the_read_one(tmp_path, compression):
+    values = np.sin(np.arange(48000) / 50) * 150  # smooth: compressible by every codec
+    values[100:110] = np.nan
+    values[200:203] = 500.0
+    specs = [channel_spec(c, -200.0, 200.0) for c in ("U", "I")]
+    with CaptureWriter(tmp_path / "c.nc", {"fs": FS}, specs, len(values), compression=compression, complevel=3,
+                       chunk_len=4096) as w:
+        for start in range(0, len(values), 5000):
+            w.write({c: values[start:start + 5000] for c in ("U", "I")})
+    with netCDF4.Dataset(w.path) as nc:
+        assert compression_of(nc["U"]) == compression
+    assert w.scan_report() == scan_capture(w.path)
+    with open_capture(w.path) as cap:
+        np.testing.assert_array_equal(cap.read(["U"])["U"], specs[0].quantize(values))  # NaN kept, 500 V clipped
+
+
+def test_a_chunk_blosc_cannot_shrink_is_one_line_and_leaves_nothing(tmp_path):
+    noise = np.random.default_rng(1).uniform(-200, 200, 4096)  # 16 bits of entropy per sample
+    with pytest.raises(CaptureError) as e:
+        with CaptureWriter(tmp_path / "c.nc", {"fs": FS}, [channel_spec("U", -200, 200)], 4096,
+                           compression="blosc_zstd", complevel=3) as w:
+            w.write({"U": noise})
+    one_line(e, tmp_path / "c.nc", "blosc", "zlib stores any data")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_compression_outside_the_contract_is_refused_on_open(tmp_path):
+    path = write(tmp_path / "c.nc")
+    with netCDF4.Dataset(path, "a") as nc:
+        v = nc.createVariable("Ur", "i2", ("time",), compression="bzip2")
+        v.setncatts({"units": "V", "scale_factor": 0.01, "add_offset": 0.0})
+    with pytest.raises(CaptureError) as e:
+        open_capture(path)
+    one_line(e, path, "channel Ur is compressed with bzip2")
+
+
+def test_what_lands_on_disk_differing_from_what_was_written_is_never_renamed(tmp_path, monkeypatch):
+    put = CaptureWriter._put
+
+    def landing_wrong(self, name, start, values):  # a storage error after the CRC was taken
+        put(self, name, start, values)
+        if name == "I" and start == 0:
+            self._nc[name][1] = values[1] + 1
+
+    monkeypatch.setattr(CaptureWriter, "_put", landing_wrong)
+    with pytest.raises(CaptureError) as e:
+        write(tmp_path / "c.nc")
+    one_line(e, tmp_path / "c.nc", "not renamed into place: variable I read back differs")
+    assert list(tmp_path.iterdir()) == []

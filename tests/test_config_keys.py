@@ -30,7 +30,7 @@ USES = {
     "observer.study_offsets": ([0.0], {"observer_study"}),
     "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results"}),
     "capture.chunk_len": (32768, {"simulate", "simulate_closed_loop"}),
-    "capture.zlib": (False, {"simulate", "simulate_closed_loop"}),
+    "capture.compression": ("zlib", {"simulate", "simulate_closed_loop"}),
     "capture.complevel": (2, {"simulate", "simulate_closed_loop"}),
     "capture.truth_decimation": (6, {"simulate", "simulate_closed_loop"}),
     # a job's resources are no rerun trigger: no rule is rerun

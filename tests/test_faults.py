@@ -215,8 +215,9 @@ def test_two_runs_at_once_never_damage_a_capture_and_a_damaged_one_is_found(smok
     """Two Snakemake processes simulate the same captures at the same time (--nolock: what a
     removed lock directory or an --unlock while a run goes on amounts to). Every writer has its
     own temporary and verifies it before the rename, so every capture reads back whole and equal
-    to a clean run's. A capture damaged afterwards is found by the next run (its QC reruns and
-    stops with one line) instead of "Nothing to be done"."""
+    to a clean run's. A capture damaged afterwards is found by the next run (the jobs that read it
+    rerun, the capture being newer than their outputs, and stop with one line) instead of "Nothing
+    to be done"."""
     repo = copy_repo(tmp_path / "repo")
     config = write_config(repo, "pi", ["pi_p885"])
     captures = [f"raw/pi_p885/{e}.nc" for e in CH3]
@@ -233,17 +234,18 @@ def test_two_runs_at_once_never_damage_a_capture_and_a_damaged_one_is_found(smok
         assert_same_capture(repo / c, smoke_run / c)
     assert leftovers(repo / "raw") == []
 
-    qc = "results/pi_p885/qc/ch3_sine_1hz.json"
-    assert run_snakemake(repo, config, qc).returncode == 0
+    series = "results/pi_p885/ripple/ch3_sine_1hz.nc"  # extract_ripple's: it streams the capture
+    assert run_snakemake(repo, config, series).returncode == 0
     damaged = repo / "raw" / "pi_p885" / "ch3_sine_1hz.nc"
     data = bytearray(damaged.read_bytes())
-    data[len(data) // 2: len(data) // 2 + 4096] = bytes(4096)  # a sparse hole inside the data
+    # a hole over the middle half: the writer interleaves the variables' chunks, so it hits every one
+    data[len(data) // 4: 3 * len(data) // 4] = bytes(3 * len(data) // 4 - len(data) // 4)
     damaged.write_bytes(bytes(data))
-    run = run_snakemake(repo, config, qc)
+    run = run_snakemake(repo, config, series)
     assert run.returncode != 0 and "Nothing to be done" not in run.stdout + run.stderr
     line = error_line(run, "CaptureError: raw/pi_p885/ch3_sine_1hz.nc: ")
     assert "unreadable capture" in line or "not a readable" in line or "time axis" in line, line
-    assert "ERROR raw/pi_p885/ch3_sine_1hz.nc: " in (repo / "logs" / "pi_p885" / "check_capture" /
+    assert "ERROR raw/pi_p885/ch3_sine_1hz.nc: " in (repo / "logs" / "pi_p885" / "extract_ripple" /
                                                       "ch3_sine_1hz.log").read_text()
 
 

@@ -158,7 +158,7 @@ def test_twin_sweep_matches_eq_5_2_with_the_twins_true_parameters(tmp_path, stac
     s = stack_params.stack
     truth = {"C_P0": s.C_P0, "dC_x": s.dC_x, "alpha": s.alpha, "k": s.k, "m": s.m, "b": s.b}
     drive = drive_from_protocol(expand_protocols(["ch5"], "smoke")["ch5_sweep"].protocol)
-    path = simulate_capture(tmp_path / "sweep.nc", stack_params, stack_daq, drive, {}, 5, "ch5_sweep")
+    path = simulate_capture(tmp_path / "sweep.nc", stack_params, stack_daq, drive, {}, 5, "ch5_sweep").path
     plan = fr.sweep_plan(drive.segments, stack_daq.fs, 0.02)
     with open_capture(path) as cap:
         rest = cap.read(["x_laser"], *plan.rest)["x_laser"]

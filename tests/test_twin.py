@@ -123,7 +123,7 @@ def test_kernel_is_chunk_invariant(stack_params):
 
 def _capture(tmp_path, name, params, daq, seed, chunk_len=4096):
     drive = Drive("voltage", (Segment(0.1, 10.0, 0.0, 100.0),))
-    return simulate_capture(tmp_path / name, params, daq, drive, {}, seed, "det", chunk_len=chunk_len)
+    return simulate_capture(tmp_path / name, params, daq, drive, {}, seed, "det", chunk_len=chunk_len).path
 
 
 def test_same_seed_gives_identical_capture_data(tmp_path, stack_params, stack_daq):
@@ -170,7 +170,7 @@ def test_controller_hook_drives_the_bench_and_logs(tmp_path, stack_params, stack
     ctl = Hold()
     drive = Drive("position", (Segment(0.05, 0.0, 0.0, 0.0),))
     path = simulate_capture(tmp_path / "cl.nc", stack_params, stack_daq, drive, {}, 1, "cl",
-                            controller=ctl, chunk_len=1000)
+                            controller=ctl, chunk_len=1000).path
     with open_capture(path, require=["x_hpo_rt", "u_cmd"]) as cap:
         d = cap.read(["U", "u_cmd", "x_hpo_rt", "x_laser"])
     assert ctl.seen == cap.n
@@ -201,3 +201,68 @@ def test_drive_in_short_blocks_equals_the_whole_span(durations, levels, block):
     t = np.arange(int(drive.duration * 48000) + 30) / 48000.0
     blocks = np.concatenate([drive(t[s:s + block]) for s in range(0, len(t), block)])
     np.testing.assert_array_equal(blocks, drive(t))
+
+
+def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_params, stack_daq):
+    """The numba loop (twin.realtime) against the per-block Python chain and controller it replaces,
+    from a warm-up (loop open, the observer learning) through engaged chunks that start mid-period.
+
+    A rounding-level difference can move an ADC value across one rounding boundary: the measured
+    channels agree to one ADC step. The logged estimate agrees to the rounding of the window sums
+    (n_periods·ns terms) amplified by C_e's cancellation (Eq 3.12), κ computed from the windows."""
+    from selfsense.control import IntegralController, realtime_controller
+    from selfsense.gamma import GammaPolynomial
+    from selfsense.observer import HPOGains
+    from selfsense.ripple import plan_from_capture
+
+    s = stack_params.stack
+    gamma = GammaPolynomial((-1e6 * s.C_P0 / s.dC_x, 1.0 / s.dC_x))  # C_P0 + dC_x·x, inverted
+    drive = Drive("position", (Segment(0.05), Segment(0.3, 10.0, 0.0, 15e-6)))
+    runs = {}
+    for compiled in (False, True):
+        loop = realtime_controller(stack_daq, drive, 0.05, 4, gamma, HPOGains(17.0),
+                                   IntegralController(2 * np.pi * 250, s.k / s.alpha), compiled=compiled)
+        path = simulate_capture(tmp_path / f"{compiled}.nc", stack_params, stack_daq, drive, {}, 3, "closed",
+                                controller=loop, chunk_len=1000).path  # 1000: chunks start mid-period
+        with open_capture(path) as cap:
+            runs[compiled] = cap.read([*stack_daq.channels, "x_ref", "x_hpo_rt", "u_cmd"])
+            steps = {c: cap.resolution(c) for c in stack_daq.channels}
+            plan = plan_from_capture(cap, 4)
+    ref, fast = runs[False], runs[True]
+    for c, step in steps.items():
+        np.testing.assert_allclose(fast[c], ref[c], rtol=0, atol=step, err_msg=c)
+    windows = extract_impedance(ref["Ur"], ref["Ir"], plan)
+    kappa = np.max((np.abs(windows.A_I * windows.B_V) + np.abs(windows.A_V * windows.B_I))
+                   / np.abs(windows.A_I * windows.B_V - windows.A_V * windows.B_I))
+    bound = rtol(kappa, roundings=plan.block_len)
+    for c in ("x_ref", "x_hpo_rt", "u_cmd"):
+        np.testing.assert_allclose(fast[c], ref[c], rtol=0, atol=bound * np.max(np.abs(ref[c])), err_msg=c)
+    assert np.ptp(ref["x_hpo_rt"]) > 10e-6  # the loop tracked the 15 µm profile
+
+
+def test_a_capture_blosc_cannot_store_is_written_again_with_zlib(tmp_path, monkeypatch):
+    """HDF5's blosc filter fails on a chunk it cannot shrink (the thesis's ch5_sweep has one): the
+    twin, being deterministic, writes the capture again with zlib level 1."""
+    import netCDF4
+
+    import selfsense.twin as twin
+    from selfsense.capture import UnshrinkableChunk, compression_of
+    from selfsense.manifest import load_config
+
+    from .conftest import ROOT
+
+    tried, simulate = [], twin.simulate_capture
+
+    def refusing_blosc(path, *args, compression, **kwargs):
+        tried.append(compression)
+        if compression.startswith("blosc"):
+            raise UnshrinkableChunk(f"{path}: HDF5 could not store a chunk")
+        return simulate(path, *args, compression=compression, **kwargs)
+
+    monkeypatch.setattr(twin, "simulate_capture", refusing_blosc)
+    config = load_config(ROOT / "tests" / "config" / "smoke.yaml")
+    scan = twin.simulate_experiment(ROOT / "raw", "pi_p885", "ch3_sine_10hz", config, tmp_path / "c.nc")
+    assert tried == ["blosc_zstd", "zlib"]
+    with netCDF4.Dataset(scan.path) as nc:
+        assert compression_of(nc["U"]) == "zlib"
+    assert scan.n_samples > 0 and list(tmp_path.iterdir()) == [tmp_path / "c.nc"]

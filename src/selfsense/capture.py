@@ -11,19 +11,19 @@ Every failure raises :class:`CaptureError` whose message is one line that starts
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import math
 import os
 import time
-from dataclasses import dataclass, field
+import zlib
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Iterator, Mapping, Sequence
 
 import netCDF4
 import numpy as np
 
-from .provenance import temporary_path
+from .provenance import provenance, temporary_path, write_json
 
 LOG = logging.getLogger("selfsense.capture")
 
@@ -39,10 +39,23 @@ FS_RTOL = 1e-6
 CHUNK_CACHE_BYTES = 1 << 20
 #: long writes and streamed reads log their progress this often (fraction of the samples)
 PROGRESS_STEP = 0.1
+#: the compressions a capture's channels may use (None: uncompressed): netCDF-C 4.9+ reads them
+#: with the filter plugins it ships, as the pinned netCDF4 wheel does. CaptureWriter stores any
+#: data with zlib level 1; the twin writes with TWIN_COMPRESSION, which keeps zlib's size at twice
+#: its speed on the twin's captures (docs/capture-contract.md)
+COMPRESSIONS = ("zlib", "zstd", "blosc_lz4", "blosc_zstd")
+TWIN_COMPRESSION = ("blosc_zstd", 3)
+#: chunks smaller than this are never stored with blosc (see _filters)
+BLOSC_MIN_CHUNK_BYTES = 4096
 
 
 class CaptureError(ValueError):
     """A capture that breaks the contract; the message is one line naming the file."""
+
+
+class UnshrinkableChunk(CaptureError):
+    """HDF5's blosc filter failed on a chunk it could not shrink (noise-like data): the capture
+    was not written; zlib stores any data."""
 
 
 @dataclass(frozen=True)
@@ -145,8 +158,10 @@ class CaptureWriter:
 
     Data go to a temporary beside ``path`` that no other writer uses
     (:func:`~selfsense.provenance.temporary_path`). On a clean exit of the ``with`` block the
-    temporary is read back whole and compared, variable by variable, with a hash of what was
-    written; only then is it renamed over ``path``. An interrupted or concurrent run therefore
+    temporary is read back whole and compared, variable by variable, with a CRC-32 of what was
+    written (a check against storage and transfer errors, like HDF5's Fletcher-32, at ten times
+    blake2b's speed, which took 8 % of a simulation); only then is it renamed over
+    ``path``. An interrupted or concurrent run therefore
     never leaves a file that looks complete, and every chunk carries a Fletcher-32 checksum so
     a capture damaged later fails on read (its QC) instead of giving numbers.
     """
@@ -160,7 +175,7 @@ class CaptureWriter:
         n_slow: int = 0,
         fs_slow: float | None = None,
         chunk_len: int = 1 << 16,
-        zlib: bool = True,
+        compression: str | None = "zlib",
         complevel: int = 1,
         truth: Sequence[str] = (),
         truth_decimation: int = 1,
@@ -177,11 +192,12 @@ class CaptureWriter:
         self._attrs = dict(attrs)
         self._rate = {"time": float(attrs["fs"]), "time_slow": fs_slow}
         self._chunk_len = chunk_len
-        self._zlib = zlib
-        self._complevel = complevel
+        self._compression = (compression, complevel)
+        self.stats = ChunkStats()
         self._nc: netCDF4.Dataset | None = None
-        self._digest: dict[str, "hashlib._Hash"] = {}
+        self._crc: dict[str, int] = {}
         self._progress = _Progress(f"{self.path} written", self.n_samples)
+        self._seconds = {"packing and writing": 0.0, "reading back": 0.0}  # logged: benchmarks/run.py's shares
 
     def __enter__(self) -> "CaptureWriter":
         self.tmp = temporary_path(self.path)
@@ -195,10 +211,9 @@ class CaptureWriter:
             self._time_var(nc, "time_slow", self.n_slow)
         for spec in self.channels.values():
             n = self.n_samples if spec.dim == "time" else self.n_slow
-            v = nc.createVariable(
-                spec.name, "i2", (spec.dim,), zlib=self._zlib, complevel=self._complevel,
-                shuffle=True, fletcher32=True, chunksizes=(max(1, min(self._chunk_len, n)),), fill_value=FILL,
-            )
+            chunk = max(1, min(self._chunk_len, n))
+            v = nc.createVariable(spec.name, "i2", (spec.dim,), **_filters(*self._compression, 2 * chunk),
+                                  chunksizes=(chunk,), fill_value=FILL)
             v.set_auto_maskandscale(False)
             v.setncatts({
                 "units": spec.units, "long_name": spec.long_name,
@@ -211,15 +226,16 @@ class CaptureWriter:
             n_truth = -(-self.n_samples // self.truth_decimation)
             g.createDimension("time_truth", n_truth)
             for name in self.truth:
-                g.createVariable(name, "f4", ("time_truth",), zlib=self._zlib, complevel=self._complevel,
-                                 shuffle=True, fletcher32=True, chunksizes=(max(1, min(self._chunk_len, n_truth)),))
+                chunk = max(1, min(self._chunk_len, n_truth))
+                g.createVariable(name, "f4", ("time_truth",), **_filters(*self._compression, 4 * chunk),
+                                 chunksizes=(chunk,))
         _limit_chunk_cache(nc)
         self._nc = nc
         return self
 
     def _time_var(self, nc: netCDF4.Dataset, dim: str, n: int) -> None:
-        v = nc.createVariable(dim, "f8", (dim,), zlib=True, complevel=1, shuffle=True, fletcher32=True,
-                              chunksizes=(max(1, min(self._chunk_len, n)),))
+        chunk = max(1, min(self._chunk_len, n))
+        v = nc.createVariable(dim, "f8", (dim,), **_filters(*self._compression, 8 * chunk), chunksizes=(chunk,))
         v.units = "s"
         v.standard_name = "time"
         v.sampling_rate = float(self._rate[dim])
@@ -234,22 +250,35 @@ class CaptureWriter:
         start = self._pos[dim]
         self._pos[dim] = start + n
         if dim == "time_truth":
+            began = time.perf_counter()
             for name, values in data.items():
                 self._put(f"truth/{name}", start, np.asarray(values, dtype=np.float32))
+            self._seconds["packing and writing"] += time.perf_counter() - began
             return
+        began = time.perf_counter()
         self._put(dim, start, (start + np.arange(n)) / self._rate[dim])
         for name, values in data.items():
             codes, clipped = self.channels[name].pack(values)
             self.clipped[name] += clipped
+            self.stats.add(name, codes)
             self._put(name, start, codes)
+        self._seconds["packing and writing"] += time.perf_counter() - began
         if dim == "time":
             self._progress(start + n)
 
     def _put(self, name: str, start: int, values: np.ndarray) -> None:
-        """Write one variable's next values and hash them for the read-back (in order: the
+        """Write one variable's next values and fold them into its CRC-32 for the read-back (in order: the
         writer appends sequentially)."""
-        self._nc[name][start:start + len(values)] = values
-        self._digest.setdefault(name, hashlib.blake2b()).update(np.ascontiguousarray(values).tobytes())
+        try:
+            self._nc[name][start:start + len(values)] = values
+        except RuntimeError as err:  # a chunk the cache flushed failed its filters
+            raise self._unstorable(err) from None
+        self._crc[name] = zlib.crc32(np.ascontiguousarray(values), self._crc.get(name, 0))
+
+    def _unstorable(self, err: RuntimeError) -> CaptureError:
+        return UnshrinkableChunk(f"{self.path}: HDF5 could not store a chunk ({err}) with compression "
+                                 f"{self._compression[0]}, whose blosc filter fails on data it cannot shrink; "
+                                 f"zlib stores any data")
 
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
         """The twin's true parameters, as attributes of /truth (states go through ``write``)."""
@@ -258,10 +287,17 @@ class CaptureWriter:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         nc, self._nc = self._nc, None
-        if nc is not None:
+        try:
+            if nc is not None:
+                if exc_type is None:
+                    nc.clipped_samples = int(sum(self.clipped.values()))
+                began = time.perf_counter()
+                nc.close()  # flushes the chunks still cached
+                self._seconds["packing and writing"] += time.perf_counter() - began
+        except RuntimeError as err:
+            self.tmp.unlink(missing_ok=True)
             if exc_type is None:
-                nc.clipped_samples = int(sum(self.clipped.values()))
-            nc.close()
+                raise self._unstorable(err) from None
         if exc_type is not None:
             self.tmp.unlink(missing_ok=True)
             return
@@ -271,30 +307,68 @@ class CaptureWriter:
         if short:
             self.tmp.unlink(missing_ok=True)
             raise ValueError(f"{self.path}: writer stopped early at {short} samples")
-        problem = _read_back(self.tmp, self._digest, self._chunk_len)
+        began = time.perf_counter()
+        problem = _read_back(self.tmp, self._crc, self._chunk_len)
+        self._seconds["reading back"] = time.perf_counter() - began
+        LOG.info("%s: %s", self.path, ", ".join(f"{what} {s:.2f} s" for what, s in self._seconds.items()))
         if problem:
             self.tmp.unlink(missing_ok=True)
             raise _fail(self.path, f"not renamed into place: {problem}")
         os.replace(self.tmp, self.path)
 
+    def scan_report(self) -> "ScanReport":
+        """What :func:`scan_capture` reports for the capture written, without reading it again: the
+        counts are taken from the codes as they were written, which the read-back showed to be the
+        codes on disk; the structure is checked as :func:`open_capture` checks it."""
+        open_capture(self.path).close()
+        fs = self._rate["time"]
+        scanned = [c for c, spec in self.channels.items() if spec.dim == "time" or self.n_slow]
+        return ScanReport(str(self.path), self.n_samples, fs, self.n_samples / fs, tuple(self.channels),
+                          {c: self.stats.nan.get(c, 0) for c in scanned},
+                          {c: self.stats.clipped.get(c, 0) for c in scanned})
 
-def _read_back(path: Path, digests: Mapping[str, "hashlib._Hash"], chunk_len: int) -> str | None:
-    """Read every written variable back and compare it with the hash taken while writing; what
+
+def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | None:
+    """Read every written variable back and compare it with the CRC-32 taken while writing; what
     differs, or None."""
     try:
         with netCDF4.Dataset(path, "r") as nc:
-            for name, digest in digests.items():
+            # netCDF-C's default cache, 64 MB per variable, grew the writer with the capture (0.9 GB at 77 M samples)
+            _limit_chunk_cache(nc)
+            for name, written in crcs.items():
                 var = nc[name]
                 var.set_auto_maskandscale(False)
-                h = hashlib.blake2b()
+                crc = 0
                 step = 16 * chunk_len
                 for start in range(0, var.shape[0], step):
-                    h.update(np.ascontiguousarray(var[start:start + step]).tobytes())
-                if h.digest() != digest.digest():
+                    crc = zlib.crc32(np.ascontiguousarray(var[start:start + step]), crc)
+                if crc != written:
                     return f"variable {name} read back differs from what was written"
     except Exception as err:  # HDF5 checksum or structure errors surface as RuntimeError/OSError
         return f"read-back failed ({type(err).__name__}: {err})"
     return None
+
+
+def compression_settings(capture: Mapping[str, object]) -> dict[str, object]:
+    """A :class:`CaptureWriter`'s compression arguments from the config's ``capture`` block
+    (``compression``: one of COMPRESSIONS or ``none``; ``complevel``)."""
+    name = capture["compression"]
+    return {"compression": None if name == "none" else name, "complevel": int(capture["complevel"])}
+
+
+def _filters(compression: str | None, complevel: int, chunk_bytes: int) -> dict[str, object]:
+    """createVariable's filters for chunks of ``chunk_bytes``: a compression of the contract's, with
+    HDF5's shuffle before zlib and zstd (blosc shuffles bytes itself), and a Fletcher-32 checksum on
+    every chunk. HDF5's blosc filter fails on a chunk it cannot shrink, which every chunk of a few
+    samples is (blosc adds a 16-byte header): those variables (the 10 Hz thermometers of a short
+    run) are stored with zlib level 1 instead."""
+    if compression is not None and compression not in COMPRESSIONS:
+        raise ValueError(f"capture compression {compression!r} is none of {', '.join(COMPRESSIONS)} (or none)")
+    if compression is not None and compression.startswith("blosc"):
+        if chunk_bytes >= BLOSC_MIN_CHUNK_BYTES:
+            return {"compression": compression, "complevel": complevel, "shuffle": False, "fletcher32": True}
+        compression, complevel = "zlib", 1
+    return {"compression": compression, "complevel": complevel, "shuffle": compression is not None, "fletcher32": True}
 
 
 def _limit_chunk_cache(group: netCDF4.Dataset | netCDF4.Group) -> None:
@@ -507,6 +581,14 @@ def _full_scale(var: netCDF4.Variable) -> tuple[float, float]:
     return offset - scale * INT16_FULL, offset + scale * INT16_FULL
 
 
+def compression_of(var: netCDF4.Variable) -> str | None:
+    """The compression a variable's chunks are stored with (None: uncompressed)."""
+    filters = var.filters() or {}
+    if filters.get("blosc"):
+        return filters["blosc"]["compressor"]
+    return next((name for name in ("zlib", "zstd", "bzip2", "szip") if filters.get(name)), None)
+
+
 def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) -> None:
     if "time" not in nc.dimensions:
         raise _fail(path, "no 'time' dimension")
@@ -530,6 +612,10 @@ def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) ->
             raise _fail(path, f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}")
         if var.dtype != np.int16 or "scale_factor" not in var.ncattrs():
             raise _fail(path, f"channel {name} is not packed int16 with scale_factor/add_offset")
+        compression = compression_of(var)
+        if compression not in (*COMPRESSIONS, None):
+            raise _fail(path, f"channel {name} is compressed with {compression}: the contract allows "
+                              f"{', '.join(COMPRESSIONS)} or none")
         scale, offset = float(var.scale_factor), float(getattr(var, "add_offset", 0.0))
         if not (math.isfinite(scale) and scale > 0 and math.isfinite(offset)):
             raise _fail(path, f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}: "
@@ -559,6 +645,12 @@ class ScanReport:
     channels: tuple[str, ...]
     nan: dict[str, int]
     clipped: dict[str, int]
+
+
+def write_scan_report(scan: ScanReport, path: os.PathLike | str, inputs: Sequence[os.PathLike | str] = ()) -> None:
+    """A capture's QC report (qc/<experiment>.json): the scan and the provenance of the capture
+    (and of whatever else it was checked against, say the manifest)."""
+    write_json(asdict(scan) | {"provenance": provenance(list(inputs) or [scan.path])}, path)
 
 
 def scan_capture(path: os.PathLike | str, require: Sequence[str] = (),

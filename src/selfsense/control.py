@@ -12,15 +12,15 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
-import pandas as pd
 
 from .gamma import GammaPolynomial
 from .observer import HPOGains
 from .ripple import SamplingPlan
 from .selfsensing import SelfSensingChain
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # pandas and python-control where used: ≈ 0.7 s of a closed-loop simulation's start-up
     import control as ct
+    import pandas as pd
 
     from .twin import DaqPlan, Drive
 
@@ -56,6 +56,8 @@ def tracking_prediction(gains: IntegralController, frequencies_hz, amplitude: fl
     Explains why the loop tracks at 10 Hz and loses the 125 Hz profile: the Type-I loop's
     error grows like ω/ω_C and the lag like atan(ω/ω_C).
     """
+    import pandas as pd
+
     T = gains.tracking()
     rows = []
     for f in frequencies_hz:
@@ -79,7 +81,9 @@ class HPOIntegralController:
     logs = ("x_ref", "x_hpo_rt", "u_cmd")
 
     def __init__(self, chain: SelfSensingChain, gains: IntegralController, reference: Callable[[np.ndarray], np.ndarray],
-                 fs: float, block_len: int, engage_at: float, u_limits: tuple[float, float] = (-20.0, 120.0)):
+                 fs: float, block_len: int, engage_at: float, u_limits: tuple[float, float] = (-20.0, 120.0),
+                 compiled: bool = False):
+        self.compiled = compiled  # the twin runs the engaged samples through run_blocks
         self.chain = chain
         self.gains = gains
         self.reference = reference
@@ -102,6 +106,13 @@ class HPOIntegralController:
         self.last_command = u
         return u
 
+    def run_blocks(self, bench, t: np.ndarray, signals: Mapping[str, np.ndarray]):
+        """The engaged samples t of a chunk, block by block as :meth:`command` and :meth:`observe`
+        step them, in one numba loop with the bench (:func:`selfsense.twin.realtime.run_blocks`)."""
+        from .twin.realtime import run_blocks
+
+        return run_blocks(bench, self, t, signals)
+
     def observe(self, t: np.ndarray, measured: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         x_hat = self.chain.process(measured["Ur"], measured["Ir"], measured["I"])["x_hat"]
         engaged = t >= self.engage_at
@@ -114,9 +125,11 @@ class HPOIntegralController:
 
 
 def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int, gamma: GammaPolynomial,
-                        observer: HPOGains, controller: IntegralController) -> HPOIntegralController:
+                        observer: HPOGains, controller: IntegralController,
+                        compiled: bool = True) -> HPOIntegralController:
     """The bench's real-time loop (Chapter 6) configured as the bench's was: the identified Γ and
-    observer gains (a0, ω_S, ζ_S) estimate x̂, ``controller`` (ω_C, k/α) drives the stack from it."""
+    observer gains (a0, ω_S, ζ_S) estimate x̂, ``controller`` (ω_C, k/α) drives the stack from it.
+    ``compiled=False``: the Python reference, stepped block by block."""
     plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
     chain = SelfSensingChain(plan, gamma, observer, daq.fs)
-    return HPOIntegralController(chain, controller, drive, daq.fs, plan.ns, warmup)
+    return HPOIntegralController(chain, controller, drive, daq.fs, plan.ns, warmup, compiled=compiled)

@@ -47,14 +47,16 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numba
 import numpy as np
-import scipy.signal
+
+from .lti import tustin
 
 if TYPE_CHECKING:
     import control
 
 # python-control is imported inside the functions that build transfer functions: with the
 # matplotlib it pulls in it costs ≈ 0.4 s per process, and the streaming jobs (one per capture)
-# only need the state-space matrices.
+# only need the state-space matrices. For the same reason scipy.signal is imported only by the
+# zero-order-hold discretisation and the reference: Tustin's comes from selfsense.lti.
 
 __all__ = [
     "THESIS_A0",
@@ -263,7 +265,7 @@ class DiscreteHPO(NamedTuple):
     method: str  # "tustin" or "zoh"
 
 
-_SCIPY_METHOD = {"tustin": "bilinear", "zoh": "zoh"}
+_METHODS = ("tustin", "zoh")
 
 
 def discretize(gains: HPOGains, fs: float, method: str = "tustin") -> DiscreteHPO:
@@ -277,13 +279,18 @@ def discretize(gains: HPOGains, fs: float, method: str = "tustin") -> DiscreteHP
     rule with half a sample of lag for I); strictly proper x̂ (no feed-through), which a
     controller loop without an algebraic loop may prefer.
     """
-    if method not in _SCIPY_METHOD:
-        raise ValueError(f"method must be one of {sorted(_SCIPY_METHOD)}, got {method!r}")
+    if method not in _METHODS:
+        raise ValueError(f"method must be one of {sorted(_METHODS)}, got {method!r}")
     fs = float(fs)
     if not np.isfinite(fs) or fs <= 0.0:
         raise ValueError(f"fs must be finite and > 0, got {fs!r}")
     dt = 1.0 / fs
-    Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete(_state_matrices(gains), dt, method=_SCIPY_METHOD[method])
+    if method == "tustin":
+        Ad, Bd, Cd, Dd = tustin(*_state_matrices(gains), dt)
+    else:
+        import scipy.signal
+
+        Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete(_state_matrices(gains), dt, method="zoh")
     as_c = lambda m: np.ascontiguousarray(m, dtype=np.float64)  # noqa: E731
     return DiscreteHPO(as_c(Ad), as_c(Bd), as_c(Cd), as_c(Dd), dt, method)
 
@@ -360,6 +367,8 @@ def reference_simulate(
     x0 = np.zeros(n_states) if state0 is None else np.asarray(state0, dtype=float)
     if current.size == 0:
         return np.empty(0), np.empty(0), x0.copy()
+    import scipy.signal
+
     u = np.column_stack([current, xcp])
     _, y, x = scipy.signal.dlsim((disc.Ad, disc.Bd, disc.Cd, disc.Dd, disc.dt), u, x0=x0)
     # dlsim only returns states up to the last sample; advance once more for the final state.

@@ -1,17 +1,20 @@
-# Stage "acquire": raw captures. Simulated datasets get them from the twin; measured ones are
-# given and never written (this rule is constrained to simulated datasets only).
+# Stage "acquire": raw captures and their QC reports. Simulated datasets get them from the twin,
+# which validates a capture as it writes it (read back whole, hashed and checked before the rename)
+# and writes its report in the same job; measured captures are given, never written, and
+# check_capture validates them.
 
 
 if SIMULATED:
 
     rule simulate:
-        """Run one experiment of the catalogue on the digital twin."""
+        """Run one experiment of the catalogue on the digital twin; validate and report the capture."""
         input:
             manifest=RAW / "{dataset}" / "dataset.yaml",
             protocol=lambda w: protocol_file(w.dataset, w.experiment),
             library=library_sources("simulate"),
         output:
             capture=RAW / "{dataset}" / "{experiment}.nc",
+            report="results/{dataset}/qc/{experiment}.json",
         params:
             campaign=config["campaign"],
             capture=config["capture"],
@@ -31,25 +34,29 @@ if SIMULATED:
             "../scripts/simulate.py"
 
 
-rule check_capture:
-    """Check one capture against its manifest, validate it and count its NaN and clipped samples
-    (streamed once)."""
-    input:
-        capture=RAW / "{dataset}" / "{experiment}.nc",
-        manifest=RAW / "{dataset}" / "dataset.yaml",
-        library=library_sources("check_capture"),
-    output:
-        report="results/{dataset}/qc/{experiment}.json",
-    log:
-        "logs/{dataset}/check_capture/{experiment}.log",
-    benchmark:
-        "benchmarks/out/{dataset}/check_capture/{experiment}.tsv"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=10,
-    script:
-        "../scripts/check_capture.py"
+if MEASURED:
+
+    rule check_capture:
+        """Check one measured capture against its manifest, validate it and count its NaN and
+        clipped samples (streamed once)."""
+        input:
+            capture=RAW / "{dataset}" / "{experiment}.nc",
+            manifest=RAW / "{dataset}" / "dataset.yaml",
+            library=library_sources("check_capture"),
+        output:
+            report="results/{dataset}/qc/{experiment}.json",
+        wildcard_constraints:
+            dataset="|".join(MEASURED),
+        log:
+            "logs/{dataset}/check_capture/{experiment}.log",
+        benchmark:
+            "benchmarks/out/{dataset}/check_capture/{experiment}.tsv"
+        threads: 1
+        resources:
+            mem_mb=500,
+            runtime=10,
+        script:
+            "../scripts/check_capture.py"
 
 
 rule capture_summary:

@@ -66,6 +66,7 @@ def report_figure(name, subcategory):
 RAW = Path(config["raw_dir"])
 DATASETS = {name: load_dataset(RAW, name) for name in config["datasets"]}
 SIMULATED = [n for n, m in DATASETS.items() if m["source"] == "simulated"]
+MEASURED = [n for n in DATASETS if n not in SIMULATED]
 
 
 def _experiments(name):
@@ -90,9 +91,10 @@ wildcard_constraints:
 
 def captures(dataset, **runs):
     """A rule's capture inputs, each with its QC report: {name: raw/<dataset>/<experiment>.nc (a
-    list for a list of experiments)} plus "qc", the reports rule check_capture writes for them.
-    check_capture fails on a bad capture, so nothing that reads one runs after it (not even under
-    --keep-going) and a bad capture stops with check_capture's one-line error."""
+    list for a list of experiments)} plus "qc", the reports rule check_capture writes for measured
+    captures and the twin's rules for the captures they write. Both fail on a bad capture, so
+    nothing that reads one runs after it (not even under --keep-going) and a bad capture stops
+    with their one-line error."""
     inputs, reports = {}, []
     for name, experiments in runs.items():
         one = isinstance(experiments, str)

@@ -28,6 +28,7 @@ if SIMULATED:
             library=library_sources("simulate_closed_loop"),
         output:
             capture=RAW / "{dataset}" / "{experiment}.nc",
+            report="results/{dataset}/qc/{experiment}.json",
         params:
             campaign=config["campaign"],
             capture=config["capture"],

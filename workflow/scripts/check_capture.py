@@ -5,12 +5,11 @@ Alone: python workflow/scripts/check_capture.py raw/pi_p885/ch3_sine_10hz.nc raw
 """
 
 import argparse
-from dataclasses import asdict
 
-from selfsense.capture import read_header, scan_capture
+from selfsense.capture import read_header, scan_capture, write_scan_report
 from selfsense.contract import check_agreement, check_attributes, check_clipping
 from selfsense.manifest import load_manifest
-from selfsense.provenance import provenance, script_logging, write_json
+from selfsense.provenance import script_logging
 
 
 def main(capture, manifest, report, log=None):
@@ -20,7 +19,7 @@ def main(capture, manifest, report, log=None):
     scan = scan_capture(capture)
     check_attributes(capture, header, meta, manifest)
     check_clipping(capture, scan.clipped, header, manifest)
-    write_json(asdict(scan) | {"provenance": provenance([capture, manifest])}, report)
+    write_scan_report(scan, report, inputs=[capture, manifest])
     logger.info("%s: %d samples, NaN %s, clipped %s", capture, scan.n_samples,
                 sum(scan.nan.values()), sum(scan.clipped.values()))
 

@@ -1,4 +1,5 @@
-"""Rule `simulate`: one experiment on the digital twin → raw/<dataset>/<experiment>.nc.
+"""Rule `simulate`: one experiment on the digital twin → raw/<dataset>/<experiment>.nc and its QC
+report results/<dataset>/qc/<experiment>.json (the capture is validated as it is written).
 
 Alone: python workflow/scripts/simulate.py pi_p885 ch3_sine_10hz --config tests/config/smoke.yaml
 """
@@ -6,22 +7,24 @@ Alone: python workflow/scripts/simulate.py pi_p885 ch3_sine_10hz --config tests/
 import argparse
 from pathlib import Path
 
+from selfsense.capture import write_scan_report
 from selfsense.manifest import load_config
 from selfsense.provenance import script_logging
 from selfsense.twin import simulate_experiment
 
 
-def main(raw_dir, dataset, experiment, campaign, capture, output=None, log=None):
+def main(raw_dir, dataset, experiment, campaign, capture, output=None, report=None, log=None):
     logger = script_logging(log)
-    path = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output)
-    logger.info("wrote %s (campaign %s)", path, campaign)
+    scan = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output)
+    write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
+    logger.info("wrote %s (campaign %s), clipped %d", scan.path, campaign, sum(scan.clipped.values()))
 
 
 if "snakemake" in globals():
-    p = snakemake.params
+    p, o = snakemake.params, snakemake.output
     # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
     main(Path(snakemake.input.manifest).parents[1], snakemake.wildcards.dataset, snakemake.wildcards.experiment,
-         p.campaign, p.capture, snakemake.output.capture, snakemake.log[0])
+         p.campaign, p.capture, o.capture, o.report, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("dataset")

@@ -1,5 +1,6 @@
 """Rule `simulate_closed_loop`: a closed-loop experiment on the twin, its real-time loop configured
-with the identified Γ (Ch 5), a0 (Ch 5) and k/α (Ch 4), as the bench's loop was.
+with the identified Γ (Ch 5), a0 (Ch 5) and k/α (Ch 4), as the bench's loop was; writes the capture
+and its QC report (validated as it is written).
 
 Alone: python workflow/scripts/simulate_closed_loop.py pi_p885 ch6_p2a_closed results/pi_p885/ch5/gamma.json \
     results/pi_p885/ch5/observer.json results/pi_p885/ch4/model.json --config tests/config/smoke.yaml
@@ -8,6 +9,7 @@ Alone: python workflow/scripts/simulate_closed_loop.py pi_p885 ch6_p2a_closed re
 import argparse
 from pathlib import Path
 
+from selfsense.capture import write_scan_report
 from selfsense.control import IntegralController, realtime_controller
 from selfsense.electromech import load_k_over_alpha
 from selfsense.gamma import load_gamma
@@ -18,15 +20,16 @@ from selfsense.twin import simulate_experiment
 
 
 def main(raw_dir, dataset, experiment, gamma, observer, model, campaign, capture, omega_c, n_periods,
-         output=None, log=None):
+         output=None, report=None, log=None):
     logger = script_logging(log)
     g, gains, loop = load_gamma(gamma), load_gains(observer), IntegralController(omega_c, load_k_over_alpha(model))
     def controller_for(daq, drive, warmup):
         return realtime_controller(daq, drive, warmup, n_periods, g, gains, loop)
 
-    path = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output,
+    scan = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output,
                                controller_for=controller_for)
-    logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", path, loop.k_over_alpha, gains.a0)
+    write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
+    logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", scan.path, loop.k_over_alpha, gains.a0)
 
 
 if "snakemake" in globals():
@@ -34,7 +37,7 @@ if "snakemake" in globals():
     # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
     main(Path(i.manifest).parents[1], snakemake.wildcards.dataset, snakemake.wildcards.experiment, i.gamma,
          i.observer, i.model, p.campaign, p.capture, p.omega_c, p.n_periods, snakemake.output.capture,
-         snakemake.log[0])
+         snakemake.output.report, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("dataset", "experiment", "gamma", "observer", "model"):

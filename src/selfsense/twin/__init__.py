@@ -7,13 +7,17 @@ drive, and writes that experiment's capture.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Callable, Mapping
 
+from ..capture import ScanReport, UnshrinkableChunk, compression_settings
 from ..manifest import ManifestError, expand_protocols, load_dataset
 from .bench import Bench, Controller, DaqPlan, simulate_capture
 from .drive import Drive, drive_from_protocol
 from .params import TwinParams
+
+LOG = logging.getLogger("selfsense.twin")
 
 __all__ = ["Bench", "Controller", "DaqPlan", "Drive", "TwinParams", "daq_plan",
            "simulate_capture", "simulate_experiment"]
@@ -32,8 +36,9 @@ def daq_plan(manifest: Mapping) -> DaqPlan:
 
 def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
                         output: str | Path | None = None,
-                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None) -> Path:
-    """Make raw/<dataset>/<experiment>.nc with the twin, as configured.
+                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None) -> ScanReport:
+    """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
+    capture is validated as it is written, :meth:`selfsense.capture.CaptureWriter.scan_report`).
 
     Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
     bench's real-time loop (:func:`selfsense.control.realtime_controller`). It is passed in rather
@@ -53,21 +58,31 @@ def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, conf
     attrs = {"dataset": dataset, "protocol": exp.chapter, "campaign": config["campaign"],
              "description": manifest["description"].strip(), "warmup_s": warmup, "control": exp.control}
     path = output or Path(raw_dir) / dataset / f"{experiment}.nc"
+    settings = compression_settings(cap)
+    try:
+        return _simulate(path, manifest, exp, attrs, cap, settings, where, controller_for)
+    except UnshrinkableChunk as err:  # blosc fails on a chunk it cannot shrink; the twin is deterministic
+        LOG.warning("%s; writing it again with zlib level 1", err)
+        return _simulate(path, manifest, exp, attrs, cap, {"compression": "zlib", "complevel": 1}, where,
+                         controller_for)
+
+
+def _simulate(path, manifest, exp, attrs, cap, compression, where, controller_for) -> ScanReport:
+    """One run of the experiment into ``path`` with the writer's ``compression`` arguments."""
     if manifest["model"] == "bender":
         from . import bender  # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
 
         return bender.simulate_experiment(path, manifest["twin"], daq_plan(manifest), exp, attrs,
-                                          manifest.get("seed", 0), cap, f"{where}: twin")
+                                          manifest.get("seed", 0), cap, compression, f"{where}: twin")
     params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
     daq = daq_plan(manifest)
     drive = drive_from_protocol(exp.protocol)
     controller = None
     if exp.control == "closed_loop":
         if controller_for is None:
-            raise ManifestError(f"{where}: experiment {experiment} needs the real-time controller's Γ, a0 and k/α")
-        controller = controller_for(daq, drive, warmup)
+            raise ManifestError(f"{where}: experiment {exp.name} needs the real-time controller's Γ, a0 and k/α")
+        controller = controller_for(daq, drive, float(exp.protocol.get("warmup", 0.0)))
     return simulate_capture(
-        path, params, daq, drive, attrs, manifest.get("seed", 0), experiment,
+        path, params, daq, drive, attrs, manifest.get("seed", 0), exp.name,
         load_stiffness=exp.load_stiffness, controller=controller, chunk_len=cap["chunk_len"],
-        truth_decimation=cap["truth_decimation"], zlib=cap["zlib"], complevel=cap["complevel"])
-
+        truth_decimation=cap["truth_decimation"], **compression)

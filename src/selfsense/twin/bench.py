@@ -7,7 +7,10 @@ Real-time control hook: pass a ``controller`` (see :class:`Controller`) and the 
 blocks of ``controller.block_len`` samples; before each block the controller chooses the drive
 voltage from what it has observed so far, after it the controller sees the block's measured
 channels and returns the signals it logs (``x_ref``, ``x_hpo_rt``, ``u_cmd``), which go into
-the capture as the bench's real-time logs.
+the capture as the bench's real-time logs. A controller whose ``compiled`` is true (the HPO
+loop of Chapter 6) runs the engaged samples of a chunk in one numba loop instead, through its
+``run_blocks(bench, t, signals)`` (:mod:`.realtime`), which the tests hold to this per-block
+reference.
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from typing import Mapping, Protocol
 import numpy as np
 
 from .. import __version__
-from ..capture import CaptureWriter, channel_spec, SLOW_CHANNELS
+from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
 from . import kernel
 from .drive import Drive
 from .instruments import HighPass, RippleSource, SlowProcess, effective_resistance
@@ -145,10 +148,10 @@ def simulate_capture(
     controller: Controller | None = None,
     chunk_len: int = 1 << 16,
     truth_decimation: int = 12,
-    zlib: bool = True,
-    complevel: int = 1,
-) -> Path:
-    """Run one experiment on the twin and write its capture (atomically)."""
+    compression: str | None = TWIN_COMPRESSION[0],
+    complevel: int = TWIN_COMPRESSION[1],
+) -> ScanReport:
+    """Run one experiment on the twin and write its capture (atomically); returns its QC scan."""
     fs = daq.fs
     n = int(round(drive.duration * fs))
     fast = [c for c in daq.channels if c not in SLOW_CHANNELS]
@@ -170,7 +173,7 @@ def simulate_capture(
             all_attrs[key] = getattr(daq, key)
     path = Path(path)
     with CaptureWriter(path, all_attrs, specs, n, n_slow, params.instruments.T_rate,
-                       chunk_len=chunk_len, zlib=zlib, complevel=complevel,
+                       chunk_len=chunk_len, compression=compression, complevel=complevel,
                        truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
         w.write_truth_attrs(params.truth_attrs())
         for start in range(0, n, chunk_len):
@@ -188,7 +191,7 @@ def simulate_capture(
             if slow:
                 pick = (start + np.arange(len(t))) % slow_every == 0
                 w.write(bench.temperatures(truth["T"][pick]), dim="time_slow")
-    return path
+    return w.scan_report()
 
 
 def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
@@ -200,6 +203,9 @@ def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
         parts.append((measured, truth, controller.observe(t[:idle], measured)))
     b, rest = controller.block_len, t[idle:]
     signals = bench.time_signals(rest)  # once for the chunk: per 12-sample block they cost a third of a step
+    if getattr(controller, "compiled", False) and len(rest):
+        parts.append(controller.run_blocks(bench, rest, signals))
+        return tuple({k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3))
     for s in range(0, len(rest), b):
         tb = rest[s:s + b]
         measured, truth = bench.step(tb, controller.command(tb), signals={k: v[s:s + b] for k, v in signals.items()})

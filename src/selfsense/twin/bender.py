@@ -45,7 +45,7 @@ from scipy.optimize import brentq
 
 from .. import __version__
 from .. import powerloss as pl
-from ..capture import CaptureWriter, channel_spec
+from ..capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, channel_spec
 from ..manifest import Experiment
 from .bench import DaqPlan, experiment_seed
 from .drive import Drive, drive_from_protocol
@@ -363,10 +363,11 @@ def simulate_bender_capture(
     experiment: str,
     chunk_len: int = 1 << 16,
     truth_decimation: int = 12,
-    zlib: bool = True,
-    complevel: int = 1,
-) -> Path:
-    """Run one experiment on the bender twin and write its capture (atomically, chunk by chunk)."""
+    compression: str | None = TWIN_COMPRESSION[0],
+    complevel: int = TWIN_COMPRESSION[1],
+) -> ScanReport:
+    """Run one experiment on the bender twin and write its capture (atomically, chunk by chunk);
+    returns its QC scan."""
     if drive.quantity not in MODES:
         raise ValueError(f"{experiment}: the bender is driven by voltage or current, not {drive.quantity!r}")
     fs = daq.fs
@@ -377,8 +378,8 @@ def simulate_bender_capture(
         "experiment": experiment, "seed": int(seed), "fs": fs, "software_version": __version__,
         "source": "simulated", "drive_quantity": drive.quantity, "amplifier_gain": params.amplifier.gain,
     }
-    with CaptureWriter(path, all_attrs, specs, n, chunk_len=chunk_len, zlib=zlib, complevel=complevel,
-                       truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
+    with CaptureWriter(path, all_attrs, specs, n, chunk_len=chunk_len, compression=compression,
+                       complevel=complevel, truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
         w.write_truth_attrs(params.truth_attrs())
         for start in range(0, n, chunk_len):
             t = (start + np.arange(min(chunk_len, n - start))) / fs
@@ -386,7 +387,7 @@ def simulate_bender_capture(
             w.write({c: measured[c] for c in daq.channels})
             keep = (start + np.arange(len(t))) % truth_decimation == 0
             w.write({k: v[keep] for k, v in truth.items()}, dim="time_truth")
-    return Path(path)
+    return w.scan_report()
 
 
 def compensation_of(experiment: Experiment) -> Compensation:
@@ -396,9 +397,9 @@ def compensation_of(experiment: Experiment) -> Compensation:
 
 def simulate_experiment(path: Path | str, twin: Mapping[str, Any], daq: DaqPlan, experiment: Experiment,
                         attrs: Mapping[str, object], seed: int, capture: Mapping[str, Any],
-                        where: str = "twin") -> Path:
+                        compression: Mapping[str, Any], where: str = "twin") -> ScanReport:
     """One catalogue experiment on the bender twin, as :func:`selfsense.twin.simulate_experiment` resolved it."""
     return simulate_bender_capture(
         path, BenderParams.from_manifest(twin, where), daq, drive_from_protocol(experiment.protocol),
         compensation_of(experiment), attrs, seed, experiment.name, chunk_len=capture["chunk_len"],
-        truth_decimation=capture["truth_decimation"], zlib=capture["zlib"], complevel=capture["complevel"])
+        truth_decimation=capture["truth_decimation"], **compression)

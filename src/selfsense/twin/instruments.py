@@ -8,8 +8,7 @@ never simulated at a higher rate and decimated.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import bilinear, butter, lfilter, lfilter_zi
-
+from ..lti import bilinear, butterworth_highpass2, filter_run
 from .params import RippleParams
 
 
@@ -51,9 +50,9 @@ class HighPass:
     """
 
     def __init__(self, cutoff_hz: float, fs: float):
-        self.b_analog, self.a_analog = butter(2, 2 * np.pi * cutoff_hz, btype="high", analog=True)
+        self.b_analog, self.a_analog = butterworth_highpass2(cutoff_hz)
         self.b, self.a = bilinear(self.b_analog, self.a_analog, fs)
-        self.zi = None
+        self.zi = np.zeros(len(self.a) - 1)
 
     def response(self, f_hz: np.ndarray) -> np.ndarray:
         """H(j2πf) of the analogue filter (scipy.signal.freqs without its per-call overhead,
@@ -62,9 +61,8 @@ class HighPass:
         return np.polyval(self.b_analog, s) / np.polyval(self.a_analog, s)
 
     def leak(self, x: np.ndarray) -> np.ndarray:
-        if self.zi is None:
-            self.zi = lfilter_zi(self.b, self.a) * 0.0
-        y, self.zi = lfilter(self.b, self.a, x, zi=self.zi)
+        y = np.empty(len(x))
+        filter_run(self.b, self.a, np.ascontiguousarray(x, dtype=float), self.zi, y)
         return y
 
 

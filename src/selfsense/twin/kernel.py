@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from scipy.signal import cont2discrete
 
+from ..lti import tustin
 from .maxwell import (MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step,
                       slide_anchors, slide_anchors_reference, span)
 from .params import TwinParams
@@ -45,7 +45,7 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
     k_tot = s.k + load_stiffness
     A = np.array([[0.0, 1.0], [-k_tot / s.m, -s.b / s.m]])
     B = np.array([[0.0], [1.0 / s.m]])
-    Ad, Bd, Cd, Dd, _ = cont2discrete((A, B, np.eye(2), np.zeros((2, 1))), h, method="bilinear")
+    Ad, Bd, Cd, Dd = tustin(A, B, np.eye(2), np.zeros((2, 1)), h)
     th_decay = np.exp(-h / th.tau)
     scalars = dict(alpha=s.alpha, C_P0=s.C_P0, dC_U=s.dC_U, kappa_T=s.kappa_T, T_ref=s.T_ref,
                    fs=fs, a11=Ad[0, 0], a12=Ad[0, 1], a21=Ad[1, 0], a22=Ad[1, 1],

@@ -1,0 +1,223 @@
+"""The closed-loop bench compiled: stack, instruments, self-sensing chain and controller in one
+numba loop (Chapter 6).
+
+:func:`run_blocks` does over a stretch of engaged samples what the Python reference does block by
+block (:func:`.bench._closed_loop_chunk` with :class:`selfsense.control.HPOIntegralController`,
+whose ``run_blocks`` calls it): the controller's command from the errors of the block before (Eq
+6.1–6.3), the stack's response (:func:`.kernel.run_kernel`), the instruments as
+:meth:`.bench.Bench.step` makes them (:func:`record_sample`: ripple current through R_e–C_e, the
+ripple channels' high-pass, the probes' offsets and drifts, the ADC), then the real-time chain on
+the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq 3.12),
+x_CP = Γ(C_e) (Eq 5.4) held until the next window, and the HPO (Eq 5.5–5.9,
+:func:`selfsense.observer.hpo_update`). The reference's operations in its order, so the captures
+are the reference's bit for bit here; the twin's time-only signals (ripple carrier, drifts, noise)
+are made beforehand by :meth:`.bench.Bench.time_signals`, as the reference makes them once per
+chunk. Every state lives in the Python objects before and after, so the two paths can take turns;
+the tests hold this loop to the reference. Open-loop chunks stay with :meth:`.bench.Bench.step`:
+numpy's whole-chunk arithmetic is faster there than this per-sample loop (440 against 540 ns a
+sample), and the open-loop twin imports no self-sensing code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..lti import filter_step
+from ..observer import hpo_update
+from .kernel import N_OUT, run_kernel
+
+
+#: measured channels in the loop's order (rows of its `measured` output)
+MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
+#: rows of the truth output, as bench.TRUTH_STATES
+TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "R_e", "I_offset", "U_drive")
+
+
+@numba.njit(cache=True)
+def _quantize(value, scale, offset):
+    """ChannelSpec.quantize for one sample (scale 0: the channel is not recorded by the ADC)."""
+    if scale == 0.0:
+        return value
+    code = np.rint((value - offset) / scale)
+    return min(max(code, -32767.0), 32767.0) * scale + offset
+
+
+@numba.njit(cache=True)
+def record_sample(j, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth):
+    """What the DAQ records at sample j, from the drive U and the stack's outputs ``out`` (a row
+    of kernel.OUTPUTS): measured (quantised) and truth columns j, high-pass states updated.
+
+    sig: the arrays f_r, u (complex ripple voltage), h (high-pass at f_r), I_offset, laser_drift and
+    the noise of each MEASURED channel (signal_arrays).
+    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb.
+    adc: (scale, offset) per MEASURED channel.
+    """
+    x, a, q, U_P, U_H, T, I, C_P = out[0], out[2], out[3], out[4], out[5], out[6], out[7], out[8]
+    R_e = bench[0] + bench[1] * (C_P - bench[2])  # instruments.effective_resistance
+    ur, h = sig[1][j], sig[2][j]
+    i_r = ur * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * sig[0][j] * C_P)))  # RippleSource.current
+    leak_u = filter_step(U, hp_b, hp_a, zi_u)
+    leak_i = filter_step(I, hp_b, hp_a, zi_i)
+    values = (U + ur.real + sig[5][j],
+              I + i_r.real + sig[3][j] + sig[6][j],
+              (ur * h).real + leak_u + sig[7][j],
+              (i_r * h).real + leak_i + sig[8][j],
+              x + sig[4][j] + sig[9][j],
+              bench[3] + bench[4] * x + bench[5] * a + sig[10][j])
+    for c in range(6):
+        measured[c, j] = _quantize(values[c], adc[c, 0], adc[c, 1])
+    truth[0, j], truth[1, j], truth[2, j], truth[3, j], truth[4, j] = x, q, U_P, U_H, T
+    truth[5, j], truth[6, j], truth[7, j], truth[8, j] = C_P, R_e, sig[3][j], U
+
+
+@numba.njit(cache=True)
+def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, state, hp_b, hp_a, zi_u, zi_i,
+                       adc, weights, tail, sums, gamma, hpo, hpo_state, loop, pending, measured, truth, logs):
+    """Advance the closed loop over len(t_ref) samples, block by block; see the module docstring.
+
+    sig, bench, adc: as record_sample. weights: sin and cos rows (ns).
+    tail: (2, ns) samples of the open period; sums: (4, np − 1) last whole periods' sums, oldest
+    first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
+    loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np, pending_len,
+    Î0 of the last sample].
+    Writes measured (6, n), truth (9, n), logs (x_ref, x_hpo_rt, u_cmd) and updates every state.
+    """
+    n = t_ref.size
+    b = int(loop[0])
+    K_I, fs, u, u_lo, u_hi = loop[1], loop[2], loop[3], loop[4], loop[5]
+    x_cp, done, masked = loop[6], loop[7], loop[8]
+    tail_len, sums_len = int(loop[9]), int(loop[10])
+    omega_r = 2 * math.pi * loop[11]
+    g_T, temperature, n_periods = loop[12], loop[13], int(loop[14])
+    pend_len = int(loop[15])
+    ns = weights.shape[1]
+    Ad, Bd, Cd, Dd = hpo[0], hpo[1], hpo[2], hpo[3]
+    out = np.empty((b, N_OUT))
+    U = np.empty(b)
+    zeros = np.zeros(b)
+    ambient = np.full(b, bench[6])
+    window = np.empty(4)
+    i0_hat = loop[16]
+    for s in range(0, n, b):
+        nb = min(b, n - s)
+        # the command: integrator steps of the block before, clipped at the amplifier's limits
+        acc = 0.0
+        for k in range(nb):
+            if k < pend_len:
+                acc += pending[k]
+            U[k] = min(max(u + acc, u_lo), u_hi)
+        if nb:
+            u = U[nb - 1]
+        run_kernel(U[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb])
+        for k in range(nb):
+            j = s + k
+            record_sample(j, U[k], out[k], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth)
+            # the real-time chain sees this sample with the x_CP of windows ended before it
+            current = measured[1, j] if np.isfinite(measured[1, j]) else 0.0
+            x_hat, i0_hat = hpo_update(Ad, Bd, Cd, Dd, hpo_state, current, x_cp)
+            tail[0, tail_len] = measured[2, j]
+            tail[1, tail_len] = measured[3, j]
+            tail_len += 1
+            if tail_len == ns:  # a folded period is complete: its sums, and a window once np are in
+                tail_len = 0
+                full = sums_len == n_periods - 1
+                for r in range(4):
+                    period = 0.0
+                    for i in range(ns):
+                        period += tail[r // 2, i] * weights[r % 2, i]
+                    if full:  # oldest first, as ripple._moving_sum
+                        total = sums[r, 0] if sums_len else period
+                        for i in range(1, sums_len):
+                            total += sums[r, i]
+                        if sums_len:
+                            total += period
+                            for i in range(sums_len - 1):
+                                sums[r, i] = sums[r, i + 1]
+                            sums[r, sums_len - 1] = period
+                        window[r] = total / (2 * n_periods)
+                    else:
+                        sums[r, sums_len] = period
+                if not full:
+                    sums_len += 1
+                else:
+                    A_V, B_V, A_I, B_I = window[0], window[1], window[2], window[3]
+                    C_e = -(A_I * A_I + B_I * B_I) / (omega_r * (A_I * B_V - A_V * B_I))
+                    c_uf = C_e * 1e6
+                    x_um = gamma[gamma.size - 1] + c_uf * 0.0  # numpy's polyval (Γ, Eq 5.4)
+                    for i in range(gamma.size - 2, -1, -1):
+                        x_um = gamma[i] + x_um * c_uf
+                    if g_T != 0.0:
+                        x_um = x_um + g_T * temperature
+                    if np.isfinite(x_um):
+                        x_cp = x_um / 1e6
+                    else:  # a window without ripple keeps the x_CP before it
+                        masked += 1
+            logs[0, j] = t_ref[j]
+            logs[1, j] = x_hat
+            logs[2, j] = U[k]
+            pending[k] = K_I * (t_ref[j] - x_hat) / fs
+        pend_len = nb
+        done += nb
+    loop[3], loop[6], loop[7], loop[8] = u, x_cp, done, masked
+    loop[9], loop[10], loop[15], loop[16] = tail_len, sums_len, pend_len, i0_hat
+
+
+def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
+    """The (sig, bench, adc) arguments of :func:`record_sample` for a :class:`.bench.Bench` and its
+    :meth:`~.bench.Bench.time_signals` (the signals as they are: stacking them cost as much as the
+    loop)."""
+    from .instruments import effective_resistance
+
+    p = bench.p
+    sig = tuple(np.ascontiguousarray(signals[k]) for k in ("f_r", "u_ripple", "h", "I_offset", "laser_drift",
+                                                            *(f"noise_{c}" for c in MEASURED)))
+    rp = p.ripple
+    constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
+                          p.instruments.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb])
+    adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
+                    for c in MEASURED])
+    return sig, constants, adc
+
+
+def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, dict]:
+    """The engaged stretch t of a chunk through :func:`closed_loop_kernel`, from and back into the
+    state of ``bench`` (a :class:`.bench.Bench`) and ``controller`` (an
+    :class:`selfsense.control.HPOIntegralController`); returns (measured, truth, logs) as
+    :meth:`.bench.Bench.step` and the controller's ``observe`` do."""
+    n, chain = len(t), controller.chain
+    windows, obs = chain.extractor._windows, chain.observer
+    ns, n_periods = windows.ns, windows.n_periods
+    sig, constants, adc = bench_arrays(bench, signals)
+    tail = np.zeros((2, ns))
+    tail_len = windows._tail.shape[1]
+    tail[:, :tail_len] = windows._tail
+    sums = np.zeros((4, max(n_periods - 1, 1)))
+    sums_len = windows._period_sums.shape[1]
+    sums[:, :sums_len] = windows._period_sums
+    pending = np.zeros(controller.block_len)
+    pend_len = min(len(controller.pending), controller.block_len)
+    pending[:pend_len] = controller.pending[:pend_len]
+    loop = np.array([controller.block_len, controller.gains.K_I, controller.fs, controller.u, *controller.u_limits,
+                     chain.x_cp, chain.n, chain.masked_windows, tail_len, sums_len, chain.extractor.plan.fr,
+                     chain.gamma.g, chain.temperature, n_periods, pend_len, obs.last_offset], dtype=float)
+    measured, truth, logs = np.empty((6, n)), np.empty((9, n)), np.empty((3, n))
+    kc = bench.kc
+    closed_loop_kernel(np.ascontiguousarray(controller.reference(t), float), sig, constants, kc.scalars, kc.C_h,
+                       kc.v_h, kc.creep_decay, kc.creep_R, bench.state, bench.hp_u.b, bench.hp_u.a, bench.hp_u.zi,
+                       bench.hp_i.zi, adc,
+                       np.ascontiguousarray(windows._weights, float), tail, sums,
+                       np.ascontiguousarray(chain.gamma.coefficients, float), np.stack(obs.matrices), obs.state, loop,
+                       pending, measured, truth, logs)
+    windows._periods_done += (tail_len + n) // ns
+    tail_len, sums_len, pend_len = int(loop[9]), int(loop[10]), int(loop[15])
+    windows._tail = tail[:, :tail_len].copy()
+    windows._period_sums = sums[:, :sums_len].copy()
+    controller.u, controller.pending, controller.last_command = float(loop[3]), pending[:pend_len].copy(), np.zeros(0)
+    chain.x_cp, chain.n, chain.masked_windows = float(loop[6]), int(loop[7]), int(loop[8])
+    if n:
+        obs.last_offset = float(loop[16])
+    return (dict(zip(MEASURED, measured)), dict(zip(TRUTH, truth)),
+            {"x_ref": logs[0], "x_hpo_rt": logs[1], "u_cmd": logs[2]})
