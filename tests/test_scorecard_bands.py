@@ -97,3 +97,22 @@ def test_the_bounds_of_the_rules_are_finite_where_a_value_is_compared(registry):
     for e in registry:
         if e.tolerance is not None and not e.bound and e.published is not None:
             assert all(math.isfinite(x) for x in band(e.published, e)), (e.source, e.quantity)
+
+
+def test_the_documented_bands_are_the_registrys(rules):
+    """docs/scorecard.md states each rule's band (the recovery rows' ±2 % among them): the text
+    must be the registry's, so what a reader is told is what the scorecard applies."""
+    table = {}
+    for line in (ROOT / "docs" / "scorecard.md").read_text(encoding="utf-8").splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if line.startswith("| ") and len(cells) == 2:
+            for name in cells[0].split(", "):
+                table[name] = cells[1]
+    for name, rule in rules.items():
+        tol = rule.get("tolerance", {})
+        if "rel" in tol:
+            assert f"±{tol['rel']:g} %" in table[name], name
+        elif "abs" in tol and tol.get("scale") == "log":
+            assert f"up to {tol['abs']:g}" in table[name], name
+        elif "factor" in tol:
+            assert f"factor of {tol['factor']:g}" in table[name], name
