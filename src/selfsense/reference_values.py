@@ -14,7 +14,7 @@ from typing import Any, Mapping
 
 import pandas as pd
 
-from .scorecard import Entry, Locator, Tolerance, scorecard
+from .scorecard import Band, Entry, Locator, Tolerance, scorecard
 
 SECTION = "reference values"
 KIND = "emergent"
@@ -55,15 +55,14 @@ def entries(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> 
             capture = _capture(ref, tables)
             where = (("experiment", capture or ""),)
             quantity = f"{quantity} ({capture})" if capture else quantity
-        out.append(Entry(section=SECTION, chapter="reference", source=ref["source"], model=manifest.get("model"),
-                         quantity=quantity, unit=unit, published=float(ref["value"]),
-                         tolerance=Tolerance(rel=float(ref["tolerance_percent"])),
-                         justification=f"the manifest's band for its reference value ({ref['source']})",
-                         locate=Locator(table, column, where)))
+        band = Band("the dataset's own band", f"the manifest's band for its reference value ({ref['source']})",
+                    Tolerance(rel=float(ref["tolerance_percent"])))
+        out.append(Entry(section=SECTION, kind=KIND, chapter="reference", source=ref["source"],
+                         model=manifest.get("model"), quantity=quantity, unit=unit, published=float(ref["value"]),
+                         band=band, locate=Locator(table, column, where)))
     return out
 
 
 def reference_rows(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """The scorecard rows of the dataset's reference values (empty when it gives none)."""
-    card = scorecard(entries(manifest, tables), tables, manifest)
-    return card.assign(kind=KIND)
+    return scorecard(entries(manifest, tables), tables, manifest)
