@@ -505,5 +505,7 @@ def curve_difference(ours: GammaPolynomial, printed: GammaPolynomial, x_max_um: 
 def curve_table(fits: Mapping[str, GammaPolynomial], printed: GammaPolynomial, x_max_um: float,
                 temperatures: Sequence[float] = (0.0,)) -> pd.DataFrame:
     """One row per fit (e.g. "thesis order", "our order"): its order and :func:`curve_difference`."""
+    import pandas as pd
+
     return pd.DataFrame([{"fit": name, "order": fit.order, **curve_difference(fit, printed, x_max_um, temperatures)}
                          for name, fit in fits.items()])
