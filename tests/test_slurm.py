@@ -23,7 +23,7 @@ pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
 SCRIPT = str(ROOT / "scripts" / "slurm_local.sh")
 TABLES = [f"results/pi_p885/{t}.csv" for t in (
-    "ch3/table_3_1", "ch3/table_3_2", "ch3/hysteresis", "twin/ce_recovery",
+    "ch3/table_3_1", "ch3/table_3_2", "ch3/hysteresis", "ch3/phases", "twin/ce_recovery",
     "ch4/static_stiffness", "ch4/sets", "ch4/table_4_1", "ch4/table_4_2", "ch4/table_4_3",
     "ch4/hysteresis_voltage", "twin/model_recovery")]
 # A bare cluster has no accounting database, so job states come from squeue (finished jobs stay
