@@ -1,5 +1,5 @@
 """Write the scorecard's numbers into the README and docs/deviations.md, and keep the summary they
-come from under docs/results/ (so a clone shows them before its first run, and a test checks the
+come from under docs/snapshot/ (so a clone shows them before its first run, and a test checks the
 pages against it). Run after the thesis campaign: .venv/bin/python scripts/update_docs.py
 """
 
@@ -12,7 +12,7 @@ import pandas as pd
 
 from selfsense.scorecard import counts_markdown, deviations_markdown, replace_block
 
-SNAPSHOT = Path("docs/results")
+SNAPSHOT = Path("docs/snapshot")
 PAGES = {"counts": Path("README.md"), "deviations": Path("docs/deviations.md")}
 
 

@@ -1,5 +1,5 @@
 """The numbers the README and docs/deviations.md quote are the scorecard's, written by
-scripts/update_docs.py from the snapshot docs/results/, never typed by hand."""
+scripts/update_docs.py from the snapshot docs/snapshot/, never typed by hand."""
 
 import importlib.util
 
@@ -24,13 +24,13 @@ def block(page: str, name: str) -> str:
 
 def test_the_pages_quote_the_snapshot_exactly():
     module = update_docs()
-    rendered = module.render(ROOT / "docs" / "results")
+    rendered = module.render(ROOT / "docs" / "snapshot")
     for name, page in module.PAGES.items():
         assert block(str(page), name) == rendered[name], f"{page}: run scripts/update_docs.py"
 
 
 def test_the_snapshot_counts_are_the_snapshot_scorecards_counts():
-    snapshot = ROOT / "docs" / "results"
+    snapshot = ROOT / "docs" / "snapshot"
     cards = {p.stem.removeprefix("scorecard_"): pd.read_csv(p) for p in sorted(snapshot.glob("scorecard_*.csv"))
              if p.name != "scorecard_counts.csv"}
     counts = pd.read_csv(snapshot / "scorecard_counts.csv")
