@@ -14,11 +14,13 @@ loses 1.3 % of its stroke to the averaging (the table states the rate each captu
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable, Mapping
+from pathlib import Path
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .figures import UF, UM, loops
+from .capture import open_capture
+from .figures import UF, UM, loop_grid, placeholder
 from .metrics import branch_gap, branch_means, direction
 
 #: displacement channels of the contract, in order of preference
@@ -191,7 +193,20 @@ def instruments(manifest: Mapping) -> list[dict]:
     return rows
 
 
-def loop_figure(reduced: Reduced, x_channel: str, title: str, max_points: int = 20000):
+#: captures per page of the dataset's loop figure
+LOOPS_PER_PAGE = 6
+
+
+@dataclass(frozen=True)
+class LoopPanels:
+    """One capture's loops as drawn: (x, y, xlabel, ylabel) per panel, thinned to the figure's
+    resolution so that a dataset's worth of them fits in memory."""
+
+    name: str
+    panels: tuple[tuple[np.ndarray, np.ndarray, str, str], ...]
+
+
+def loop_panels(reduced: Reduced, x_channel: str, name: str, max_points: int = 20000) -> LoopPanels:
     """x–U loop, and beside it the q–U loop where the capture has the current."""
     d = reduced.data
     step = max(1, len(d["U"]) // max_points)  # the figure needs no more points than pixels
@@ -199,4 +214,27 @@ def loop_figure(reduced: Reduced, x_channel: str, title: str, max_points: int = 
     panels = [(u, d[x_channel][::step] * UM, "U [V]", f"{x_channel} [µm]")]
     if "I" in d:
         panels.append((u, charge(np.nan_to_num(d["I"]), reduced.fs)[::step] * UF, "U [V]", "q = ∫I dt [µC]"))
-    return loops(panels, title)
+    return LoopPanels(name, tuple(panels))
+
+
+def characterise_capture(path, settle_s: float, min_hold_s: float) -> tuple[dict, LoopPanels | None]:
+    """One capture streamed once: its table row, and its loops (None without U or a displacement)."""
+    name = Path(path).stem
+    with open_capture(path) as cap:
+        x = displacement_channel(cap.channels)
+        if "U" not in cap.channels or x is None:
+            return row(name, {}, x, None, "no drive voltage U and displacement in this capture"), None
+        names = ["U", x] + (["I"] if "I" in cap.channels else [])
+        factor = reduction_factor(cap.n)
+        reduced = block_means(cap.iter_chunks(names, factor * (1 << 14)), cap.fs, factor)
+    return row(name, characterise(reduced, x, settle_s, min_hold_s), x, reduced.fs), loop_panels(reduced, x, name)
+
+
+def loop_pages(captures: Sequence[LoopPanels], title: str, per_page: int = LOOPS_PER_PAGE) -> list:
+    """The dataset's loop figure, ``per_page`` captures a page (one row each); a page that says
+    so when no capture has U and a displacement."""
+    if not captures:
+        return [placeholder(title, "no capture records a drive voltage U and a displacement")]
+    pages = [captures[k:k + per_page] for k in range(0, len(captures), per_page)]
+    return [loop_grid([(c.name, c.panels) for c in page], f"{title} ({k} of {len(pages)})")
+            for k, page in enumerate(pages, 1)]

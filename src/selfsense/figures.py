@@ -38,14 +38,20 @@ def loop(x, y, xlabel, ylabel, title, labels=None):
     return fig
 
 
-def loops(panels, title):
-    """Loops side by side, each panel (x, y, xlabel, ylabel); the title over the first."""
-    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels) + 1.0, 4.2), constrained_layout=True)
-    for ax, (x, y, xlabel, ylabel) in zip(np.atleast_1d(axes), panels):
-        ax.plot(x, y, lw=0.6)
-        ax.set(xlabel=xlabel, ylabel=ylabel)
-        ax.grid(alpha=0.3)
-    np.atleast_1d(axes)[0].set_title(title)
+def loop_grid(rows, title):
+    """One row of loops per item: rows are (name, panels) with panels as in :func:`loops`."""
+    ncols = max(len(panels) for _, panels in rows)
+    fig, axes = plt.subplots(len(rows), ncols, figsize=(3.6 * ncols + 0.6, 2.6 * len(rows) + 0.6),
+                             constrained_layout=True, squeeze=False)
+    for ax_row, (name, panels) in zip(axes, rows):
+        for ax in ax_row[len(panels):]:
+            ax.axis("off")
+        for ax, (x, y, xlabel, ylabel) in zip(ax_row, panels):
+            ax.plot(x, y, lw=0.6)
+            ax.set(xlabel=xlabel, ylabel=ylabel)
+            ax.grid(alpha=0.3)
+        ax_row[0].set_title(name, fontsize=9)
+    fig.suptitle(title)
     return fig
 
 

@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .capture import open_capture
 from .gamma import GammaPolynomial
 from .observer import HPOGains, HybridPositionObserver
-from .ripple import RippleExtractor, SamplingPlan
+from .ripple import RippleExtractor, SamplingPlan, plan_from_capture
 
 
 class SelfSensingChain:
@@ -50,3 +51,15 @@ class SelfSensingChain:
         x_hat, i0_hat = self.observer.step_full(current, held)
         self.n += len(ur)
         return {"x_hat": x_hat, "x_cp": held, "i0_hat": i0_hat}
+
+
+def audit_realtime(capture, gamma: GammaPolynomial, gains: HPOGains, n_periods: int) -> dict[str, float]:
+    """The self-sensing chain recomputed offline from a closed-loop capture's raw channels against
+    the real-time estimate x̂ its loop logged: max |offline − logged| and the log's resolution [m]."""
+    worst = 0.0
+    with open_capture(capture, require=("Ur", "Ir", "I", "x_hpo_rt")) as cap:
+        chain = SelfSensingChain(plan_from_capture(cap, n_periods), gamma, gains, cap.fs)
+        for _, d in cap.iter_chunks(("Ur", "Ir", "I", "x_hpo_rt")):
+            offline = chain.process(d["Ur"], d["Ir"], d["I"])["x_hat"]
+            worst = max(worst, float(np.max(np.abs(offline - d["x_hpo_rt"]))))
+        return {"max |offline − logged|": worst, "log resolution": cap.resolution("x_hpo_rt")}

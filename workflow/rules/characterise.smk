@@ -11,52 +11,35 @@ CHARACTERISE_DATASETS = [d for d in DATASETS
 
 
 rule characterise:
-    """One capture's stroke, gains, loop width, nonlinearity, creep (and q–U) and its loop figure."""
+    """Every capture of the dataset streamed once: the characterisation table (one row per capture),
+    the actuator and its sensors, and the loops (x–U, and q–U with the current), a page per six
+    captures. One job per dataset: a capture's own work is a fraction of a job's start-up."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=w.experiment)),
-        library=library_sources("characterise"),
-    output:
-        row="results/{dataset}/characterise/{experiment}.json",
-        figure=report("figures/{dataset}/loop_{experiment}.png", caption="../report/characterise_loop.rst",
-                      category="{dataset}", subcategory="Characterisation"),
-    params:
-        settle_s=0.1,  # x after a step is read this long after it (the stack's mechanics settle in ms)
-        min_hold_s=1.0,  # a shorter final hold is no creep test
-    log:
-        "logs/{dataset}/characterise/{experiment}.log",
-    benchmark:
-        "benchmarks/out/{dataset}/characterise/{experiment}.tsv"
-    threads: 1
-    resources:
-        mem_mb=config["resources"]["analysis_mem_mb"],
-        runtime=20,
-    script:
-        "../scripts/characterise.py"
-
-
-rule characterise_table:
-    """The dataset's characterisation table (one row per capture), and its actuator and sensors."""
-    input:
-        rows=lambda w: [f"results/{w.dataset}/characterise/{e}.json" for e in EXPERIMENTS[w.dataset]],
+        unpack(lambda w: captures(w.dataset, capture=list(EXPERIMENTS[w.dataset]))),
         manifest=RAW / "{dataset}" / "dataset.yaml",
-        library=library_sources("characterise_table"),
+        library=library_sources("characterise"),
     output:
         table=report("results/{dataset}/characterise/summary.csv", caption="../report/characterise.rst",
                      category="{dataset}", subcategory="Characterisation"),
         instruments=report("results/{dataset}/characterise/instruments.csv", caption="../report/instruments.rst",
                            category="{dataset}", subcategory="Characterisation"),
+        figures=report(directory("figures/{dataset}/characterise"), patterns=["{name}.png"],
+                       caption="../report/characterise_loops.rst", category="{dataset}",
+                       subcategory="Characterisation"),
+    params:
+        settle_s=0.1,  # x after a step is read this long after it (the stack's mechanics settle in ms)
+        min_hold_s=1.0,  # a shorter final hold is no creep test
     log:
-        "logs/{dataset}/characterise_table.log",
+        "logs/{dataset}/characterise.log",
     benchmark:
-        "benchmarks/out/{dataset}/characterise_table.tsv"
+        "benchmarks/out/{dataset}/characterise.tsv"
     threads: 1
     resources:
-        mem_mb=300,
-        runtime=5,
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
     script:
-        "../scripts/characterise_table.py"
+        "../scripts/characterise.py"
 
 
 #: what the stage makes for rule all and the scorecard
-CHARACTERISE_OUTPUTS = expand(rules.characterise_table.output, dataset=CHARACTERISE_DATASETS) + [
-    f"figures/{d}/loop_{e}.png" for d in CHARACTERISE_DATASETS for e in EXPERIMENTS[d]]
+CHARACTERISE_OUTPUTS = expand(rules.characterise.output, dataset=CHARACTERISE_DATASETS)

@@ -1,41 +1,40 @@
-"""Rule `audit_realtime`: recompute the HPO offline from a closed-loop capture and compare it with
-the real-time estimate the loop logged (the published loop used what the pipeline analyses).
+"""Rule `audit_realtime`: for every closed-loop capture of a dataset, the self-sensing chain
+recomputed offline from the raw channels against the real-time estimate the loop logged (the
+published loop used what the pipeline analyses) → one row per run.
 
-Alone: python workflow/scripts/audit_realtime.py raw/pi_p885/ch6_p2a_closed.nc gamma.json observer.json out.json
+Alone: python workflow/scripts/audit_realtime.py results/pi_p885/ch5/gamma.json \
+    results/pi_p885/ch5/observer.json audit.csv raw/pi_p885/ch6_*_closed*.nc --np 4
 """
 
 import argparse
+from pathlib import Path
 
-import numpy as np
+import pandas as pd
 
-from selfsense.capture import open_capture
 from selfsense.gamma import load_gamma
 from selfsense.observer import load_gains
-from selfsense.provenance import provenance, script_logging, write_json
-from selfsense.ripple import plan_from_capture
-from selfsense.selfsensing import SelfSensingChain
+from selfsense.provenance import script_logging, write_table
+from selfsense.selfsensing import audit_realtime
 
 
-def main(capture, gamma, observer, report, n_periods, log=None):
+def main(captures, gamma, observer, table, n_periods, log=None):
     logger = script_logging(log)
-    worst = 0.0
-    with open_capture(capture, require=("Ur", "Ir", "I", "x_hpo_rt")) as cap:
-        chain = SelfSensingChain(plan_from_capture(cap, n_periods), load_gamma(gamma), load_gains(observer), cap.fs)
-        for _, d in cap.iter_chunks(("Ur", "Ir", "I", "x_hpo_rt")):
-            offline = chain.process(d["Ur"], d["Ir"], d["I"])["x_hat"]
-            worst = max(worst, float(np.max(np.abs(offline - d["x_hpo_rt"]))))
-        lsb = cap.resolution("x_hpo_rt")
-    write_json({"capture": capture, "max |offline − logged| [nm]": worst * 1e9, "log resolution [nm]": lsb * 1e9,
-                "provenance": provenance([capture, gamma, observer], {"n_periods": n_periods})}, report)
-    logger.info("%s: offline vs logged HPO differ by at most %.3f nm", capture, worst * 1e9)
+    poly, gains, rows = load_gamma(gamma), load_gains(observer), []
+    for k, capture in enumerate(captures, 1):
+        audit = audit_realtime(capture, poly, gains, n_periods)
+        rows.append({"run": Path(capture).stem} | {f"{key} [nm]": value * 1e9 for key, value in audit.items()})
+        logger.info("%d/%d %s: offline vs logged HPO differ by at most %.3f nm", k, len(captures), capture,
+                    rows[-1]["max |offline − logged| [nm]"])
+    write_table(pd.DataFrame(rows), table, inputs=[*captures, gamma, observer], config={"n_periods": n_periods})
 
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(i.capture, i.gamma, i.observer, snakemake.output.report, snakemake.params.n_periods, snakemake.log[0])
+    main(list(i.capture), i.gamma, i.observer, snakemake.output.table, snakemake.params.n_periods, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("capture", "gamma", "observer", "report"):
+    for name in ("gamma", "observer", "table"):
         cli.add_argument(name)
+    cli.add_argument("captures", nargs="+")
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
     main(**vars(cli.parse_args()))

@@ -19,7 +19,8 @@ def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
     inputs = list(captures)
     for key, table in tables.items():
         write_table(table, out[key], inputs=inputs, config=None if key == "p3" else {"omega_c": omega_c})
-    for name, fig in ch6.figures_ch6(runs, tables["tracking"]).items():
+    window = ch6.p1_window(protocols["ch6_p1_closed"]) if "ch6_p1_closed" in protocols else float("inf")
+    for name, fig in ch6.figures_ch6(runs, tables["tracking"], window).items():
         save_figure(fig, out[name], inputs=inputs)
     logger.info("%d runs", len(runs))
 

@@ -1,43 +1,43 @@
-"""Rule `characterise`: one capture's stroke, gains, loop width, nonlinearity, creep (and with the
-current dx/dq and the q–U loop) → a table row (JSON) and the loop figure.
+"""Rule `characterise`: every capture of a dataset streamed once → the characterisation table (stroke,
+gains, loop width, nonlinearity, creep, and with the current dx/dq and the q–U loop), the
+manifest's actuator and sensors, and the loop figure's pages.
 
-Alone: python workflow/scripts/characterise.py raw/pi_p885/ch3_sine_10hz.nc row.json loop.png
+Alone: python workflow/scripts/characterise.py raw/<dataset>/dataset.yaml table.csv instruments.csv \
+    loops/ raw/<dataset>/*.nc
 """
 
 import argparse
 from pathlib import Path
 
+import pandas as pd
+
 from selfsense import characterise as ch
-from selfsense.capture import open_capture
-from selfsense.figures import placeholder
-from selfsense.provenance import provenance, save_figure, script_logging, write_json
+from selfsense.manifest import load_manifest
+from selfsense.provenance import save_figure, script_logging, write_table
 
 
-def main(capture, row, figure, settle_s=0.1, min_hold_s=1.0, log=None):
+def main(manifest, captures, table, instruments_table, figures, settle_s=0.1, min_hold_s=1.0, log=None):
     logger = script_logging(log)
-    name = Path(capture).stem
-    with open_capture(capture) as cap:
-        x = ch.displacement_channel(cap.channels)
-        if "U" not in cap.channels or x is None:
-            note = "no drive voltage U and displacement in this capture"
-            write_json(ch.row(name, {}, x, None, note) | {"provenance": provenance([capture])}, row)
-            save_figure(placeholder(name, note), figure, inputs=[capture])
-            logger.info("%s: %s", capture, note)
-            return
-        names = ["U", x] + (["I"] if "I" in cap.channels else [])
-        factor = ch.reduction_factor(cap.n)
-        reduced = ch.block_means(cap.iter_chunks(names, factor * (1 << 14)), cap.fs, factor)
-    measures = ch.characterise(reduced, x, settle_s, min_hold_s)
-    write_json(ch.row(name, measures, x, reduced.fs) | {"provenance": provenance([capture])}, row)
-    save_figure(ch.loop_figure(reduced, x, name), figure, inputs=[capture])
-    logger.info("%s: %s", capture, measures)
+    rows, loops = [], []
+    for k, capture in enumerate(captures, 1):
+        row, panels = ch.characterise_capture(capture, settle_s, min_hold_s)
+        rows.append(row)
+        loops += [panels] if panels else []
+        logger.info("%d/%d %s: %s", k, len(captures), capture, row)
+    Path(figures).mkdir(parents=True, exist_ok=True)
+    for k, fig in enumerate(ch.loop_pages(loops, Path(manifest).parent.name), 1):
+        save_figure(fig, Path(figures) / f"loops_{k:02d}.png", inputs=captures)
+    write_table(pd.DataFrame(rows, columns=ch.TABLE_COLUMNS), table, inputs=captures)
+    write_table(pd.DataFrame(ch.instruments(load_manifest(manifest)), columns=["item", "property", "value"]),
+                instruments_table, inputs=[manifest])
 
 
 if "snakemake" in globals():
-    main(snakemake.input.capture, snakemake.output.row, snakemake.output.figure, snakemake.params.settle_s,
-         snakemake.params.min_hold_s, snakemake.log[0])
+    i, o, p = snakemake.input, snakemake.output, snakemake.params
+    main(i.manifest, list(i.capture), o.table, o.instruments, o.figures, p.settle_s, p.min_hold_s, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
-    for arg in ("capture", "row", "figure"):
+    for arg in ("manifest", "table", "instruments_table", "figures"):
         cli.add_argument(arg)
+    cli.add_argument("captures", nargs="+")
     main(**vars(cli.parse_args()))

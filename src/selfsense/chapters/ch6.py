@@ -40,6 +40,11 @@ THESIS_TABLE_6_2 = {  # profile: {error: (µm, % of stroke)}
 }
 
 
+def p1_window(protocol: Mapping, tests: int = 2) -> float:
+    """The end [s] of P1's first ``tests`` tests: its warm-up and as many passes through a–h."""
+    return float(protocol.get("warmup", 0.0)) + tests * sum(s["duration"] for s in protocol["segments"])
+
+
 def load_run(path, protocol: Mapping) -> dict[str, np.ndarray | None]:
     """One run's means over one folded ripple period (the real-time loop's 4 kHz rate): U, x_laser
     (zeroed at the start), x_R (logged, else the protocol's) and, in closed loop, the logged x̂."""
@@ -69,11 +74,12 @@ def results(runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str
         warmup = float(protocol.get("warmup", 0.0))
         errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
         if name.startswith("ch6_p1_"):
-            ends = warmup + np.cumsum([s["duration"] for s in protocol["segments"]])
+            per_test = len(protocol["segments"])  # the recording holds the tests one after another
+            ends = warmup + np.cumsum([s["duration"] for s in protocol["segments"]] * int(protocol.get("repeat", 1)))
             starts = np.concatenate([[warmup], ends[:-1]])
             for key, maxima in segment_maxima(run["t"], errs, starts, ends, settle).items():
                 if key in p1:
-                    p1[key].append(maxima)
+                    p1[key] += [maxima[k:k + per_test] for k in range(0, len(maxima), per_test)]
             p1_stroke = max(p1_stroke, float(np.ptp(run["x_ref"])))
         elif name.startswith("ch6_p2"):
             profile = "P" + name.split("_")[1][1:]
@@ -173,22 +179,26 @@ def p3_summary(t: np.ndarray, open_run: Mapping[str, np.ndarray], closed_run: Ma
 FIGURES = figure_names.CH6
 
 
-def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataFrame) -> dict:
+def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataFrame,
+                p1_window: float = np.inf) -> dict:
     """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}}); a
-    figure whose runs are missing is left out."""
+    figure whose runs are missing is left out. P1's figures end at ``p1_window`` [s]."""
     from .. import figures
 
     built = []
-    p1o, p1c = runs.get("ch6_p1_open_s1"), runs.get("ch6_p1_closed_s1")
+    p1o, p1c = runs.get("ch6_p1_open"), runs.get("ch6_p1_closed")
     p1 = p1o is not None and p1c is not None
+    if p1:  # the first two of the recording's tests: fifty would hide the minor loops
+        shown = p1c["t"] < p1_window
+        p1o, p1c = ({k: None if v is None else v[shown] for k, v in r.items()} for r in (p1o, p1c))
     built.append(figures.time_traces(p1c["t"], [(p1c["x_ref"] * 1e6, "x_R [µm]"),
                                                 (p1c["x_laser"] * 1e6, "x closed loop [µm]"),
                                                 (p1o["x_laser"] * 1e6, "x open loop [µm]")],
-                                     "P1: steps with minor loops (segments a–h)") if p1 else None)
+                                     "P1: steps with minor loops (segments a–h), first two tests") if p1 else None)
     built.append(figures.time_traces(p1c["t"], [((p1o["x_ref"] - p1o["x_laser"]) * 1e6, "ε_TOL [µm]"),
                                                 ((p1c["x_ref"] - p1c["x_laser"]) * 1e6, "ε_TCL [µm]"),
                                                 ((p1c["x_laser"] - p1c["x_hat"]) * 1e6, "ε_OCL [µm]")],
-                                     "P1 errors, open and closed loop") if p1 else None)
+                                     "P1 errors, open and closed loop, first two tests") if p1 else None)
     for p in ("p2a", "p2b", "p2c", "p2d"):
         o, c = runs.get(f"ch6_{p}_open"), runs.get(f"ch6_{p}_closed")
         built.append(None if o is None or c is None else
