@@ -1,7 +1,7 @@
 """Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
-    .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh] [--skip-hot] [--skip-dag]
-                                       [--skip-stream]
+    .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
+                                       [--keep-results DIR]] [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
 - hot paths: the twin kernel (samples/s per core), a whole simulated capture (samples/s), capture
@@ -320,10 +320,11 @@ def bench_dag(config):
         noop_dry_run(snakemake, repo)
 
 
-def bench_fresh_clone(config):
+def bench_fresh_clone(config, keep_results=None, warm=True):
     """The README's first command as a new user runs it: a new clone of the committed HEAD, a new
     venv with the pinned packages, `snakemake --cores 2` (no bytecode, no numba cache); then the
-    same clone again from nothing but with its venv and caches (warm)."""
+    same clone again from nothing but with its venv and caches (warm). ``keep_results``: a folder
+    that gets the fresh run's results/ (for compare_results.py)."""
     with tempfile.TemporaryDirectory() as tmp:
         repo = Path(tmp) / "repo"
         subprocess.run(["git", "clone", "--quiet", str(ROOT), str(repo)], check=True)
@@ -336,6 +337,12 @@ def bench_fresh_clone(config):
         snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
         fresh, peak = run_sampled(snakemake, repo)
         report_dag("fresh clone", repo, python, config, fresh, peak)
+        if keep_results:
+            shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
+        if not warm:
+            print(f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
+                  f"(README's first command {install + fresh:.0f} s)")
+            return
         # outputs, captures and logs go; the venv, bytecode and numba's cache (src/**/__pycache__) stay
         subprocess.run(["git", "clean", "-fdxq", "-e", ".venv", "-e", "__pycache__"], cwd=repo, check=True)
         warm, peak = run_sampled(snakemake, repo)
@@ -354,6 +361,8 @@ def main():
     cli.add_argument("--fresh", action="store_true",
                      help="run the DAG part from a new clone of HEAD with a new venv, then warm in that clone")
     cli.add_argument("--skip-stream", action="store_true", help="skip the streaming peak memories")
+    cli.add_argument("--no-warm", action="store_true", help="with --fresh: skip the warm run in the clone")
+    cli.add_argument("--keep-results", metavar="DIR", help="with --fresh: copy the fresh run's results/ to DIR")
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {mem:.0f} GiB, python "
@@ -365,7 +374,10 @@ def main():
             bench_ripple_and_hpo(path)
     if not args.skip_dag:
         for config in args.configs:
-            (bench_fresh_clone if args.fresh else bench_dag)(config)
+            if args.fresh:
+                bench_fresh_clone(config, args.keep_results, not args.no_warm)
+            else:
+                bench_dag(config)
     if not args.skip_stream:
         with tempfile.TemporaryDirectory() as tmp:
             bench_streaming(args.seconds, Path(tmp))
