@@ -6,12 +6,23 @@ One object serves the offline analysis of captures and the real-time loop inside
 
 from __future__ import annotations
 
+from typing import Iterable, Mapping, NamedTuple
+
 import numpy as np
 
 from .capture import open_capture
 from .gamma import GammaPolynomial
 from .observer import HPOGains, HybridPositionObserver
 from .ripple import RippleExtractor, SamplingPlan, plan_from_capture
+
+
+class LaserChunk(NamedTuple):
+    """One chunk of a capture through the chain, beside the laser (:meth:`SelfSensingChain.against_laser`)."""
+
+    start: int  # global index of the chunk's first sample
+    t: np.ndarray  # sample times [s]
+    x_laser: np.ndarray  # laser position relative to the capture's first laser sample [m]
+    out: dict[str, np.ndarray]  # SelfSensingChain.process's outputs
 
 
 class SelfSensingChain:
@@ -34,7 +45,8 @@ class SelfSensingChain:
         self.masked_windows = 0
 
     def process(self, ur: np.ndarray, ir: np.ndarray, current: np.ndarray) -> dict[str, np.ndarray]:
-        """One chunk: returns per-sample x̂ (x_hat), held x_CP (x_cp) and Î0 (i0_hat)."""
+        """One chunk: returns per-sample x̂ (x_hat), held x_CP (x_cp), Î0 (i0_hat) and the current the
+        observer was fed (current: NaN samples zeroed)."""
         blocks = self.extractor.process(ur, ir)
         x_cp = self.gamma.predict(blocks.C_e, self.temperature)
         good = np.isfinite(x_cp)
@@ -50,7 +62,21 @@ class SelfSensingChain:
         current = np.where(np.isfinite(current), current, 0.0)
         x_hat, i0_hat = self.observer.step_full(current, held)
         self.n += len(ur)
-        return {"x_hat": x_hat, "x_cp": held, "i0_hat": i0_hat}
+        return {"x_hat": x_hat, "x_cp": held, "i0_hat": i0_hat, "current": current}
+
+    def against_laser(self, chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]]) -> Iterable[LaserChunk]:
+        """Stream a capture's ``(start, channels)`` chunks (Ur, Ir, I, x_laser) through the chain.
+
+        The laser is taken relative to its first sample, the zero the observer starts from: every
+        offline evaluation of x̂ against the laser pairs them here, so they count the same error.
+        """
+        x0 = None
+        for start, data in chunks:
+            out = self.process(data["Ur"], data["Ir"], data["I"])
+            if x0 is None:
+                x0 = float(data["x_laser"][0])
+            x = data["x_laser"] - x0
+            yield LaserChunk(start, (start + np.arange(len(x))) / self.observer.fs, x, out)
 
 
 def audit_realtime(capture, gamma: GammaPolynomial, gains: HPOGains, n_periods: int) -> dict[str, float]:

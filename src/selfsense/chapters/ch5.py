@@ -132,13 +132,8 @@ def run_observer(chunks, plan: SamplingPlan, gamma: GammaPolynomial, gains: HPOG
     """
     chain = SelfSensingChain(plan, gamma, gains, fs)
     keep = {k: [] for k in ("time", "x_laser", "x_hat", "x_cp", "i0_hat")}
-    err_max, x_min, x_max, x0 = 0.0, np.inf, -np.inf, None
-    for start, data in chunks:
-        out = chain.process(data["Ur"], data["Ir"], data["I"])
-        if x0 is None:
-            x0 = float(data["x_laser"][0])
-        x = data["x_laser"] - x0
-        t = (start + np.arange(len(x))) / fs
+    err_max, x_min, x_max = 0.0, np.inf, -np.inf
+    for start, t, x, out in chain.against_laser(chunks):
         after = t >= settle_s
         if after.any():
             err_max = max(err_max, float(np.nanmax(np.abs(out["x_hat"][after] - x[after]))))
