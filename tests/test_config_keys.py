@@ -20,7 +20,7 @@ SMOKE = ROOT / "tests" / "config" / "smoke.yaml"
 USES = {
     "ripple.n_periods": (5, {"extract_ripple", "ce_recovery", "gamma_fit", "observe", "observer_study",
                              "ch5_figures", "simulate_closed_loop", "audit_realtime", "thermal_extract",
-                             "estimator_diagram", "coupled"}),
+                             "estimator_diagram", "coupled", "error_budget"}),
     "ripple.np_sweep": ([1, 2, 4], {"ce_np_study"}),
     "gamma.orders": ([3, 4], {"gamma_fit", "ch5_figures"}),
     "observer.omega_s": (3.0, {"charge_sensing"}),

@@ -18,6 +18,8 @@ CH5 = ("fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_
        "fig_5_13", "fig_5_14")
 #: the observer study's figure (``ch5.observer_study``)
 CH5_STUDY = "fig_5_observer_study"
+#: the observer's error budget against the twin's truth (``figures.error_budget``)
+CH5_BUDGET = "fig_5_error_budget"
 #: Figures 6.2–6.8 of ``ch6.figures_ch6``
 CH6 = ("fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8")
 #: the figures ``ch7.thermal_identification`` builds, in its order

@@ -189,6 +189,26 @@ def observer_study(table):
     return fig
 
 
+def error_budget(table, sources):
+    """The observer's error budget: per run, the rms of each source stacked, with the error's rms
+    and max marked (stacked rms exceed the total's where sources cancel: the cross terms)."""
+    fig, ax = _fig()
+    runs = np.arange(len(table))
+    bottom = np.zeros(len(table))
+    for source in sources:
+        height = table[f"{source} rms [µm]"].to_numpy()
+        ax.bar(runs, height, 0.6, bottom=bottom, label=source)
+        bottom += height
+    ax.plot(runs, table["total rms [µm]"], "k_", ms=22, mew=2, label="error rms")
+    ax.plot(runs, table["total max error [µm]"], "kv", label="error max (Table 5.4)")
+    labels = [f"{f:g} Hz" if np.isfinite(f) else run for run, f in zip(table["run"], table["frequency [Hz]"])]
+    ax.set_xticks(runs, labels, rotation=20)
+    ax.set(ylabel="rms over the run [µm]", title="Observer error budget against the twin's truth")
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, ncols=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    return fig
+
+
 def magnitude_plot(freqs_hz, curves: dict, title):
     """Fig 5.10: magnitude of transfer functions [dB] against frequency."""
     fig, ax = _fig()

@@ -1,7 +1,8 @@
 # Stage "observer" (thesis Chapter 5): charge self-sensing a0, the hybrid position observer,
 # Tables 5.3–5.4, Figures 5.1–5.14, and the frequency response x/q of Fig 5.3.
 
-from selfsense.figure_names import CH5 as CH5_FIGURES, CH5_STUDY as OBSERVER_STUDY_FIGURE, CH5_SWEEP as FREQUENCY_RESPONSE_FIGURE
+from selfsense.figure_names import CH5 as CH5_FIGURES, CH5_BUDGET as ERROR_BUDGET_FIGURE, CH5_STUDY as OBSERVER_STUDY_FIGURE
+from selfsense.figure_names import CH5_SWEEP as FREQUENCY_RESPONSE_FIGURE
 
 TABLE_5_4_HZ = (0.01, 0.1, 1.0, 10.0, 50.0, 100.0)
 
@@ -10,6 +11,9 @@ CHARGE_SINES = {d: {f: e for f, e in sines(d, "ch5_sine_").items() if f >= 10} f
 
 #: {frequency [Hz]: experiment} of the sines the observer is evaluated on (Table 5.4)
 OBSERVED_SINES = {d: {f: e for f, e in sines(d, "ch5_sine_").items() if f in TABLE_5_4_HZ} for d in DATASETS}
+
+#: {experiment: Table 5.4 frequency [Hz], None for the creep run} of every open-loop run the observer is evaluated on
+OBSERVED_RUNS = {d: {e: f for f, e in OBSERVED_SINES[d].items()} | {"ch5_creep": None} for d in DATASETS}
 
 OBSERVER_DATASETS = [d for d in GAMMA_DATASETS if CHARGE_SINES[d] and "ch5_creep" in EXPERIMENTS[d]
                      and len(OBSERVED_SINES[d]) == len(TABLE_5_4_HZ)]
@@ -123,6 +127,32 @@ rule observer_study:
         "../scripts/observer_study.py"
 
 
+rule error_budget:
+    """The observer's error of Table 5.4 split into its sources with the twin's truth (verification)."""
+    input:
+        unpack(lambda w: captures(w.dataset, captures=list(OBSERVED_RUNS[w.dataset]))),
+        gamma="results/{dataset}/ch5/gamma.json",
+        observer="results/{dataset}/ch5/observer.json",
+        library=library_sources("error_budget"),
+    output:
+        table=report("results/{dataset}/twin/error_budget.csv", caption="../report/error_budget.rst",
+                     category="{dataset}", subcategory="Twin validation"),
+        figure=report_figure(ERROR_BUDGET_FIGURE, "Twin validation"),
+    params:
+        frequencies=lambda w: list(OBSERVED_RUNS[w.dataset].values()),
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/error_budget.log",
+    benchmark:
+        "benchmarks/out/{dataset}/error_budget.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/error_budget.py"
+
+
 rule ch5_figures:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14."""
     input:
@@ -184,4 +214,5 @@ OBSERVER_OUTPUTS = (
     expand(rules.frequency_response.output, dataset=FREQUENCY_RESPONSE_DATASETS)
     + expand([*rules.charge_sensing.output, *rules.ch5_tables.output, *rules.observer_study.output,
               *rules.ch5_figures.output], dataset=OBSERVER_DATASETS)
+    + expand(rules.error_budget.output, dataset=[d for d in OBSERVER_DATASETS if d in SIMULATED])  # reads /truth
 )

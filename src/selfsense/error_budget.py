@@ -1,0 +1,202 @@
+"""The observer's error budget: its error against the laser split into sources with the twin's truth.
+
+A verification step, like :mod:`selfsense.recovery`: it needs a simulated capture's ``/truth``
+group (noiseless x, q, C_P and the probe offset I_0), so it runs on the twin's datasets only.
+
+Why the error splits exactly
+----------------------------
+The hybrid position observer (Fig 5.9) is linear in its two inputs, the measured current I and
+the held capacitance estimate x_CP = Γ(C_e) (Eq 5.4). With x_I = ∫I dt / a0 (Eq 5.3, the
+trapezoidal sum in the Tustin discretisation) it is the complementary pair of Eq 5.6 and 5.8,
+x̂ = H_I·x_I + H_CP·x_CP with H_I + H_CP = 1 (the bilinear map keeps the identity in z). For any
+true position x, then, H_I·x + H_CP·x = x, and the error against the laser (Table 5.4) is
+
+    x̂ − x_laser = H_I·(x_I − x) + H_CP·(x_CP − x) − (x_laser − x).
+
+Each difference is split once more at a truth signal, giving the six sources of :data:`SOURCES`
+(signed, in metres, their sum the error sample by sample):
+
+* ``probe offset``  H_I·(∫I_0 dt / a0) = (x̂/I_0)·I_0 (Eq 5.7): the true probe offset I_0 and its
+  drift, as far as the offset estimator Î_0 (Eq 5.5) has not yet absorbed it;
+* ``current noise`` H_I·(∫(I − I_0) dt / a0 − q/a0): everything else in the measured current that
+  is not the stack's charge — the probe's noise, the 100 kHz ripple current (folded onto fs/ns),
+  ADC quantisation — and the trapezoidal rule's error against the true charge q;
+* ``q–x map``       H_I·(q/a0 − x): the q–x hysteresis and the error of the identified a0;
+* ``C_e estimate``  H_CP·(Γ(C_e) − Γ(C_P)): the ripple estimator's noise, its window and hold lag
+  (Eq 3.6–3.13) and any bias against the true clamped capacitance C_P, through Γ;
+* ``Γ map``         H_CP·(Γ(C_P) − x): the fit error of Γ (Eq 5.4) and the C–x hysteresis;
+* ``laser``         −(x_laser − x): the laser's noise, its drift and the zero it is read from
+  (its first sample, as Table 5.4 reads it).
+
+Each term is the library's own streaming observer (:class:`HybridPositionObserver`, same gains,
+rate and discretisation as the chain's) run on that term's difference signal from a zero state;
+H_I·s is run as s − H_CP·s. The parts add up to the chain's error by linearity alone: rounding
+aside, the sum is exact whatever the truth, while which part a given effect lands in depends on
+the truth being right. The truth is stored every ``decimation``-th sample; it is interpolated to
+each sample by a 4-point cubic (:meth:`Truth.at`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterable, Mapping
+
+import numpy as np
+
+from .gamma import GammaPolynomial
+from .observer import HPOGains, HybridPositionObserver
+from .ripple import SamplingPlan
+from .selfsensing import SelfSensingChain
+
+#: the sources of the error, in the order of the docstring (current path, then capacitance path)
+SOURCES = ("probe offset", "current noise", "q–x map", "C_e estimate", "Γ map", "laser")
+
+#: the /truth states the budget reads
+TRUTH_STATES = ("x", "q", "C_P", "I_offset")
+
+
+@dataclass(frozen=True, eq=False)
+class Truth:
+    """The twin's noiseless states of one capture, stored every ``decimation``-th sample.
+
+    ``source`` names the capture in error messages; ``n_samples`` is the capture's length, which the
+    states must cover.
+    """
+
+    states: Mapping[str, np.ndarray]
+    decimation: int
+    n_samples: int
+    source: str = "capture"
+    _values: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        missing = [s for s in TRUTH_STATES if s not in self.states]
+        if missing:
+            raise ValueError(f"{self.source}: /truth lacks the state(s) {', '.join(missing)}")
+        if int(self.decimation) < 1:
+            raise ValueError(f"{self.source}: /truth decimation must be >= 1, got {self.decimation!r}")
+        values = np.array([np.asarray(self.states[s], dtype=np.float64) for s in TRUTH_STATES])
+        needed = -(-int(self.n_samples) // int(self.decimation))
+        if values.shape[1] < needed:
+            raise ValueError(f"{self.source}: /truth has {values.shape[1]} values, the capture's "
+                             f"{self.n_samples} samples at decimation {self.decimation} need {needed}")
+        if not np.isfinite(values[:, :needed]).all():
+            raise ValueError(f"{self.source}: /truth has non-finite values")
+        object.__setattr__(self, "_values", values)
+
+    @classmethod
+    def from_group(cls, attrs: Mapping[str, object], states: Mapping[str, np.ndarray], n_samples: int,
+                   source: str = "capture") -> "Truth":
+        """From :meth:`selfsense.capture.Capture.read_truth`'s (attributes, states)."""
+        if "decimation" not in attrs:
+            raise ValueError(f"{source}: /truth has no decimation attribute")
+        return cls(states, int(attrs["decimation"]), int(n_samples), source)
+
+    def at(self, index: np.ndarray) -> dict[str, np.ndarray]:
+        """Each state at the global sample indices ``index``.
+
+        A 4-point cubic through the stored values: linear interpolation would be off by
+        (ωΔ)²/8 of the amplitude, 50 nm on the 100 Hz sine at 4 kHz, the size of the laser's noise;
+        the cubic's (ωΔ)⁴/43 is below 1 nm. Ends use the nearest values.
+        """
+        u = np.asarray(index, dtype=np.float64) / self.decimation
+        i = np.floor(u).astype(np.int64)
+        s = u - i
+        weights = ((-s * (s - 1) * (s - 2) / 6), ((s + 1) * (s - 1) * (s - 2) / 2),
+                   (-(s + 1) * s * (s - 2) / 2), ((s + 1) * s * (s - 1) / 6))
+        last = self._values.shape[1] - 1
+        out = sum(w * self._values[:, np.clip(i + k, 0, last)] for k, w in zip((-1, 0, 1, 2), weights))
+        return dict(zip(TRUTH_STATES, out))
+
+
+class Superposition:
+    """The observer run once per source on that source's difference signal (module docstring).
+
+    Every path is a :class:`HybridPositionObserver` with ``observer``'s gains, rate and
+    discretisation, starting from the zero state the chain's observer starts from, so that the
+    paths add up to the chain's x̂ by linearity. State carries from chunk to chunk.
+    """
+
+    def __init__(self, observer: HybridPositionObserver):
+        self._paths = {name: HybridPositionObserver(observer.gains, observer.fs, observer.method)
+                       for name in SOURCES[:5]}
+
+    def split(self, current: np.ndarray, x_cp: np.ndarray, x_laser: np.ndarray, x: np.ndarray,
+              x_charge: np.ndarray, x_capacitance: np.ndarray, offset: np.ndarray) -> dict[str, np.ndarray]:
+        """One chunk's sources [m]: ``current`` [A] and ``x_cp`` [m] as the chain fed its observer,
+        ``x_laser`` as Table 5.4 reads it; the truth: position ``x``, q/a0 (``x_charge``), Γ(C_P)
+        (``x_capacitance``) and the probe offset I_0 (``offset``, A)."""
+        zero = np.zeros_like(x)
+        charge = x_charge - x
+        return {
+            "probe offset": self._paths["probe offset"].step(offset, zero),
+            # x̂(I − I_0, q/a0) − q/a0 = H_I·(x_I − x_I0 − q/a0)
+            "current noise": self._paths["current noise"].step(current - offset, x_charge) - x_charge,
+            "q–x map": charge - self._paths["q–x map"].step(zero, charge),
+            "C_e estimate": self._paths["C_e estimate"].step(zero, x_cp - x_capacitance),
+            "Γ map": self._paths["Γ map"].step(zero, x_capacitance - x),
+            "laser": x - x_laser,
+        }
+
+
+@dataclass
+class BudgetStats:
+    """Streaming statistics of the error and its sources over the samples counted (Table 5.4's)."""
+
+    n: int = 0
+    total_sq: float = 0.0
+    total_max: float = 0.0
+    total_at_max: float = 0.0
+    time_of_max: float = float("nan")
+    closure: float = 0.0
+    sq: dict[str, float] = field(default_factory=lambda: dict.fromkeys(SOURCES, 0.0))
+    peak: dict[str, float] = field(default_factory=lambda: dict.fromkeys(SOURCES, 0.0))
+    at_max: dict[str, float] = field(default_factory=lambda: dict.fromkeys(SOURCES, float("nan")))
+
+    def add(self, t: np.ndarray, total: np.ndarray, parts: Mapping[str, np.ndarray], counted: np.ndarray) -> None:
+        """One chunk: ``total`` = x̂ − x_laser, its ``parts``, ``counted`` the samples that count."""
+        keep = counted & np.isfinite(total)  # a NaN laser sample counts nowhere, as in Table 5.4
+        if not keep.any():
+            return
+        e, p = total[keep], {s: parts[s][keep] for s in SOURCES}
+        self.n += e.size
+        self.total_sq += float(np.sum(e * e))
+        self.closure = max(self.closure, float(np.max(np.abs(sum(p.values()) - e))))
+        for s in SOURCES:
+            self.sq[s] += float(np.sum(p[s] * p[s]))
+            self.peak[s] = max(self.peak[s], float(np.max(np.abs(p[s]))))
+        k = int(np.argmax(np.abs(e)))
+        if abs(e[k]) > self.total_max:
+            self.total_max, self.total_at_max, self.time_of_max = float(abs(e[k])), float(e[k]), float(t[keep][k])
+            self.at_max = {s: float(p[s][k]) for s in SOURCES}
+
+    def row(self) -> dict[str, float]:
+        """The run's budget in µm (shares of the error's mean square, with the cross terms between
+        sources, which make the shares add up to 1)."""
+        um, n, ms = 1e6, max(self.n, 1), self.total_sq / max(self.n, 1)
+        share = {s: self.sq[s] / n / ms if ms > 0 else float("nan") for s in SOURCES}
+        row = {"total max error [µm]": self.total_max * um, "total rms [µm]": np.sqrt(ms) * um,
+               "total at max [µm]": self.total_at_max * um, "time of max [s]": self.time_of_max}
+        for s in SOURCES:
+            row |= {f"{s} rms [µm]": np.sqrt(self.sq[s] / n) * um, f"{s} max [µm]": self.peak[s] * um,
+                    f"{s} at total max [µm]": self.at_max[s] * um, f"{s} share of mean square": share[s]}
+        return row | {"cross terms share of mean square": 1.0 - sum(share.values()),
+                      "max |sum of sources − total| [µm]": self.closure * um, "samples": self.n}
+
+
+def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: SamplingPlan, gamma: GammaPolynomial,
+               gains: HPOGains, fs: float, settle_s: float, truth: Truth) -> dict[str, float]:
+    """One capture's error budget: the self-sensing chain streamed as for Table 5.4 (same chain,
+    same laser zero, samples after the warm-up ``settle_s``), each chunk split into its sources.
+
+    Returns :meth:`BudgetStats.row`; its "total max error [µm]" is Table 5.4's "max error [µm]".
+    """
+    chain = SelfSensingChain(plan, gamma, gains, fs)
+    paths, stats = Superposition(chain.observer), BudgetStats()
+    for start, t, x_laser, out in chain.against_laser(chunks):
+        true = truth.at(start + np.arange(len(t)))
+        parts = paths.split(out["current"], out["x_cp"], x_laser, true["x"], true["q"] / gains.a0,
+                            chain.gamma.predict(true["C_P"], chain.temperature), true["I_offset"])
+        stats.add(t, out["x_hat"] - x_laser, parts, t >= settle_s)
+    return stats.row()
+
