@@ -151,9 +151,11 @@ def test_frequency_response_of_fig_5_3(smoke_run):
 
 def test_chapter_6_realtime_audit_and_tables(smoke_run):
     audit = pd.read_csv(smoke_run / "results/pi_p885/ch6/audit.csv")
-    assert len(audit) >= 7 and (audit["max |offline − logged| [nm]"] <= 1.0).all()
+    closed_loop = sorted(p.stem for p in (smoke_run / "raw/pi_p885").glob("*_closed*.nc"))
+    assert sorted(audit["run"]) == closed_loop and (audit["max |offline − logged| [nm]"] <= 1.0).all()
     t61 = pd.read_csv(smoke_run / "results/pi_p885/ch6/table_6_1.csv")
     assert set(t61["error"]) == {"e_TOL", "e_TCL", "e_OCL"}
+    assert (t61["tests"] == 2).all()  # the smoke campaign's P1 recording holds two tests
     t62 = pd.read_csv(smoke_run / "results/pi_p885/ch6/table_6_2.csv")
     assert set(t62["profile"]) == {"P2a", "P2b", "P2c", "P2d"}
     p2b = t62[(t62["profile"] == "P2b") & (t62["error"] == "e_CCL")]["max [µm]"].iloc[0]
