@@ -192,6 +192,7 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
         ids = [t.id for t in search.targets]
         start = {n: getattr(getattr(params, n.split(".")[0]), n.split(".")[1]) for n in chosen}
         u0 = search.point(start)
+
         def measured(values):
             """The table at ``values`` on the dataset's seed, and each value's spread over the seeds."""
             table = search.table(values)
