@@ -21,6 +21,7 @@ include: "workflow/rules/powerloss.smk"
 include: "workflow/rules/characterise.smk"
 include: "workflow/rules/stages.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/twin.smk"
 
 
 rule all:
@@ -36,4 +37,5 @@ rule all:
         CHARACTERISE_OUTPUTS,
         STAGE_PLAN_OUTPUTS,
         REPORT_OUTPUTS,
+        TWIN_OUTPUTS,
     default_target: True

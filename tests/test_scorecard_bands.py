@@ -6,6 +6,7 @@ import re
 
 import pytest
 
+from selfsense.calibration import load_targets
 from selfsense.manifest import load_yaml
 from selfsense.scorecard import band, last_digit, parse_registry
 
@@ -84,11 +85,15 @@ def test_every_rule_is_used_and_every_own_band_is_for_one_reason(registry, rules
 
 def test_only_emergent_numbers_are_counted_as_reproductions(registry):
     """Numbers that hold by construction are labelled so: every closed-form band is of a closed
-    form, the twin's inputs are recovery, and the calibration signatures are named."""
+    form, the twin's inputs are recovery, and every number a calibration signature of the twin
+    reads (workflow/twin_calibration.yaml) is calibration, with the strokes and k/α they set."""
     assert {e.kind for e in registry if e.band.name == "twin input"} == {"recovery"}
-    calibration = {(e.source, e.quantity) for e in registry if e.kind == "calibration"}
-    assert ("Table 6.2", "P2a, ε_TOL, % of stroke") in calibration
-    assert ("Chapter 7 results, self-heating", "steady temperature at 100 V, 100 Hz") in calibration
+    calibration = {e.locate for e in registry if e.kind == "calibration" and e.model == "stack"}
+    signatures = {t.locate for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets}
+    assert signatures <= calibration, signatures - calibration
+    stack = [e for e in registry if e.model == "stack"]
+    assert {e.kind for e in stack if e.source == "Table 5.4" and e.quantity.startswith("max stroke")} == {"calibration"}
+    assert {e.kind for e in stack if e.quantity == "k/α"} == {"calibration"}
     assert all(e.section == "twin recovery" or e.published is not None for e in registry)
     assert not [e for e in registry if e.section == "twin recovery" and e.kind != "recovery"]
 

@@ -80,14 +80,14 @@ def identify(series: Mapping[str, Mapping[str, np.ndarray]], props: ThermalPrope
         rows.append({"run": name, "tau [s]": fit.tau, "gamma [K/W]": fit.gamma,
                      "k_T from tau [W/(m² K)]": fit.k_T_from_tau, "k_T from gamma [W/(m² K)]": fit.k_T_from_gamma,
                      "R²": fit.r_squared, "max |T − fit| [K]": fit.residual_max,
-                     "heating power [W]": _heating_power(s["P_PS"]),
+                     "heating power [W]": heating_power(s["P_PS"]),
                      "max rise [K]": float(np.max(s["T_mid"]) - fit.T_amb),
                      "T_amb [°C]": fit.T_amb, "U_max [V]": s.get("U_max", np.nan), "x_max [m]": s.get("x_max", np.nan),
                      "note": ""})
     return pd.DataFrame(rows), fits
 
 
-def _heating_power(P: np.ndarray) -> float:
+def heating_power(P: np.ndarray) -> float:
     """Mean loss power while the drive heats (the cooling stretch at 0 V carries none)."""
     return float(np.mean(P[P > 0.5 * np.max(P)]))
 

@@ -1,0 +1,35 @@
+"""Rule `twin_calibration`: the twin's calibration signatures read from the pipeline's own tables,
+beside the thesis's values and their bands (workflow/twin_calibration.yaml).
+
+Alone: python workflow/scripts/twin_calibration.py workflow/twin_calibration.yaml results/pi_p885 out.csv
+(reads whichever of the targets' tables exist under the results folder)
+"""
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.calibration import calibration_table, load_targets
+from selfsense.provenance import script_logging, write_table
+
+
+def main(targets, results_dir, table, tables=None, log=None):
+    logger = script_logging(log)
+    calibration = load_targets(targets)
+    if tables is None:  # run alone: the targets' tables that exist
+        tables = [p for t in calibration.tables() if (p := Path(results_dir) / t).exists()]
+    read = {Path(t).relative_to(results_dir).as_posix(): pd.read_csv(t) for t in tables}
+    result = calibration_table(calibration.targets, read)
+    write_table(result, table, inputs=[targets, *map(str, tables)])
+    logger.info("\n%s", result[["signature", "thesis value", "twin value", "within", "note"]].to_string())
+
+
+if "snakemake" in globals():
+    main(snakemake.input.targets, snakemake.params.results_dir, snakemake.output.table, list(snakemake.input.tables),
+         snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("targets", "results_dir", "table"):
+        cli.add_argument(name)
+    main(**vars(cli.parse_args()))
