@@ -220,6 +220,12 @@ class Experiment:
     compensation: Mapping[str, Any] | None = None
 
 
+def protocol_duration(protocol: Mapping[str, Any]) -> float:
+    """How long a protocol drives the bench [s]: its warm-up, then its segments ``repeat`` times."""
+    per_pass = sum(float(segment["duration"]) for segment in protocol["segments"])
+    return float(protocol.get("warmup", 0.0)) + int(protocol.get("repeat", 1)) * per_pass
+
+
 def expand_protocols(protocol_names: list[str], campaign: str,
                      directory: str | Path = PROTOCOLS) -> dict[str, Experiment]:
     """The experiment catalogue for a campaign: sets expanded to <name>_s<k>, smoke overrides applied."""

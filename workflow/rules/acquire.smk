@@ -4,6 +4,13 @@
 # check_capture validates them.
 
 
+def capture_samples(dataset, experiment):
+    """A simulated capture's length in samples. The longest are simulated first (rule priority):
+    started last, one of them would keep a core busy alone at the end of the run."""
+    protocol = EXPERIMENTS[dataset][experiment].protocol
+    return int(protocol_duration(protocol) * DATASETS[dataset]["daq"]["fs"])
+
+
 if SIMULATED:
 
     rule simulate:
@@ -30,6 +37,7 @@ if SIMULATED:
         resources:
             mem_mb=config["resources"]["simulate_mem_mb"],
             runtime=60,
+        priority: lambda w: capture_samples(w.dataset, w.experiment) // 1000
         script:
             "../scripts/simulate.py"
 

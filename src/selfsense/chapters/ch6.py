@@ -14,6 +14,7 @@ import pandas as pd
 from .. import figure_names
 from ..capture import open_capture
 from ..control import IntegralController, tracking_prediction
+from ..manifest import protocol_duration
 from ..ripple import WindowMeans, plan_from_capture
 from ..twin.drive import drive_from_protocol
 
@@ -42,7 +43,7 @@ THESIS_TABLE_6_2 = {  # profile: {error: (µm, % of stroke)}
 
 def p1_window(protocol: Mapping, tests: int = 2) -> float:
     """The end [s] of P1's first ``tests`` tests: its warm-up and as many passes through a–h."""
-    return float(protocol.get("warmup", 0.0)) + tests * sum(s["duration"] for s in protocol["segments"])
+    return protocol_duration(dict(protocol, repeat=tests))
 
 
 def load_run(path, protocol: Mapping) -> dict[str, np.ndarray | None]:
