@@ -15,12 +15,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Mapping, Sequence
+from typing import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
 from .capture import open_capture
-from .figures import UF, UM, loop_grid, placeholder
+from .figures import UF, UM, loop_grid, placeholder, plt  # plt: after figures has chosen the Agg backend
 from .metrics import branch_gap, branch_means, direction
 
 #: displacement channels of the contract, in order of preference
@@ -237,11 +237,13 @@ def characterise_capture(path, settle_s: float, min_hold_s: float) -> tuple[dict
     return row(name, characterise(reduced, x, settle_s, min_hold_s), x, reduced.fs), loop_panels(reduced, x, name)
 
 
-def loop_pages(captures: Sequence[LoopPanels], title: str, per_page: int = LOOPS_PER_PAGE) -> list:
+def loop_pages(captures: Sequence[LoopPanels], title: str, per_page: int = LOOPS_PER_PAGE) -> Iterator:
     """The dataset's loop figure, ``per_page`` captures a page (one row each); a page that says
-    so when no capture has U and a displacement."""
-    if not captures:
-        return [placeholder(title, "no capture records a drive voltage U and a displacement")]
+    so when no capture has U and a displacement. One page at a time, closed once the caller asks
+    for the next: a lab's dataset may have hundreds of captures."""
     pages = [captures[k:k + per_page] for k in range(0, len(captures), per_page)]
-    return [loop_grid([(c.name, c.panels) for c in page], f"{title} ({k} of {len(pages)})")
-            for k, page in enumerate(pages, 1)]
+    figures = (loop_grid([(c.name, c.panels) for c in page], f"{title} ({k} of {len(pages)})")
+               for k, page in enumerate(pages, 1))
+    for fig in figures if pages else [placeholder(title, "no capture records a drive voltage U and a displacement")]:
+        yield fig
+        plt.close(fig)
