@@ -72,9 +72,9 @@ def results(runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str
     rows62, p1_stroke = [], 0.0
     for name, run in runs.items():
         protocol, closed = protocols[name], controls[name] == "closed_loop"
-        warmup = float(protocol.get("warmup", 0.0))
-        errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
         if name.startswith("ch6_p1_"):
+            warmup = float(protocol.get("warmup", 0.0))
+            errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
             per_test = len(protocol["segments"])  # the recording holds the tests one after another
             ends = warmup + np.cumsum([s["duration"] for s in protocol["segments"]] * int(protocol.get("repeat", 1)))
             starts = np.concatenate([[warmup], ends[:-1]])
@@ -83,8 +83,7 @@ def results(runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str
                     p1[key] += [maxima[k:k + per_test] for k in range(0, len(maxima), per_test)]
             p1_stroke = max(p1_stroke, float(np.ptp(run["x_ref"])))
         elif name.startswith("ch6_p2"):
-            profile = "P" + name.split("_")[1][1:]
-            rows62 += profile_errors(profile, run["t"], errs, float(np.ptp(run["x_ref"])), warmup + settle)
+            rows62 += p2_rows(name, run, protocol, closed, omega_c)
     p3o, p3c, p3 = runs["ch6_p3_open"], runs["ch6_p3_closed"], protocols["ch6_p3_closed"]
     hold = float(p3.get("warmup", 0.0)) + p3["segments"][0]["duration"]
     t61 = table_6_1(p1)
@@ -144,6 +143,14 @@ def p1_summary(t61: pd.DataFrame, stroke: float) -> pd.DataFrame:
         rows.append({"quantity": "improvement of closed over open loop [%]", "segment": worst[0],
                      "value": 100 * (1 - mean.loc["e_TCL", worst] / mean.loc["e_TOL", worst])})
     return pd.DataFrame(rows).assign(**{"stroke [µm]": stroke * 1e6})
+
+
+def p2_rows(name: str, run: Mapping[str, np.ndarray], protocol: Mapping, closed: bool, omega_c: float) -> list[dict]:
+    """Table 6.2's rows of the P2 run ``name`` (ch6_p2a_open …): its errors after the warm-up and
+    the loop's settling, SETTLE_TIME_CONSTANTS/ω_C."""
+    errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
+    after = float(protocol.get("warmup", 0.0)) + SETTLE_TIME_CONSTANTS / omega_c
+    return profile_errors("P" + name.split("_")[1][1:], run["t"], errs, float(np.ptp(run["x_ref"])), after)
 
 
 def profile_errors(profile: str, t: np.ndarray, errs: Mapping[str, np.ndarray], stroke: float,

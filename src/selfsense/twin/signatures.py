@@ -156,10 +156,7 @@ def _stroke(path: Path) -> float:
 def _feedforward_errors(path: Path, experiment: Experiment, omega_c: float) -> pd.DataFrame:
     """Table 6.2's rows of an open-loop P2 run, as rule ch6_results makes them."""
     run = ch6.load_run(path, experiment.protocol)
-    errs = ch6.errors(run["x_ref"], run["x_laser"], None, closed=False)
-    after = float(experiment.protocol.get("warmup", 0.0)) + ch6.SETTLE_TIME_CONSTANTS / omega_c
-    profile = "P" + experiment.name.split("_")[1][1:]
-    return pd.DataFrame(ch6.profile_errors(profile, run["t"], errs, float(np.ptp(run["x_ref"])), after))
+    return pd.DataFrame(ch6.p2_rows(experiment.name, run, experiment.protocol, False, omega_c))
 
 
 def _heating_power(path: Path, n_periods: int, k_over_alpha: float) -> float:
