@@ -158,7 +158,7 @@ def test_truth_interpolation_is_aligned_to_the_stored_samples_and_exact_for_cubi
 
 
 @pytest.mark.parametrize("states, n, problem", [
-    ({s: np.zeros(10) for s in TRUTH_STATES if s != "C_P"}, 120, "lacks the state(s) C_P"),
+    ({s: np.zeros(10) for s in TRUTH_STATES if s != "C_e"}, 120, "lacks the state(s) C_e"),
     ({s: np.zeros(10) for s in TRUTH_STATES}, 121, "has 10 values, the capture's 121 samples"),
     ({s: np.full(10, np.nan) for s in TRUTH_STATES}, 120, "non-finite"),
 ])

@@ -68,5 +68,5 @@ def test_ce_tracks_the_twins_clamped_capacitance(stack_params, stack_daq):
     measured, truth = bench.step(t, 50 - 50 * np.cos(2 * np.pi * 10 * t))
     blocks = extract_impedance(measured["Ur"], measured["Ir"], PLAN)
     centre = blocks.sample_index - (PLAN.block_len - 1) / 2
-    err = blocks.C_e / np.interp(centre, np.arange(len(t)), truth["C_P"]) - 1
+    err = blocks.C_e / np.interp(centre, np.arange(len(t)), truth["C_e"]) - 1
     assert np.sqrt(np.mean(err ** 2)) < 0.01

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from selfsense.calibration import load_targets
 from selfsense.capture import open_capture
 from selfsense.ripple import SamplingPlan, extract_impedance
 from selfsense.twin import Drive, simulate_capture
@@ -19,7 +20,7 @@ from selfsense.twin.bench import Bench, experiment_seed
 from selfsense.twin.drive import Segment
 from selfsense.twin.instruments import SlowProcess
 
-from .conftest import raised_sine
+from .conftest import ROOT, raised_sine
 
 from .tolerances import rtol
 
@@ -47,8 +48,10 @@ def test_clamped_capacitance_falls_from_3p1_to_2p2_uF(stack_params):
 
 
 def test_piezo_voltage_at_the_top_of_a_100V_stroke(stack_params):
+    """The true U_P against Table 4.3's 86 V in the band the twin is calibrated to (its identified
+    U_Pmax, workflow/twin_calibration.yaml)."""
     _, U = raised_sine(0.1, 10.0)
-    assert 75.0 <= run(stack_params, U)["U_P"].max() <= 90.0
+    assert calibrated("up_top").within(run(stack_params, U)["U_P"].max())
 
 
 def test_open_loop_feedforward_error_at_10Hz(stack_params):
@@ -77,6 +80,11 @@ def test_ripple_current_leads_voltage_by_60_to_70_degrees(stack_params, stack_da
     assert 60.0 <= np.median(phase) <= 70.0
 
 
+def calibrated(target_id):
+    """The band the twin is calibrated to for one signature (workflow/twin_calibration.yaml)."""
+    return next(t for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets if t.id == target_id)
+
+
 def test_self_heating_at_100V_100Hz_comes_from_hysteresis_loss(stack_params):
     t, U = raised_sine(100.0, 600.0)
     out = run(stack_params, U)
@@ -85,8 +93,9 @@ def test_self_heating_at_100V_100Hz_comes_from_hysteresis_loss(stack_params):
     tt, dT = t[::every], rise[::every]
     from scipy.optimize import curve_fit
     (steady, tau), _ = curve_fit(lambda s, a, tau: a * (1 - np.exp(-s / tau)), tt, dT, p0=(40, 100))
-    assert 35.0 <= steady <= 65.0
-    assert 80.0 <= tau <= 120.0
+    assert calibrated("steady_temperature").within(stack_params.thermal.T_amb + steady)
+    # the model's τ = ρcv/(k_T A), lengthened a little as C_P (and with it the loss) grows with T
+    assert stack_params.thermal.tau <= tau <= 1.1 * stack_params.thermal.tau
     # the heat is the hysteresis loss ∮U_H dq: zero hysteresis, no heating
     cold = dataclasses.replace(stack_params, hysteresis=dataclasses.replace(stack_params.hysteresis, v_total=1e-9),
                                creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)))
@@ -94,9 +103,35 @@ def test_self_heating_at_100V_100Hz_comes_from_hysteresis_loss(stack_params):
     assert run(cold, U2)["T"].max() - stack_params.thermal.T_amb < 0.01
 
 
-def test_numba_kernel_equals_the_reference(stack_params):
+def viscous(params, R_visc):
+    return dataclasses.replace(params, hysteresis=dataclasses.replace(params.hysteresis, R_visc=R_visc))
+
+
+def test_the_viscous_drop_dissipates_its_analytic_loss_growing_with_frequency(stack_params):
+    """Alone in series (no Maxwell loop, no creep), the Voigt element τU̇_c + U_c = R I dissipates
+    R∮I²dt/(1 + ω²τ²) per cycle of a sinusoidal current at ω, so at a given charge swing its loss
+    per cycle grows ∝ f: the loop widens with the rate, where the rate-independent loop does not."""
+    R = 5.0
+    alone = dataclasses.replace(viscous(stack_params, R),
+                                hysteresis=dataclasses.replace(viscous(stack_params, R).hysteresis, v_total=1e-9),
+                                creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)))
+    per_cycle = {}
+    for f in (10.0, 100.0):
+        t, U = raised_sine(f, 6 / f)
+        out = run(alone, U)
+        last = t >= 4 / f  # two steady cycles
+        loss = np.sum(out["U_H"][last] * out["I"][last]) / FS / 2
+        omega_tau = 2 * np.pi * f * alone.hysteresis.tau_visc
+        assert loss == pytest.approx(R * np.sum(out["I"][last] ** 2) / FS / 2 / (1 + omega_tau ** 2), rel=0.01)
+        per_cycle[f] = loss * (1 + omega_tau ** 2)
+    assert per_cycle[100.0] == pytest.approx(10 * per_cycle[10.0], rel=0.01)
+
+
+@pytest.mark.parametrize("R_visc", [0.0, 5.0])
+def test_numba_kernel_equals_the_reference(stack_params, R_visc):
     _, U = raised_sine(10.0, 0.1)
     U = U + 3.0 * np.sin(2 * np.pi * 700 * np.arange(len(U)) / FS)  # excite the bench mode too
+    stack_params = viscous(stack_params, R_visc)
     kc = K.kernel_constants(stack_params, FS)
     F = np.zeros_like(U)
     T = np.full_like(U, 23.0)

@@ -1,7 +1,7 @@
 """The observer's error budget: its error against the laser split into sources with the twin's truth.
 
 A verification step, like :mod:`selfsense.recovery`: it needs a simulated capture's ``/truth``
-group (noiseless x, q, C_P and the probe offset I_0), so it runs on the twin's datasets only.
+group (noiseless x, q, C_e and the probe offset I_0), so it runs on the twin's datasets only.
 
 Why the error splits exactly
 ----------------------------
@@ -22,9 +22,9 @@ Each difference is split once more at a truth signal, giving the six sources of 
   is not the stack's charge — the probe's noise, the 100 kHz ripple current (folded onto fs/ns),
   ADC quantisation — and the trapezoidal rule's error against the true charge q;
 * ``q–x map``       H_I·(q/a0 − x): the q–x hysteresis and the error of the identified a0;
-* ``C_e estimate``  H_CP·(Γ(C_e) − Γ(C_P)): the ripple estimator's noise, its window and hold lag
-  (Eq 3.6–3.13) and any bias against the true clamped capacitance C_P, through Γ;
-* ``Γ map``         H_CP·(Γ(C_P) − x): the fit error of Γ (Eq 5.4) and the C–x hysteresis;
+* ``C_e estimate``  H_CP·(Γ(Ĉ_e) − Γ(C_e)): the ripple estimator's noise, its window and hold lag
+  (Eq 3.6–3.13) and any bias against the true small-signal capacitance C_e, through Γ;
+* ``Γ map``         H_CP·(Γ(C_e) − x): the fit error of Γ (Eq 5.4) and the C_e–x hysteresis;
 * ``laser``         −(x_laser − x): the laser's noise, its drift and the zero it is read from
   (its first sample, as Table 5.4 reads it).
 
@@ -52,7 +52,7 @@ from .selfsensing import SelfSensingChain
 SOURCES = ("probe offset", "current noise", "q–x map", "C_e estimate", "Γ map", "laser")
 
 #: the /truth states the budget reads
-TRUTH_STATES = ("x", "q", "C_P", "I_offset")
+TRUTH_STATES = ("x", "q", "C_e", "I_offset")
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,7 +124,7 @@ class Superposition:
     def split(self, current: np.ndarray, x_cp: np.ndarray, x_laser: np.ndarray, x: np.ndarray,
               x_charge: np.ndarray, x_capacitance: np.ndarray, offset: np.ndarray) -> dict[str, np.ndarray]:
         """One chunk's sources [m]: ``current`` [A] and ``x_cp`` [m] as the chain fed its observer,
-        ``x_laser`` as Table 5.4 reads it; the truth: position ``x``, q/a0 (``x_charge``), Γ(C_P)
+        ``x_laser`` as Table 5.4 reads it; the truth: position ``x``, q/a0 (``x_charge``), Γ(C_e)
         (``x_capacitance``) and the probe offset I_0 (``offset``, A)."""
         zero = np.zeros_like(x)
         charge = x_charge - x
@@ -196,7 +196,7 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
     for start, t, x_laser, out in chain.against_laser(chunks):
         true = truth.at(start + np.arange(len(t)))
         parts = paths.split(out["current"], out["x_cp"], x_laser, true["x"], true["q"] / gains.a0,
-                            chain.gamma.predict(true["C_P"], chain.temperature), true["I_offset"])
+                            chain.gamma.predict(true["C_e"], chain.temperature), true["I_offset"])
         stats.add(t, out["x_hat"] - x_laser, parts, t >= settle_s)
     return stats.row()
 

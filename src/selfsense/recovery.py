@@ -19,8 +19,8 @@ def truth_at(times: np.ndarray, truth_states: Mapping[str, np.ndarray], name: st
 
 def ce_tracking(series: Mapping[str, np.ndarray], truth_states: Mapping[str, np.ndarray], decimation: int,
                 fs: float) -> dict[str, float]:
-    """How closely C_e follows the twin's true clamped capacitance (rms and max, % of C_P)."""
-    c_true = truth_at(series["time"], truth_states, "C_P", decimation, fs)
+    """How closely the estimated C_e follows the twin's true small-signal C_e (rms and max, % of it)."""
+    c_true = truth_at(series["time"], truth_states, "C_e", decimation, fs)
     err = 100 * (np.asarray(series["C_e"]) / c_true - 1)
     err = err[np.isfinite(err)]
     return {"rms error [%]": float(np.sqrt(np.mean(err ** 2))), "max error [%]": float(np.max(np.abs(err))),

@@ -26,11 +26,11 @@ from .. import __version__
 from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
 from . import kernel
 from .drive import Drive
-from .instruments import HighPass, RippleSource, SlowProcess, effective_resistance
+from .instruments import HighPass, RippleSource, SlowProcess, small_signal
 from .params import TwinParams
 
 #: noiseless states kept in /truth (every `truth_decimation`-th sample)
-TRUTH_STATES = ("x", "q", "U_P", "U_H", "T", "C_P", "R_e", "I_offset", "U_drive")
+TRUTH_STATES = ("x", "q", "U_P", "U_H", "T", "C_P", "C_e", "R_e", "I_offset", "U_drive")
 
 
 @dataclass(frozen=True)
@@ -112,8 +112,9 @@ class Bench:
         sig = self.time_signals(t) if signals is None else signals
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         x, v, a, q, U_P, U_H, T, I, C_P = out.T
-        u, h, R_e = sig["u_ripple"], sig["h"], effective_resistance(C_P, self.p.ripple)
-        i = self.ripple.current(sig["f_r"], u, C_P, R_e)
+        u, h = sig["u_ripple"], sig["h"]
+        C_e, R_e = small_signal(C_P, U_H, self.p.ripple)
+        i = self.ripple.current(sig["f_r"], u, C_e, R_e)
         measured = {
             "U": U + u.real + sig["noise_U"],
             "I": I + i.real + sig["I_offset"] + sig["noise_I"],
@@ -124,7 +125,7 @@ class Bench:
                   + self.p.stack.m * a + sig["noise_F"]),
         }
         measured = {c: self.adc[c].quantize(v) if c in self.adc else v for c, v in measured.items()}
-        truth = {"x": x, "q": q, "U_P": U_P, "U_H": U_H, "T": T, "C_P": C_P,
+        truth = {"x": x, "q": q, "U_P": U_P, "U_H": U_H, "T": T, "C_P": C_P, "C_e": C_e,
                  "R_e": R_e, "I_offset": sig["I_offset"], "U_drive": U}
         return measured, truth
 

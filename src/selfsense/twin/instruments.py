@@ -72,6 +72,14 @@ def effective_resistance(C_e: np.ndarray, rp: RippleParams) -> np.ndarray:
     return R_ref + rp.R_slope * (C_e - rp.C_ref)
 
 
+def small_signal(C_P: np.ndarray, U_H: np.ndarray, rp: RippleParams) -> tuple[np.ndarray, np.ndarray]:
+    """The series C_e and R_e the ripple sees (Eq 3.12's quantities): the clamped C_P plus the
+    domain state's share, dC_H·U_H, and :func:`effective_resistance` of that C_e plus dR_H·U_H
+    (:class:`.params.RippleParams`)."""
+    C_e = C_P + rp.dC_H * U_H
+    return C_e, effective_resistance(C_e, rp) + rp.dR_H * U_H
+
+
 class RippleSource:
     """The boost converter's ripple with a slowly wandering frequency; phase carries across chunks."""
 

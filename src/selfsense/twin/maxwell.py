@@ -45,8 +45,10 @@ class KernelConstants:
         """``decay`` maps the creep time constants τ_j [s] to their decay over one sample: each twin
         keeps the arithmetic its captures were made with."""
         C_h, v_h = hysteresis.arrays()
-        C_c, tau_c = np.asarray(creep.C, float), np.asarray(creep.tau, float)
-        return cls(head, scalars, C_h, v_h, decay(tau_c), tau_c / C_c)
+        tau_c, R_c = np.asarray(creep.tau, float), np.asarray(creep.tau, float) / np.asarray(creep.C, float)
+        if hysteresis.R_visc > 0:  # the viscous drop is one more Voigt element (HysteresisParams)
+            tau_c, R_c = np.append(tau_c, hysteresis.tau_visc), np.append(R_c, hysteresis.R_visc)
+        return cls(head, scalars, C_h, v_h, decay(tau_c), R_c)
 
     @property
     def n_state(self) -> int:

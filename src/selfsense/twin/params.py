@@ -66,12 +66,20 @@ class HysteresisParams:
 
     Element i has break-away voltage v_i = v_total/n and capacitance C_i = q_sat_i/v_i, with
     the saturation charges q_sat_i spaced geometrically so the loop rounds off smoothly.
+
+    The operator is rate independent; its rate-dependent part is a viscous drop R_visc·I in series
+    (the domain walls' friction grows with their speed, so the loop widens with the drive's rate:
+    docs/twin.md, "Rate-dependent loss"). It is a Voigt element whose relaxation time tau_visc is
+    far below the drive's periods (resistive up to Chapter 7's 200 Hz) and far above the ripple's
+    (so the 100 kHz ripple does not see it) and the sample period (the kernel couples it explicitly).
     """
 
     elements: int
     v_total: float  # Σ v_i: half the height of a saturated U_H loop [V]
     q_sat_min: float  # [C]
     q_sat_max: float  # [C]
+    R_visc: float = 0.0  # viscous resistance of the domain walls' motion [Ω]
+    tau_visc: float = 2.0e-4  # its relaxation time [s]
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         v = np.full(self.elements, self.v_total / self.elements)
@@ -89,7 +97,13 @@ class CreepParams:
 
 @dataclass(frozen=True)
 class RippleParams:
-    """Boost-converter ripple and the actuator's series R–C at the ripple frequency."""
+    """Boost-converter ripple and the actuator's series R–C at the ripple frequency.
+
+    The small-signal C_e and R_e depend on the domain state as well as on U_P (the reversible
+    domain-wall contribution to the permittivity and to its loss, Rayleigh's law): through dC_H and
+    dR_H they move with the voltage the hysteresis holds, U_H, so C_e–x and R_e–C_e show loops of
+    their own while C_e follows x closely (:func:`.instruments.small_signal`).
+    """
 
     amplitude: float  # ripple voltage amplitude [V]
     f_nominal: float  # [Hz]
@@ -99,6 +113,8 @@ class RippleParams:
     R_slope: float  # dR_e/dC_e: R_e falls as C_e rises (Fig 3.14) [Ω/F]
     C_ref: float  # [F]
     highpass_hz: float  # Sallen-Key cut-off on both ripple channels (18 kHz)
+    dC_H: float = 0.0  # small-signal capacitance per volt of U_H [F/V]
+    dR_H: float = 0.0  # small-signal resistance per volt of U_H [Ω/V]
 
 
 @dataclass(frozen=True)

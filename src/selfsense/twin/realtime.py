@@ -33,7 +33,7 @@ from .kernel import N_OUT, run_kernel
 #: measured channels in the loop's order (rows of its `measured` output)
 MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
 #: rows of the truth output, as bench.TRUTH_STATES
-TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "R_e", "I_offset", "U_drive")
+TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "C_e", "R_e", "I_offset", "U_drive")
 
 
 @numba.njit(cache=True)
@@ -52,13 +52,14 @@ def record_sample(j, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, 
 
     sig: the arrays f_r, u (complex ripple voltage), h (high-pass at f_r), I_offset, laser_drift and
     the noise of each MEASURED channel (signal_arrays).
-    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb.
+    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb, dC_H, dR_H.
     adc: (scale, offset) per MEASURED channel.
     """
     x, a, q, U_P, U_H, T, I, C_P = out[0], out[2], out[3], out[4], out[5], out[6], out[7], out[8]
-    R_e = bench[0] + bench[1] * (C_P - bench[2])  # instruments.effective_resistance
+    C_e = C_P + bench[7] * U_H  # instruments.small_signal
+    R_e = bench[0] + bench[1] * (C_e - bench[2]) + bench[8] * U_H
     ur, h = sig[1][j], sig[2][j]
-    i_r = ur * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * sig[0][j] * C_P)))  # RippleSource.current
+    i_r = ur * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * sig[0][j] * C_e)))  # RippleSource.current
     leak_u = filter_step(U, hp_b, hp_a, zi_u)
     leak_i = filter_step(I, hp_b, hp_a, zi_i)
     values = (U + ur.real + sig[5][j],
@@ -70,7 +71,7 @@ def record_sample(j, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, 
     for c in range(6):
         measured[c, j] = _quantize(values[c], adc[c, 0], adc[c, 1])
     truth[0, j], truth[1, j], truth[2, j], truth[3, j], truth[4, j] = x, q, U_P, U_H, T
-    truth[5, j], truth[6, j], truth[7, j], truth[8, j] = C_P, R_e, sig[3][j], U
+    truth[5, j], truth[6, j], truth[7, j], truth[8, j], truth[9, j] = C_P, C_e, R_e, sig[3][j], U
 
 
 @numba.njit(cache=True)
@@ -83,7 +84,7 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
     first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
     loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np, pending_len,
     Î0 of the last sample].
-    Writes measured (6, n), truth (9, n), logs (x_ref, x_hpo_rt, u_cmd) and updates every state.
+    Writes measured (6, n), truth (10, n), logs (x_ref, x_hpo_rt, u_cmd) and updates every state.
     """
     n = t_ref.size
     b = int(loop[0])
@@ -176,7 +177,8 @@ def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np
                                                             *(f"noise_{c}" for c in MEASURED)))
     rp = p.ripple
     constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
-                          p.instruments.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb])
+                          p.instruments.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb,
+                          rp.dC_H, rp.dR_H])
     adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
                     for c in MEASURED])
     return sig, constants, adc
@@ -203,7 +205,7 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
     loop = np.array([controller.block_len, controller.gains.K_I, controller.fs, controller.u, *controller.u_limits,
                      chain.x_cp, chain.n, chain.masked_windows, tail_len, sums_len, chain.extractor.plan.fr,
                      chain.gamma.g, chain.temperature, n_periods, pend_len, obs.last_offset], dtype=float)
-    measured, truth, logs = np.empty((6, n)), np.empty((9, n)), np.empty((3, n))
+    measured, truth, logs = np.empty((6, n)), np.empty((len(TRUTH), n)), np.empty((3, n))
     kc = bench.kc
     closed_loop_kernel(np.ascontiguousarray(controller.reference(t), float), sig, constants, kc.scalars, kc.C_h,
                        kc.v_h, kc.creep_decay, kc.creep_R, bench.state, bench.hp_u.b, bench.hp_u.a, bench.hp_u.zi,

@@ -19,11 +19,11 @@ from .params import TwinParams
 def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[int],
                               wanders: list[float], drive_hz: float = 10.0, duration: float = 0.5,
                               seed: int = 0) -> pd.DataFrame:
-    """C_e error (% of the true clamped C_P) for each np and ripple wander.
+    """C_e error (% of the true small-signal C_e) for each np and ripple wander.
 
     Each wander value is a fresh bench run of a 100 V sine. C_e from each np is compared with the
-    true C_P averaged over the same window (the estimator's own error: noise and wander) and
-    with the true C_P at the window's centre (adds the lag of averaging np periods).
+    true C_e averaged over the same window (the estimator's own error: noise and wander) and
+    with the true C_e at the window's centre (adds the lag of averaging np periods).
     """
     rows = []
     t = np.arange(int(round(duration * daq.fs))) / daq.fs
@@ -35,9 +35,9 @@ def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[
         for n_p in n_periods:
             plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, int(n_p))
             blocks = RippleExtractor(plan).process(measured["Ur"], measured["Ir"])
-            _, (c_window,) = WindowMeans(plan, 1).process(truth["C_P"])
+            _, (c_window,) = WindowMeans(plan, 1).process(truth["C_e"])
             centre = blocks.sample_index - (plan.block_len - 1) / 2
-            c_now = np.interp(centre, np.arange(len(t)), truth["C_P"])
+            c_now = np.interp(centre, np.arange(len(t)), truth["C_e"])
             err = 100 * (blocks.C_e / c_window - 1)
             lagged = 100 * (blocks.C_e / c_now - 1)
             rows.append({"np": n_p, "wander [Hz]": wander, "bandwidth [Hz]": plan.bandwidth,
