@@ -84,9 +84,10 @@ def test_chapter_3_figures_and_hysteresis(smoke_run):
         for ext in ("png", "pdf"):
             assert (smoke_run / f"figures/pi_p885/fig_3_{n}.{ext}").exists()
     loops = pd.read_csv(smoke_run / "results/pi_p885/ch3/hysteresis.csv").set_index("loop")
-    # the thesis's central finding: C_e–x has far less hysteresis than C_e–U
-    assert loops.loc["C_e–x_laser", "width along vertical [% of range]"] < 3
-    assert loops.loc["C_e–U", "width along vertical [% of range]"] > 3 * loops.loc["C_e–x_laser", "width along vertical [% of range]"]
+    # the thesis's central finding: C_e–x has far less hysteresis than C_e–U (≈ 10 % against < 3 %).
+    # Each width on its own is a calibration signature, checked on the full runs by twin_calibration.
+    width = loops["width along vertical [% of range]"]
+    assert width["C_e–U"] > 3 * width["C_e–x_laser"]
 
 
 def test_datasets_without_ripple_channels_skip_the_stage(smoke_run):
@@ -193,9 +194,10 @@ def test_chapter_7_runs_and_says_why_when_runs_are_too_short(smoke_run):
     assert list(freq["frequency [Hz]"]) == [0.25, 0.5, 1, 10, 50, 100, 300]
     assert freq.loc["ch5_sine_0p1hz", "note"] == "Γ fitted on this run"
     assert freq.loc["ch5_sine_0p1hz", "offset from temperature g·(T − T_Γ) [µm]"] == 0
-    # the thesis: only small variation with frequency (runs of seconds: the stack barely warms)
+    # the thesis: only small variation with frequency (runs of seconds: the stack barely warms), so
+    # Γ's error at every frequency stays inside the C_e–x hysteresis it cannot see (< 3 % of stroke)
     slow = freq["frequency [Hz]"] <= 100
-    assert (freq.loc[slow, "max |x − Γ(C_e)| [µm]"] < 0.5).all()
+    assert (freq.loc[slow, "max [% of stroke]"] < 3).all()
     assert (freq["T rise [K]"].abs() < 1).all()
     # Fig 7.9 is drawn from the identified values, and says when the thermal model has none
     shown = json.loads((smoke_run / "figures/pi_p885/fig_7_9.png.json").read_text())["shown"]
