@@ -43,9 +43,11 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
+from .capture import open_capture
+from .chapters.ch6 import settled_after
 from .gamma import GammaPolynomial
 from .observer import HPOGains, HybridPositionObserver
-from .ripple import SamplingPlan
+from .ripple import SamplingPlan, WindowMeans, plan_from_capture
 from .selfsensing import SelfSensingChain
 
 #: the sources of the error, in the order of the docstring (current path, then capacitance path)
@@ -185,18 +187,52 @@ class BudgetStats:
 
 
 def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: SamplingPlan, gamma: GammaPolynomial,
-               gains: HPOGains, fs: float, settle_s: float, truth: Truth) -> dict[str, float]:
+               gains: HPOGains, fs: float, settle_s: float, truth: Truth,
+               loop_rate: SamplingPlan | None = None) -> dict[str, float]:
     """One capture's error budget: the self-sensing chain streamed as for Table 5.4 (same chain,
     same laser zero, samples after the warm-up ``settle_s``), each chunk split into its sources.
 
-    Returns :meth:`BudgetStats.row`; its "total max error [µm]" is Table 5.4's "max error [µm]".
+    With ``loop_rate`` (a one-period plan), the error and its sources are counted as Table 6.2
+    counts them instead: means over each folded ripple period (the real-time loop's rate,
+    :func:`selfsense.chapters.ch6.load_run`), the laser zeroed at its first mean. Means are linear,
+    so the sources still add up to the error.
+
+    Returns :meth:`BudgetStats.row`; its "total max error [µm]" is Table 5.4's "max error [µm]"
+    (with ``loop_rate``, Table 6.2's max |ε_O|).
     """
     chain = SelfSensingChain(plan, gamma, gains, fs)
     paths, stats = Superposition(chain.observer), BudgetStats()
+    means = None if loop_rate is None else WindowMeans(loop_rate, 2 + len(SOURCES))
+    zero = None
     for start, t, x_laser, out in chain.against_laser(chunks):
         true = truth.at(start + np.arange(len(t)))
         parts = paths.split(out["current"], out["x_cp"], x_laser, true["x"], true["q"] / gains.a0,
                             chain.gamma.predict(true["C_e"], chain.temperature), true["I_offset"])
-        stats.add(t, out["x_hat"] - x_laser, parts, t >= settle_s)
+        total = out["x_hat"] - x_laser
+        if means is not None:
+            index, m = means.process(x_laser, total, *(parts[s] for s in SOURCES))
+            if not index.size:
+                continue
+            zero = m[0][0] if zero is None else zero  # the laser's first mean is Table 6.2's zero
+            t, total = (index - (loop_rate.ns - 1) / 2) / fs, m[1] + zero
+            parts = dict(zip(SOURCES, m[2:])) | {"laser": m[2 + SOURCES.index("laser")] + zero}
+        stats.add(t, total, parts, t >= settle_s)
     return stats.row()
 
+
+#: the channels the budget streams, as rule `observe` does, so that the chunks are the same
+CHANNELS = ("Ur", "Ir", "I", "x_laser")
+
+
+def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains,
+                   omega_c: float | None = None) -> dict[str, float]:
+    """:func:`run_budget` of one simulated capture, counted as Table 5.4 counts, from the warm-up on
+    (or, given the loop's ``omega_c``, as Table 6.2 counts a P2 run: at the loop's rate, from its
+    settling on)."""
+    with open_capture(path, require=CHANNELS) as cap:
+        truth = Truth.from_group(*cap.read_truth(), cap.length(), path)
+        warmup, plan = float(cap.attribute("warmup_s")), plan_from_capture(cap, n_periods)
+        if omega_c is None:
+            return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, warmup, truth)
+        return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, settled_after(warmup, omega_c),
+                          truth, loop_rate=plan_from_capture(cap, 1))

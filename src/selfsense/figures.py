@@ -200,7 +200,7 @@ def error_budget(table, sources):
         ax.bar(runs, height, 0.6, bottom=bottom, label=source)
         bottom += height
     ax.plot(runs, table["total rms [µm]"], "k_", ms=22, mew=2, label="error rms")
-    ax.plot(runs, table["total max error [µm]"], "kv", label="error max (Table 5.4)")
+    ax.plot(runs, table["total max error [µm]"], "kv", label="error max (Tables 5.4, 6.2)")
     labels = [f"{f:g} Hz" if np.isfinite(f) else run for run, f in zip(table["run"], table["frequency [Hz]"])]
     ax.set_xticks(runs, labels, rotation=20)
     ax.set(ylabel="rms over the run [µm]", title="Observer error budget against the twin's truth")

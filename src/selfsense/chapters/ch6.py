@@ -145,11 +145,17 @@ def p1_summary(t61: pd.DataFrame, stroke: float) -> pd.DataFrame:
     return pd.DataFrame(rows).assign(**{"stroke [µm]": stroke * 1e6})
 
 
+def settled_after(warmup: float, omega_c: float) -> float:
+    """When Table 6.2's statistics start [s]: after the warm-up and the loop's settling,
+    SETTLE_TIME_CONSTANTS/ω_C."""
+    return float(warmup) + SETTLE_TIME_CONSTANTS / omega_c
+
+
 def p2_rows(name: str, run: Mapping[str, np.ndarray], protocol: Mapping, closed: bool, omega_c: float) -> list[dict]:
-    """Table 6.2's rows of the P2 run ``name`` (ch6_p2a_open …): its errors after the warm-up and
-    the loop's settling, SETTLE_TIME_CONSTANTS/ω_C."""
+    """Table 6.2's rows of the P2 run ``name`` (ch6_p2a_open …): its errors after
+    :func:`settled_after`."""
     errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
-    after = float(protocol.get("warmup", 0.0)) + SETTLE_TIME_CONSTANTS / omega_c
+    after = settled_after(protocol.get("warmup", 0.0), omega_c)
     return profile_errors("P" + name.split("_")[1][1:], run["t"], errs, float(np.ptp(run["x_ref"])), after)
 
 
