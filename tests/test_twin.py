@@ -112,8 +112,8 @@ def test_the_viscous_drop_dissipates_its_analytic_loss_growing_with_frequency(st
     R∮I²dt/(1 + ω²τ²) per cycle of a sinusoidal current at ω, so at a given charge swing its loss
     per cycle grows ∝ f: the loop widens with the rate, where the rate-independent loop does not."""
     R = 5.0
-    alone = dataclasses.replace(viscous(stack_params, R),
-                                hysteresis=dataclasses.replace(viscous(stack_params, R).hysteresis, v_total=1e-9),
+    alone = dataclasses.replace(stack_params,
+                                hysteresis=dataclasses.replace(stack_params.hysteresis, R_visc=R, v_total=1e-9),
                                 creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)))
     per_cycle = {}
     for f in (10.0, 100.0):

@@ -20,7 +20,7 @@ def main(runs, gamma, observer, table, figure, n_periods, log=None):
     logger, poly, gains = script_logging(log), load_gamma(gamma), load_gains(observer)
     result = pd.DataFrame([{"run": Path(c).stem, "frequency [Hz]": f} | capture_budget(c, n_periods, poly, gains, w)
                            for c, (f, w) in runs.items()]).astype({"frequency [Hz]": float})
-    provenance = {"inputs": [*runs, gamma, observer], "config": {"n_periods": n_periods, "omega_c": list(runs.values())}}
+    provenance = {"inputs": [*runs, gamma, observer], "config": {"n_periods": n_periods, "omega_c": [w for _, w in runs.values()]}}
     write_table(result, table, **provenance)
     save_figure(figures.error_budget(result, SOURCES), figure, **provenance)
     logger.info("\n%s", result.T.to_string())

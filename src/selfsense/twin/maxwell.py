@@ -45,7 +45,8 @@ class KernelConstants:
         """``decay`` maps the creep time constants τ_j [s] to their decay over one sample: each twin
         keeps the arithmetic its captures were made with."""
         C_h, v_h = hysteresis.arrays()
-        tau_c, R_c = np.asarray(creep.tau, float), np.asarray(creep.tau, float) / np.asarray(creep.C, float)
+        tau_c = np.asarray(creep.tau, float)
+        R_c = tau_c / np.asarray(creep.C, float)
         if hysteresis.R_visc > 0:  # the viscous drop is one more Voigt element (HysteresisParams)
             tau_c, R_c = np.append(tau_c, hysteresis.tau_visc), np.append(R_c, hysteresis.R_visc)
         return cls(head, scalars, C_h, v_h, decay(tau_c), R_c)
