@@ -80,6 +80,21 @@ def test_ripple_current_leads_voltage_by_60_to_70_degrees(stack_params, stack_da
     assert 60.0 <= np.median(phase) <= 70.0
 
 
+def test_the_laser_records_position_rounded_to_its_resolution(stack_params, stack_daq):
+    """Table 2.1's 0.3 µm resolution: with its drift off, the laser's error against the true x is
+    within half a resolution step (plus half an ADC step of the packed channel) and, over a 1 Hz
+    stroke crossing ≈ 100 steps, spreads as the rectangular r/√12, not as a noise of its own."""
+    ins = stack_params.instruments
+    params = dataclasses.replace(stack_params, instruments=dataclasses.replace(ins, laser_drift=0.0))
+    bench = Bench(params, stack_daq, experiment_seed(1, "laser"))
+    t, U = raised_sine(1.0, 1.0)
+    measured, truth = bench.step(t, U)
+    error = measured["x_laser"] - truth["x"]
+    adc_half_step = 0.5 * bench.adc["x_laser"].scale_factor
+    assert np.max(np.abs(error)) <= ins.laser_resolution / 2 + adc_half_step
+    assert np.std(error) == pytest.approx(ins.laser_resolution / np.sqrt(12), rel=0.05)
+
+
 def calibrated(target_id):
     """The band the twin is calibrated to for one signature (workflow/twin_calibration.yaml)."""
     return next(t for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets if t.id == target_id)

@@ -155,7 +155,7 @@ def short_runs(tmp_path_factory):
 
 def test_the_short_runs_measure_the_stroke_of_a_twin_without_hysteresis(short_runs):
     """With the hysteresis and creep voltages made negligible (U_H ≤ 1 nV, U_c ≈ 0.3 µV) and the
-    laser's noise and drift off, the stroke at 100 V is α/k·100 V: at 0.5 Hz against a 2500 Hz
+    laser's resolution and drift off, the stroke at 100 V is α/k·100 V: at 0.5 Hz against a 2500 Hz
     mode the dynamic amplification is 1 + 4e-8 (1.5 pm), so what is left is the laser channel's
     16-bit quantisation, one step of its ±100 µm range (3.05 nm). Table 4.3's U_P at the top is
     then the applied 100 V, within the identification's ±2 % (the registry's twin-input band)."""
@@ -163,7 +163,7 @@ def test_the_short_runs_measure_the_stroke_of_a_twin_without_hysteresis(short_ru
     p = TwinParams.from_manifest(manifest["twin"])
     p = dataclasses.replace(p, hysteresis=dataclasses.replace(p.hysteresis, v_total=1e-9),
                             creep=dataclasses.replace(p.creep, C=(1e3, 1e3)),
-                            instruments=dataclasses.replace(p.instruments, laser_noise=0.0, laser_drift=0.0))
+                            instruments=dataclasses.replace(p.instruments, laser_resolution=0.0, laser_drift=0.0))
     tables = runs.tables(p, ["ch5/table_5_4.csv", "ch4/table_4_3.csv"])
     lo, hi = manifest["daq"]["ranges"]["x_laser"]
     step_um = (hi - lo) / 2 ** 16 * 1e6

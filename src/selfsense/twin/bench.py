@@ -26,7 +26,7 @@ from .. import __version__
 from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
 from . import kernel
 from .drive import Drive
-from .instruments import HighPass, RippleSource, SlowProcess, small_signal
+from .instruments import HighPass, RippleSource, SlowProcess, resolve, small_signal
 from .params import TwinParams
 
 #: noiseless states kept in /truth (every `truth_decimation`-th sample)
@@ -60,6 +60,11 @@ class Controller(Protocol):
         """See one block of measured channels; return the block's real-time logs."""
 
 
+#: the channels recorded with a noise of their own and its parameter [rms]; the current probe and
+#: the laser are specified by their resolution instead (:func:`.instruments.resolve`)
+NOISY = {"U": "U_noise", "Ur": "ripple_noise_U", "Ir": "ripple_noise_I", "F": "F_noise"}
+
+
 def experiment_seed(seed: int, experiment: str) -> np.random.SeedSequence:
     """A seed per (dataset seed, experiment): captures differ across experiments, repeat exactly."""
     return np.random.SeedSequence([int(seed), _zlib.crc32(experiment.encode())])
@@ -89,16 +94,15 @@ class Bench:
 
     def time_signals(self, t: np.ndarray) -> dict[str, np.ndarray]:
         """What the instruments add that depends on time alone: the ripple's frequency and voltage
-        and the high-pass's response to it, the probe offset, the laser's drift and the channels'
-        noise, in this order of random draws. The closed loop makes them once per chunk and
-        steps the bench through it block by block (:meth:`step`'s ``signals``)."""
+        and the high-pass's response to it, the probe offset, the laser's drift and the noise of
+        the channels :data:`NOISY` lists, in this order of random draws. The closed loop makes
+        them once per chunk and steps the bench through it block by block (:meth:`step`'s
+        ``signals``)."""
         ins, n, gauss = self.p.instruments, len(t), self.noise_rng.standard_normal
         f_r, u = self.ripple.carrier(t)
         return {"f_r": f_r, "u_ripple": u, "h": self.hp_u.response(f_r),
                 "I_offset": ins.I_offset + self.offset_drift(t), "laser_drift": self.laser_drift(t),
-                **{f"noise_{c}": scale * gauss(n) for c, scale in (
-                    ("U", ins.U_noise), ("I", ins.I_noise), ("Ur", ins.ripple_noise_U),
-                    ("Ir", ins.ripple_noise_I), ("x_laser", ins.laser_noise), ("F", ins.F_noise))}}
+                **{f"noise_{c}": getattr(ins, NOISY[c]) * gauss(n) for c in NOISY}}
 
     def step(self, t: np.ndarray, U: np.ndarray, F_ext: np.ndarray | None = None,
              signals: Mapping[str, np.ndarray] | None = None):
@@ -112,16 +116,16 @@ class Bench:
         sig = self.time_signals(t) if signals is None else signals
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         x, v, a, q, U_P, U_H, T, I, C_P = out.T
-        u, h = sig["u_ripple"], sig["h"]
+        u, h, ins = sig["u_ripple"], sig["h"], self.p.instruments
         C_e, R_e = small_signal(C_P, U_H, self.p.ripple)
         i = self.ripple.current(sig["f_r"], u, C_e, R_e)
         measured = {
             "U": U + u.real + sig["noise_U"],
-            "I": I + i.real + sig["I_offset"] + sig["noise_I"],
+            "I": resolve(I + i.real + sig["I_offset"], ins.I_resolution),
             "Ur": (u * h).real + self.hp_u.leak(U) + sig["noise_Ur"],
             "Ir": (i * h).real + self.hp_i.leak(I) + sig["noise_Ir"],
-            "x_laser": x + sig["laser_drift"] + sig["noise_x_laser"],
-            "F": (self.p.instruments.F_preload + (self.p.stack.k_spring + self.load_stiffness) * x
+            "x_laser": resolve(x + sig["laser_drift"], ins.laser_resolution),
+            "F": (ins.F_preload + (self.p.stack.k_spring + self.load_stiffness) * x
                   + self.p.stack.m * a + sig["noise_F"]),
         }
         measured = {c: self.adc[c].quantize(v) if c in self.adc else v for c, v in measured.items()}

@@ -66,6 +66,12 @@ class HighPass:
         return y
 
 
+def resolve(values: np.ndarray, resolution: float) -> np.ndarray:
+    """What an instrument of the given resolution records: its input rounded to multiples of it
+    (:class:`.params.InstrumentParams`; 0: recorded as it is)."""
+    return resolution * np.rint(values / resolution) if resolution else values
+
+
 def effective_resistance(C_e: np.ndarray, rp: RippleParams) -> np.ndarray:
     """R_e of the series R–C at the ripple (Fig 3.14): falls as C_e rises, φ = phase_deg at C_ref."""
     R_ref = 1.0 / (2 * np.pi * rp.f_nominal * rp.C_ref * np.tan(np.radians(rp.phase_deg)))

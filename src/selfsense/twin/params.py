@@ -139,15 +139,21 @@ class ThermalParams:
 
 @dataclass(frozen=True)
 class InstrumentParams:
-    """Noise, offsets and ranges of the DAQ chain; ranges are the ADC full scale per channel."""
+    """Noise, offsets and ranges of the DAQ chain; ranges are the ADC full scale per channel.
+
+    The current probe and the laser are specified by their resolution (Table 2.1): each records
+    its input rounded to multiples of it (:func:`.instruments.resolve`), the rectangular error of
+    half-width resolution/2 that the GUM assigns to a stated resolution (standard uncertainty
+    resolution/√12), instead of a noise whose size the specification does not give.
+    """
 
     U_noise: float  # [V rms]
     I_offset: float  # current-probe offset I_0 [A]
     I_offset_drift: float  # peak slow drift of I_0 [A]
-    I_noise: float  # [A rms]
+    I_resolution: float  # current probe [A], Table 2.1
     ripple_noise_U: float  # [V rms]
     ripple_noise_I: float  # [A rms]
-    laser_noise: float  # [m rms]
+    laser_resolution: float  # laser vibrometer [m], Table 2.1
     laser_drift: float  # peak slow drift [m]
     F_noise: float  # [N rms]
     F_preload: float  # [N]

@@ -46,13 +46,20 @@ def _quantize(value, scale, offset):
 
 
 @numba.njit(cache=True)
+def _resolve(value, resolution):
+    """instruments.resolve for one sample."""
+    return resolution * np.rint(value / resolution) if resolution else value
+
+
+@numba.njit(cache=True)
 def record_sample(j, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth):
     """What the DAQ records at sample j, from the drive U and the stack's outputs ``out`` (a row
     of kernel.OUTPUTS): measured (quantised) and truth columns j, high-pass states updated.
 
     sig: the arrays f_r, u (complex ripple voltage), h (high-pass at f_r), I_offset, laser_drift and
-    the noise of each MEASURED channel (signal_arrays).
-    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb, dC_H, dR_H.
+    the noise of each channel of bench.NOISY, in its order (U, Ur, Ir, F).
+    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb, dC_H, dR_H, the current
+    probe's and the laser's resolution.
     adc: (scale, offset) per MEASURED channel.
     """
     x, a, q, U_P, U_H, T, I, C_P = out[0], out[2], out[3], out[4], out[5], out[6], out[7], out[8]
@@ -63,11 +70,11 @@ def record_sample(j, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, 
     leak_u = filter_step(U, hp_b, hp_a, zi_u)
     leak_i = filter_step(I, hp_b, hp_a, zi_i)
     values = (U + ur.real + sig[5][j],
-              I + i_r.real + sig[3][j] + sig[6][j],
-              (ur * h).real + leak_u + sig[7][j],
-              (i_r * h).real + leak_i + sig[8][j],
-              x + sig[4][j] + sig[9][j],
-              bench[3] + bench[4] * x + bench[5] * a + sig[10][j])
+              _resolve(I + i_r.real + sig[3][j], bench[9]),
+              (ur * h).real + leak_u + sig[6][j],
+              (i_r * h).real + leak_i + sig[7][j],
+              _resolve(x + sig[4][j], bench[10]),
+              bench[3] + bench[4] * x + bench[5] * a + sig[8][j])
     for c in range(6):
         measured[c, j] = _quantize(values[c], adc[c, 0], adc[c, 1])
     truth[0, j], truth[1, j], truth[2, j], truth[3, j], truth[4, j] = x, q, U_P, U_H, T
@@ -170,15 +177,16 @@ def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np
     """The (sig, bench, adc) arguments of :func:`record_sample` for a :class:`.bench.Bench` and its
     :meth:`~.bench.Bench.time_signals` (the signals as they are: stacking them cost as much as the
     loop)."""
+    from .bench import NOISY
     from .instruments import effective_resistance
 
-    p = bench.p
+    p, ins = bench.p, bench.p.instruments
     sig = tuple(np.ascontiguousarray(signals[k]) for k in ("f_r", "u_ripple", "h", "I_offset", "laser_drift",
-                                                            *(f"noise_{c}" for c in MEASURED)))
+                                                            *(f"noise_{c}" for c in NOISY)))
     rp = p.ripple
     constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
-                          p.instruments.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb,
-                          rp.dC_H, rp.dR_H])
+                          ins.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb,
+                          rp.dC_H, rp.dR_H, ins.I_resolution, ins.laser_resolution])
     adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
                     for c in MEASURED])
     return sig, constants, adc
