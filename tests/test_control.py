@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from selfsense.chapters.ch6 import errors, segment_maxima, table_6_1
+from selfsense.chapters.ch6 import errors, segment_maxima, segment_windows, table_6_1
 from selfsense.control import HPOIntegralController, IntegralController, tracking_prediction
 
 from .tolerances import CLOSED_FORM
@@ -53,8 +53,9 @@ def test_segment_maxima_and_table_6_1():
     x_ref = np.repeat([30e-6, 5e-6, 25e-6, 10e-6, 20e-6, 15e-6, 28e-6, 2e-6], 100)[: len(t)]
     x_ref = np.append(x_ref, [2e-6] * (len(t) - len(x_ref)))
     errs = errors(x_ref, x_ref - 1e-6, x_ref - 0.5e-6, closed=True)
-    starts = np.arange(8) * 0.1
-    maxima = segment_maxima(t, errs, starts, starts + 0.1, settle=0.01)
+    windows = segment_windows({"segments": [{"duration": 0.1}] * 8}, omega_c=5 / 0.01)
+    assert [w[0] for w in windows] == list("abcdefgh") and windows[1][1:] == pytest.approx((0.11, 0.2))
+    maxima = segment_maxima(t, errs, windows)
     assert maxima["e_TCL"] == pytest.approx([1e-6] * 8)
     assert maxima["e_OCL"] == pytest.approx([0.5e-6] * 8)
     table = table_6_1({"e_TCL": [maxima["e_TCL"]] * 3, "e_OCL": [maxima["e_OCL"]] * 3})

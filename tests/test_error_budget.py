@@ -11,9 +11,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from selfsense.error_budget import SOURCES, TRUTH_STATES, BudgetStats, Superposition, Truth
+from selfsense.manifest import load_yaml
 from selfsense.observer import HPOGains, HybridPositionObserver
+from selfsense.scorecard import parse_registry
 
+from .conftest import ROOT
 from .tolerances import rtol
+
+REGISTRY = ROOT / "workflow" / "scorecard.yaml"
 
 FS = 48_000.0
 GAINS = HPOGains(17.0, 2 * np.pi, 1.0)
@@ -173,25 +178,34 @@ def test_bad_truth_fails_with_one_line_naming_the_file(states, n, problem):
 # --- on the smoke DAG ---------------------------------------------------------------------------
 
 @pytest.mark.slow
-def test_smoke_budget_totals_are_table_5_4s_errors_and_p2as_observer_error(smoke_run):
-    budget = pd.read_csv(smoke_run / "results/pi_p885/twin/error_budget.csv").set_index("run")
+def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_errors(smoke_run):
+    res = smoke_run / "results/pi_p885"
+    budget = pd.read_csv(res / "twin/error_budget.csv")
     columns = [f"{s} {stat}" for s in SOURCES for stat in
                ("rms [µm]", "max [µm]", "at total max [µm]", "share of mean square")]
-    assert {"frequency [Hz]", "total max error [µm]", "cross terms share of mean square", *columns} <= set(budget)
-    t54 = pd.read_csv(smoke_run / "results/pi_p885/ch5/table_5_4.csv")
+    assert {"segment", "frequency [Hz]", "total max error [µm]", "cross terms share of mean square", *columns} <= set(budget)
+    t54 = pd.read_csv(res / "ch5/table_5_4.csv")
     assert sorted(budget["frequency [Hz]"].dropna()) == sorted(t54["frequency [Hz]"])
-    assert "ch5_creep" in budget.index
-    # P2a's row is Table 6.2's ε_OCL: its logged estimate, which the offline chain equals to the audit's margin
-    t62 = pd.read_csv(smoke_run / "results/pi_p885/ch6/table_6_2.csv").set_index(["profile", "error"])
-    audit = pd.read_csv(smoke_run / "results/pi_p885/ch6/audit.csv").set_index("run")
-    p2a = budget.loc["ch6_p2a_closed", "total max error [µm]"]
-    assert abs(p2a - t62.loc[("P2a", "e_OCL"), "max [µm]"]) <= 1e-3 * audit.loc["ch6_p2a_closed", "max |offline − logged| [nm]"] \
-        + 1e-9 * p2a
-    p2a_stroke = 100 * t62.loc[("P2a", "e_OCL"), "max [µm]"] / t62.loc[("P2a", "e_OCL"), "% of stroke"]
-    for run, row in budget.iterrows():
-        stroke = p2a_stroke
-        if run != "ch6_p2a_closed":
-            stats = json.loads((smoke_run / f"results/pi_p885/observer/{run}.json").read_text())
+    assert "ch5_creep" in set(budget["run"])
+    # Chapter 6's rows are its tables' ε_OCL: the logged estimate, which the offline chain equals to the audit's margin
+    audit = pd.read_csv(res / "ch6/audit.csv").set_index("run")["max |offline − logged| [nm]"] * 1e-3
+    t62 = pd.read_csv(res / "ch6/table_6_2.csv").set_index(["profile", "error"])
+    t61 = pd.read_csv(res / "ch6/table_6_1.csv").set_index(["error", "statistic"]).loc[("e_OCL", "max")]
+    closed = budget[budget["run"].str.startswith("ch6_")]
+    assert sorted(closed["run"].unique()) == sorted(audit.index[audit.index.str.startswith(("ch6_p1_", "ch6_p2"))])
+    assert list(closed.loc[closed["run"] == "ch6_p1_closed", "segment"]) == list("abcdefgh")
+    for _, row in closed.iterrows():
+        if row["run"] == "ch6_p1_closed":  # P1's tests one after another: each segment's largest max |ε_OCL|
+            table = t61[f"{row['segment']} [µm]"]
+        else:
+            table = t62.loc[("P" + row["run"].split("_")[1][1:], "e_OCL"), "max [µm]"]
+        assert abs(row["total max error [µm]"] - table) <= audit[row["run"]] + 1e-9 * table, row["run"]
+    p2a = t62.loc[("P2a", "e_OCL")]
+    p2_stroke = 100 * p2a["max [µm]"] / p2a["% of stroke"]
+    for _, row in budget.iterrows():
+        run, stroke = row["run"], p2_stroke
+        if not run.startswith("ch6_"):
+            stats = json.loads((res / f"observer/{run}.json").read_text())
             # the same chain on the same chunks: equal but for the CSV's 10 significant digits
             assert row["total max error [µm]"] == pytest.approx(stats["max error [µm]"], rel=1e-9), run
             stroke = stats["stroke [µm]"]
@@ -202,3 +216,8 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_p2as_observer_error(smoke
         assert row["max |sum of sources − total| [µm]"] <= 1e-9 * stroke
     assert (smoke_run / "figures/pi_p885/fig_5_error_budget.png").exists()
     assert not (smoke_run / "results/tokin_nb40/twin/error_budget.csv").exists()  # no observer runs there
+    # the scorecard's note of each number the budget splits names its measured sources
+    card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
+    caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY)) if e.cause and e.model == "stack"]
+    assert len(caused) == 52
+    assert card.loc[caused, "note"].str.contains("Measured cause (twin/error_budget.csv", regex=False).all()

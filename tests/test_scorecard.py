@@ -10,7 +10,8 @@ import pytest
 from selfsense.manifest import ManifestError, load_yaml
 from selfsense.scorecard import (INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Band, Entry, Locator,
                                  Tolerance, applicable, band, judge, last_digit, lookup, parse_registry, score, scorecard,
-                                 scorecard_html, landing_rst, out_of_band_rst, pending_rst, summary, tables_read)
+                                 scorecard_html, landing_rst, out_of_band_rst, pending_rst, summary, tables_read,
+                                 BUDGET_TABLE)
 
 from .conftest import ROOT
 
@@ -208,6 +209,26 @@ def test_group_and_entry_locators_merge():
     assert b.locate.column == "nf"
 
 
+def test_a_cause_names_the_largest_sources_the_error_budget_measured_at_the_errors_max():
+    """Group and entry causes merge as locators do; the note reads the budget row they select, and
+    only where the budget is made (the twin's datasets): a measured dataset keeps its verdict."""
+    doc = group(locate={"table": "ch9/t.csv", "column": "fs [kHz]", "where": {"ns": 12}},
+                cause={"where": {"run": "p1"}}, entries=[{"quantity": "a", "published": 48, "cause": {"where": {"segment": "b"}}}])
+    (e,) = parse_registry(doc)
+    assert e.cause == (("run", "p1"), ("segment", "b")) and tables_read([e]) == ["ch9/t.csv", BUDGET_TABLE]
+    budget = pd.DataFrame({"run": ["p1", "p1", "p2"], "segment": ["a", "b", np.nan], "total at max [µm]": [1.0, -1.9, 2.0],
+                           "laser at total max [µm]": [0.1, -0.2, 0.0], "C_e estimate at total max [µm]": [0.5, -1.5, 1.0],
+                           "q–x map at total max [µm]": [0.4, 0.3, 1.0], "Γ map at total max [µm]": [0.0, -0.5, 0.0]})
+    s = score(e, {"ch9/t.csv": TABLE, BUDGET_TABLE: budget})
+    assert s.verdict == WITHIN
+    assert s.cause == (f"Measured cause ({BUDGET_TABLE}, run = p1, segment = b): at the observer error's max, -1.90 µm, "
+                       "its largest sources are C_e estimate -1.50, Γ map -0.50, q–x map +0.30 µm")
+    assert s.cause in scorecard([e], {"ch9/t.csv": TABLE, BUDGET_TABLE: budget}, STACK).iloc[0]["note"]
+    assert score(e, {"ch9/t.csv": TABLE}).cause == "" and score(e, {"ch9/t.csv": TABLE}).verdict == WITHIN
+    with pytest.raises(LookupError, match="0 rows of twin/error_budget.csv match run = p1, segment = b"):
+        score(e, {"ch9/t.csv": TABLE, BUDGET_TABLE: budget[budget["segment"] != "b"]})
+
+
 @pytest.mark.parametrize("doc, message", [
     (group(colour="red"), "unknown key|colour"),
     ({"groups": [{k: v for k, v in group()["groups"][0].items() if k != "kind"}]}, "kind"),
@@ -220,6 +241,7 @@ def test_group_and_entry_locators_merge():
     (group(band={"name": "b", "tolerance": {"abs": 1, "rel": 2}, "justification": "why"}), "tolerance"),
     (group(locate={"table": "/etc/passwd.csv", "column": "x"}), "table"),
     (group(locate={"where": {"ns": 4}}), "both table and column"),
+    (group(cause={"run": "p1"}), "cause"),
     (group(entries=[{"quantity": "a", "published": 1}, {"quantity": "a", "published": 2}]), "listed twice"),
     (group(entries=[{"quantity": "a", "published": {"truth": "truth"}}]), "twin recovery and a locate"),
     (group(section="twin recovery", entries=[{"quantity": "a", "published": {"truth": "truth"}}]), "and a locate"),

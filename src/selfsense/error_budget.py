@@ -39,12 +39,12 @@ each sample by a 4-point cubic (:meth:`Truth.at`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
 from .capture import open_capture
-from .chapters.ch6 import settled_after
+from .chapters.ch6 import segment_windows, settled_after
 from .gamma import GammaPolynomial
 from .observer import HPOGains, HybridPositionObserver
 from .ripple import SamplingPlan, WindowMeans, plan_from_capture
@@ -188,7 +188,8 @@ class BudgetStats:
 
 def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: SamplingPlan, gamma: GammaPolynomial,
                gains: HPOGains, fs: float, settle_s: float, truth: Truth,
-               loop_rate: SamplingPlan | None = None) -> dict[str, float]:
+               loop_rate: SamplingPlan | None = None,
+               windows: Sequence[tuple[str, float, float]] = ()) -> dict[str, dict[str, float]]:
     """One capture's error budget: the self-sensing chain streamed as for Table 5.4 (same chain,
     same laser zero, samples after the warm-up ``settle_s``), each chunk split into its sources.
 
@@ -197,11 +198,16 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
     :func:`selfsense.chapters.ch6.load_run`), the laser zeroed at its first mean. Means are linear,
     so the sources still add up to the error.
 
-    Returns :meth:`BudgetStats.row`; its "total max error [µm]" is Table 5.4's "max error [µm]"
-    (with ``loop_rate``, Table 6.2's max |ε_O|).
+    With ``windows`` ((label, start, end) [s], as :func:`selfsense.chapters.ch6.segment_windows`),
+    one budget per label over the samples inside its windows instead (Table 6.1's segments).
+
+    Returns {label: :meth:`BudgetStats.row`} ({"": row} without windows); "total max error [µm]"
+    is Table 5.4's "max error [µm]" (with ``loop_rate``, Table 6.2's max |ε_O|, or Table 6.1's
+    largest max |ε_OCL| of each segment).
     """
     chain = SelfSensingChain(plan, gamma, gains, fs)
-    paths, stats = Superposition(chain.observer), BudgetStats()
+    spans = windows or [("", settle_s, np.inf)]
+    paths, stats = Superposition(chain.observer), {label: BudgetStats() for label, _, _ in spans}
     means = None if loop_rate is None else WindowMeans(loop_rate, 2 + len(SOURCES))
     zero = None
     for start, t, x_laser, out in chain.against_laser(chunks):
@@ -216,23 +222,29 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
             zero = m[0][0] if zero is None else zero  # the laser's first mean is Table 6.2's zero
             t, total = (index - (loop_rate.ns - 1) / 2) / fs, m[1] + zero
             parts = dict(zip(SOURCES, m[2:])) | {"laser": m[2 + SOURCES.index("laser")] + zero}
-        stats.add(t, total, parts, t >= settle_s)
-    return stats.row()
+        counted = dict.fromkeys(stats, False)
+        for label, start, end in spans:
+            counted[label] = counted[label] | ((t >= start) & (t < end))
+        for label, budget in stats.items():
+            budget.add(t, total, parts, counted[label])
+    return {label: budget.row() for label, budget in stats.items()}
 
 
 #: the channels the budget streams, as rule `observe` does, so that the chunks are the same
 CHANNELS = ("Ur", "Ir", "I", "x_laser")
 
 
-def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains,
-                   omega_c: float | None = None) -> dict[str, float]:
-    """:func:`run_budget` of one simulated capture, counted as Table 5.4 counts, from the warm-up on
-    (or, given the loop's ``omega_c``, as Table 6.2 counts a P2 run: at the loop's rate, from its
-    settling on)."""
+def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains, omega_c: float | None = None,
+                   p1_protocol: Mapping | None = None) -> dict[str, dict[str, float]]:
+    """:func:`run_budget` of one simulated capture, counted as Table 5.4 counts, from the warm-up on;
+    given the loop's ``omega_c``, as Chapter 6 counts a closed-loop run: at the loop's rate, from
+    its settling on (Table 6.2), or, given P1's protocol, in each segment's steady windows (Table
+    6.1, :func:`selfsense.chapters.ch6.segment_windows`)."""
+    windows = segment_windows(p1_protocol, omega_c) if p1_protocol else ()
     with open_capture(path, require=CHANNELS) as cap:
         truth = Truth.from_group(*cap.read_truth(), cap.length(), path)
         warmup, plan = float(cap.attribute("warmup_s")), plan_from_capture(cap, n_periods)
         if omega_c is None:
             return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, warmup, truth)
         return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, settled_after(warmup, omega_c),
-                          truth, loop_rate=plan_from_capture(cap, 1))
+                          truth, loop_rate=plan_from_capture(cap, 1), windows=windows)

@@ -200,9 +200,10 @@ def error_budget(table, sources):
         ax.bar(runs, height, 0.6, bottom=bottom, label=source)
         bottom += height
     ax.plot(runs, table["total rms [µm]"], "k_", ms=22, mew=2, label="error rms")
-    ax.plot(runs, table["total max error [µm]"], "kv", label="error max (Tables 5.4, 6.2)")
-    labels = [f"{f:g} Hz" if np.isfinite(f) else run for run, f in zip(table["run"], table["frequency [Hz]"])]
-    ax.set_xticks(runs, labels, rotation=20)
+    ax.plot(runs, table["total max error [µm]"], "kv", label="error max (Tables 5.4, 6.1, 6.2)")
+    labels = [f"{f:g} Hz" if np.isfinite(f) else f"{run} {segment}" if isinstance(segment, str) else run
+              for run, f, segment in zip(table["run"], table["frequency [Hz]"], table["segment"])]
+    ax.set_xticks(runs, labels, rotation=30, ha="right", fontsize=7)
     ax.set(ylabel="rms over the run [µm]", title="Observer error budget against the twin's truth")
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=7, ncols=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))

@@ -42,6 +42,9 @@ COLUMNS = ["section", "kind", "chapter", "source", "quantity", "unit", "publishe
 EDGE_RTOL = 1e-9
 #: how a scorecard note starts when the stage made the table but left the number out
 LEFT_OUT = "left out by its stage: "
+#: the observer's error budget (rule error_budget, twin datasets only), which an entry's `cause` reads
+BUDGET_TABLE = "twin/error_budget.csv"
+AT_MAX = " at total max [µm]"
 
 
 class RegistryError(ManifestError):
@@ -140,6 +143,7 @@ class Entry:
     locate: Locator | None = None
     truth: str | None = None
     printed: str | None = None  # the published number as printed, where trailing zeros matter
+    cause: tuple[tuple[str, Any], ...] = ()  # the row of BUDGET_TABLE that splits the number's error
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -159,6 +163,7 @@ class Score:
     reproduced: float | None = None
     verdict: str = NOT_YET
     detail: str = ""
+    cause: str = ""  # what the error budget measured of the number's error (budget_note)
 
 
 # --- the registry -------------------------------------------------------------------------------
@@ -212,7 +217,8 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
     return Entry(section=section, kind=value["kind"], chapter=group["chapter"], source=group["source"],
                  model=group["model"], quantity=item["quantity"], unit=value["unit"],
                  published=None if truth else float(published), band=band, bound=bound,
-                 note=value.get("note", ""), locate=locate, truth=truth, printed=item.get("printed"))
+                 note=value.get("note", ""), locate=locate, truth=truth, printed=item.get("printed"),
+                 cause=tuple({**group.get("cause", {}).get("where", {}), **item.get("cause", {}).get("where", {})}.items()))
 
 
 def _locator(locate: Mapping[str, Any], where: str) -> Locator | None:
@@ -237,7 +243,25 @@ def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[En
 
 def tables_read(entries: Sequence[Entry]) -> list[str]:
     """Tables (relative to results/<dataset>/) the entries read, in registry order."""
-    return list(dict.fromkeys(e.locate.table for e in entries if e.locate))
+    return list(dict.fromkeys([e.locate.table for e in entries if e.locate]
+                              + [BUDGET_TABLE for e in entries if e.cause]))
+
+
+def budget_note(budget: pd.DataFrame, where: Sequence[tuple[str, Any]], largest: int = 3) -> str:
+    """The note of a number whose error the observer's error budget splits (its row ``where``):
+    the error at its max and its ``largest`` sources at that instant, signed, in µm."""
+    match = np.ones(len(budget), dtype=bool)
+    for key, wanted in where:
+        match &= _matches(budget[key], wanted) if key in budget else False
+    selector = ", ".join(f"{k} = {v}" for k, v in where)
+    if match.sum() != 1:
+        raise LookupError(f"{int(match.sum())} rows of {BUDGET_TABLE} match {selector}")
+    row = budget.loc[match].iloc[0]
+    sources = {c.removesuffix(AT_MAX): float(row[c]) for c in budget.columns if c.endswith(AT_MAX)}
+    top = sorted(sources.items(), key=lambda kv: -abs(kv[1]))[:largest]
+    return (f"Measured cause ({BUDGET_TABLE}, {selector}): at the observer error's max, "
+            f"{float(row['total at max [µm]']):+.2f} µm, its largest sources are "
+            + ", ".join(f"{name} {value:+.2f}" for name, value in top) + " µm")
 
 
 # --- scoring ------------------------------------------------------------------------------------
@@ -311,7 +335,8 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
         return Score(entry, published, band(published, entry), verdict=MISSING, detail=str(err))
     limits = band(published, entry)
     verdict = INFORMATION if entry.tolerance is None else judge(reproduced, *limits)
-    return Score(entry, published, limits, reproduced, verdict)
+    cause = budget_note(tables[BUDGET_TABLE], entry.cause) if entry.cause and BUDGET_TABLE in tables else ""
+    return Score(entry, published, limits, reproduced, verdict, cause=cause)
 
 
 def scorecard(entries: Sequence[Entry], tables: Mapping[str, pd.DataFrame], manifest: Mapping[str, Any]) -> pd.DataFrame:
@@ -330,7 +355,7 @@ def _row(s: Score) -> dict[str, Any]:
         "band low": lo if math.isfinite(lo) else None, "band high": hi if math.isfinite(hi) else None,
         "band": e.band.name, "tolerance": _tolerance_text(e, p), "justification": e.band.justification,
         "verdict": s.verdict, "read from": e.locate.describe() if e.locate else "",
-        "note": "; ".join(t for t in (s.detail, e.note) if t),
+        "note": "; ".join(t for t in (s.detail, e.note, s.cause) if t),
     }
 
 

@@ -15,11 +15,13 @@ OBSERVED_SINES = {d: {f: e for f, e in sines(d, "ch5_sine_").items() if f in TAB
 #: {experiment: Table 5.4 frequency [Hz], None for the creep run} of every open-loop run the observer is evaluated on
 OBSERVED_RUNS = {d: {e: f for f, e in OBSERVED_SINES[d].items()} | {"ch5_creep": None} for d in DATASETS}
 
-#: the closed-loop run of P2a, whose logged observer error (Table 6.2's ε_OCL) the error budget splits too
-P2A_CLOSED = "ch6_p2a_closed"
+#: the closed-loop runs whose observer error Chapter 6 tabulates (ε_OCL: P1 in Table 6.1, P2a–d in
+#: Table 6.2), which the error budget splits too
+CH6_BUDGET_RUNS = {d: [e for e, x in EXPERIMENTS[d].items() if x is not None and x.control == "closed_loop"
+                       and e.startswith(("ch6_p1_", "ch6_p2"))] for d in DATASETS}
 
 #: {experiment: Table 5.4 frequency [Hz] or None} of every run the error budget splits
-BUDGET_RUNS = {d: OBSERVED_RUNS[d] | ({P2A_CLOSED: None} if P2A_CLOSED in EXPERIMENTS[d] else {}) for d in DATASETS}
+BUDGET_RUNS = {d: OBSERVED_RUNS[d] | dict.fromkeys(CH6_BUDGET_RUNS[d]) for d in DATASETS}
 
 OBSERVER_DATASETS = [d for d in GAMMA_DATASETS if CHARGE_SINES[d] and "ch5_creep" in EXPERIMENTS[d]
                      and len(OBSERVED_SINES[d]) == len(TABLE_5_4_HZ)]
@@ -134,8 +136,8 @@ rule observer_study:
 
 
 rule error_budget:
-    """The observer's error of Table 5.4 (and P2a's ε_OCL of Table 6.2) split into its sources with
-    the twin's truth (verification)."""
+    """The observer's error of Table 5.4 (and Chapter 6's ε_OCL, Tables 6.1–6.2) split into its
+    sources with the twin's truth (verification)."""
     input:
         unpack(lambda w: captures(w.dataset, captures=list(BUDGET_RUNS[w.dataset]))),
         gamma="results/{dataset}/ch5/gamma.json",
@@ -147,8 +149,11 @@ rule error_budget:
         figure=report_figure(ERROR_BUDGET_FIGURE, "Twin validation"),
     params:
         frequencies=lambda w: list(BUDGET_RUNS[w.dataset].values()),
-        # Table 6.2 counts P2a from the loop's settling on (its ω_C), Table 5.4 from the warm-up on
-        loop_omega_c=lambda w: [config["control"]["omega_c"] if e == P2A_CLOSED else None for e in BUDGET_RUNS[w.dataset]],
+        # Chapter 6 counts from the loop's settling on (its ω_C), in P1's segments; Table 5.4 from the warm-up on
+        loop_omega_c=lambda w: [config["control"]["omega_c"] if e in CH6_BUDGET_RUNS[w.dataset] else None
+                                for e in BUDGET_RUNS[w.dataset]],
+        p1_protocols=lambda w: [dict(EXPERIMENTS[w.dataset][e].protocol) if e.startswith("ch6_p1_") else None
+                                for e in BUDGET_RUNS[w.dataset]],
         n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/error_budget.log",

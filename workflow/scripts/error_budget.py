@@ -1,6 +1,6 @@
-"""Rule `error_budget`: the observer's Table 5.4 error (and P2a's ε_OCL) split into its sources with the twin's truth.
+"""Rule `error_budget`: the observer's Table 5.4 error (and Chapter 6's ε_OCL) split into its sources with the twin's truth.
 
-Alone: python workflow/scripts/error_budget.py gamma.json observer.json out.csv out.png --runs raw/pi_p885/ch5_sine_1hz.nc=1 raw/pi_p885/ch5_creep.nc --p2a raw/pi_p885/ch6_p2a_closed.nc=1570.8
+Alone: python workflow/scripts/error_budget.py gamma.json observer.json out.csv out.png --runs raw/pi_p885/ch5_sine_1hz.nc=1 raw/pi_p885/ch5_creep.nc --p2 raw/pi_p885/ch6_p2a_closed.nc=1570.8
 """
 
 import argparse
@@ -16,11 +16,14 @@ from selfsense.provenance import save_figure, script_logging, write_table
 
 
 def main(runs, gamma, observer, table, figure, n_periods, log=None):
-    """runs: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Table 6.2 run or None)}."""
+    """runs: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Chapter 6 closed-loop run
+    or None, the protocol of a P1 run or None)}."""
     logger, poly, gains = script_logging(log), load_gamma(gamma), load_gains(observer)
-    result = pd.DataFrame([{"run": Path(c).stem, "frequency [Hz]": f} | capture_budget(c, n_periods, poly, gains, w)
-                           for c, (f, w) in runs.items()]).astype({"frequency [Hz]": float})
-    provenance = {"inputs": [*runs, gamma, observer], "config": {"n_periods": n_periods, "omega_c": [w for _, w in runs.values()]}}
+    result = pd.DataFrame([{"run": Path(c).stem, "segment": s or None, "frequency [Hz]": f} | row
+                           for c, (f, w, p1) in runs.items()
+                           for s, row in capture_budget(c, n_periods, poly, gains, w, p1).items()])
+    result = result.astype({"frequency [Hz]": float})
+    provenance = {"inputs": [*runs, gamma, observer], "config": {"n_periods": n_periods, "omega_c": [w for _, w, _ in runs.values()]}}
     write_table(result, table, **provenance)
     save_figure(figures.error_budget(result, SOURCES), figure, **provenance)
     logger.info("\n%s", result.T.to_string())
@@ -28,16 +31,17 @@ def main(runs, gamma, observer, table, figure, n_periods, log=None):
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(dict(zip(i.captures, zip(snakemake.params.frequencies, snakemake.params.loop_omega_c))), i.gamma,
-         i.observer, snakemake.output.table, snakemake.output.figure, snakemake.params.n_periods, snakemake.log[0])
+    p = snakemake.params
+    main(dict(zip(i.captures, zip(p.frequencies, p.loop_omega_c, p.p1_protocols))), i.gamma, i.observer,
+         snakemake.output.table, snakemake.output.figure, p.n_periods, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("gamma", "observer", "table", "figure"):
         cli.add_argument(name)
     cli.add_argument("--runs", nargs="+", required=True, help="capture[=Table 5.4 frequency in Hz]")
-    cli.add_argument("--p2a", nargs="*", default=[], help="closed-loop P2 capture=the loop's ω_C [rad/s]")
+    cli.add_argument("--p2", nargs="*", default=[], help="closed-loop P2 capture=the loop's ω_C [rad/s]")
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
     a = cli.parse_args()
-    runs = {c: (float(f) if f else None, None) for c, _, f in (r.partition("=") for r in a.runs)}
-    main(runs | {c: (None, float(w)) for c, _, w in (r.partition("=") for r in a.p2a)}, a.gamma, a.observer, a.table,
+    runs = {c: (float(f) if f else None, None, None) for c, _, f in (r.partition("=") for r in a.runs)}
+    main(runs | {c: (None, float(w), None) for c, _, w in (r.partition("=") for r in a.p2)}, a.gamma, a.observer, a.table,
          a.figure, a.n_periods)

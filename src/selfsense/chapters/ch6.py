@@ -67,18 +67,14 @@ def load_run(path, protocol: Mapping) -> dict[str, np.ndarray | None]:
 def results(runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str, Mapping],
             controls: Mapping[str, str], k_over_alpha: float, omega_c: float) -> dict[str, pd.DataFrame]:
     """Tables 6.1 (P1 tests), 6.2 (P2 profiles), the P3 summary and the loop's tracking prediction."""
-    settle = SETTLE_TIME_CONSTANTS / omega_c
     p1 = {"e_TOL": [], "e_TCL": [], "e_OCL": []}
     rows62, p1_stroke = [], 0.0
     for name, run in runs.items():
         protocol, closed = protocols[name], controls[name] == "closed_loop"
         if name.startswith("ch6_p1_"):
-            warmup = float(protocol.get("warmup", 0.0))
             errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
             per_test = len(protocol["segments"])  # the recording holds the tests one after another
-            ends = warmup + np.cumsum([s["duration"] for s in protocol["segments"]] * int(protocol.get("repeat", 1)))
-            starts = np.concatenate([[warmup], ends[:-1]])
-            for key, maxima in segment_maxima(run["t"], errs, starts, ends, settle).items():
+            for key, maxima in segment_maxima(run["t"], errs, segment_windows(protocol, omega_c)).items():
                 if key in p1:
                     p1[key] += [maxima[k:k + per_test] for k in range(0, len(maxima), per_test)]
             p1_stroke = max(p1_stroke, float(np.ptp(run["x_ref"])))
@@ -103,13 +99,19 @@ def errors(x_ref: np.ndarray, x_laser: np.ndarray, x_hat: np.ndarray | None, clo
     return out
 
 
-def segment_maxima(t: np.ndarray, errs: Mapping[str, np.ndarray], starts: Sequence[float], ends: Sequence[float],
-                   settle: float) -> dict[str, list[float]]:
-    """Per error signal, the max |ε| in each segment's steady window [start + settle, end)."""
-    out = {}
-    for name, e in errs.items():
-        out[name] = [float(np.max(np.abs(e[(t >= a + settle) & (t < b)]))) for a, b in zip(starts, ends)]
-    return out
+def segment_windows(protocol: Mapping, omega_c: float) -> list[tuple[str, float, float]]:
+    """P1's steady windows in the recording's order, every test's segments a–h one after another:
+    (segment, start + the loop's settling SETTLE_TIME_CONSTANTS/ω_C, end) [s]."""
+    warmup, segments = float(protocol.get("warmup", 0.0)), protocol["segments"]
+    ends = warmup + np.cumsum([s["duration"] for s in segments] * int(protocol.get("repeat", 1)))
+    starts = np.concatenate([[warmup], ends[:-1]]) + SETTLE_TIME_CONSTANTS / omega_c
+    return [(SEGMENTS[k % len(segments)], float(a), float(b)) for k, (a, b) in enumerate(zip(starts, ends))]
+
+
+def segment_maxima(t: np.ndarray, errs: Mapping[str, np.ndarray],
+                   windows: Sequence[tuple[str, float, float]]) -> dict[str, list[float]]:
+    """Per error signal, the max |ε| in each steady window [start, end) of :func:`segment_windows`."""
+    return {name: [float(np.max(np.abs(e[(t >= a) & (t < b)]))) for _, a, b in windows] for name, e in errs.items()}
 
 
 def table_6_1(per_test: Mapping[str, list[list[float]]]) -> pd.DataFrame:
