@@ -19,13 +19,13 @@ Each difference is split once more at a truth signal, giving the six sources of 
 * ``probe offset``  H_I·(∫I_0 dt / a0) = (x̂/I_0)·I_0 (Eq 5.7): the true probe offset I_0 and its
   drift, as far as the offset estimator Î_0 (Eq 5.5) has not yet absorbed it;
 * ``current noise`` H_I·(∫(I − I_0) dt / a0 − q/a0): everything else in the measured current that
-  is not the stack's charge — the probe's noise, the 100 kHz ripple current (folded onto fs/ns),
+  is not the stack's charge — the probe's resolution, the 100 kHz ripple current (folded onto fs/ns),
   ADC quantisation — and the trapezoidal rule's error against the true charge q;
 * ``q–x map``       H_I·(q/a0 − x): the q–x hysteresis and the error of the identified a0;
 * ``C_e estimate``  H_CP·(Γ(Ĉ_e) − Γ(C_e)): the ripple estimator's noise, its window and hold lag
   (Eq 3.6–3.13) and any bias against the true small-signal capacitance C_e, through Γ;
 * ``Γ map``         H_CP·(Γ(C_e) − x): the fit error of Γ (Eq 5.4) and the C_e–x hysteresis;
-* ``laser``         −(x_laser − x): the laser's noise, its drift and the zero it is read from
+* ``laser``         −(x_laser − x): the laser's resolution, its drift and the zero it is read from
   (its first sample, as Table 5.4 reads it).
 
 Each term is the library's own streaming observer (:class:`HybridPositionObserver`, same gains,
@@ -98,7 +98,7 @@ class Truth:
         """Each state at the global sample indices ``index``.
 
         A 4-point cubic through the stored values: linear interpolation would be off by
-        (ωΔ)²/8 of the amplitude, 50 nm on the 100 Hz sine at 4 kHz, the size of the laser's noise;
+        (ωΔ)²/8 of the amplitude, 50 nm on the 100 Hz sine at 4 kHz, near the laser's own 87 nm rms;
         the cubic's (ωΔ)⁴/43 is below 1 nm. Ends use the nearest values.
         """
         u = np.asarray(index, dtype=np.float64) / self.decimation
