@@ -223,8 +223,8 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
             t, total = (index - (loop_rate.ns - 1) / 2) / fs, m[1] + zero
             parts = dict(zip(SOURCES, m[2:])) | {"laser": m[2 + SOURCES.index("laser")] + zero}
         counted = dict.fromkeys(stats, False)
-        for label, start, end in spans:
-            counted[label] = counted[label] | ((t >= start) & (t < end))
+        for label, begin, end in spans:
+            counted[label] = counted[label] | ((t >= begin) & (t < end))
         for label, budget in stats.items():
             budget.add(t, total, parts, counted[label])
     return {label: budget.row() for label, budget in stats.items()}
