@@ -1,6 +1,7 @@
 """Fig 5.3's frequency response: the lock-in, the sweep plan, Eq 5.2's model and its peak, the
 catalogue's sweep, and a short sweep on the twin against Eq 5.2 with the twin's true parameters."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -148,13 +149,17 @@ def test_twin_sweep_matches_eq_5_2_with_the_twins_true_parameters(tmp_path, stac
     """The smoke campaign's sweep on the twin, analysed as the rule does, against Eq 5.2 with the
     twin's true k, α, C_P0, ΔCx, m, b.
 
-    Below the resonance (100 Hz, 1 kHz) within 1 % and 0.5°: the lock-in's noise is ≈ 0.2 %
-    (laser 0.1 µm rms on a 1.4 µm amplitude over 3840 samples with Hann's 1.5 noise bandwidth),
+    The laser's 0.3 µm rounding is off here: undithered, it biases the fundamental of a 1.4 µm
+    sine by up to ≈ 1.5 % (what the campaign's Fig 5.3 shows, docs/deviations.md), which is the
+    instrument, not the mechanics this test holds to Eq 5.2. Below the resonance (100 Hz, 1 kHz)
+    then within 1 % and 0.5°: the laser's slow drift moves < 1 nm over a measurement window,
     C_P at the operating position is known to ≈ 0.05 %, and the twin's Tustin frequency warping
     is < 0.05 % there. Through the resonance (3.3–3.8 kHz) the twin follows Eq 5.2 at the warped
     frequency (2/h)·tan(ωh/2) of its Tustin-integrated mechanics (1.8 % above ω at 3.6 kHz, which
     moves a Q ≈ 15 peak by more than its half-width); within 2 % and 2° there.
     """
+    stack_params = dataclasses.replace(
+        stack_params, instruments=dataclasses.replace(stack_params.instruments, laser_resolution=0.0))
     s = stack_params.stack
     truth = {"C_P0": s.C_P0, "dC_x": s.dC_x, "alpha": s.alpha, "k": s.k, "m": s.m, "b": s.b}
     drive = drive_from_protocol(expand_protocols(["ch5"], "smoke")["ch5_sweep"].protocol)
