@@ -250,13 +250,8 @@ def tables_read(entries: Sequence[Entry]) -> list[str]:
 def budget_note(budget: pd.DataFrame, where: Sequence[tuple[str, Any]], largest: int = 3) -> str:
     """The note of a number whose error the observer's error budget splits (its row ``where``):
     the error at its max and its ``largest`` sources at that instant, signed, in µm."""
-    match = np.ones(len(budget), dtype=bool)
-    for key, wanted in where:
-        match &= _matches(budget[key], wanted) if key in budget else False
+    row = _one_row(budget, where, BUDGET_TABLE)
     selector = ", ".join(f"{k} = {v}" for k, v in where)
-    if match.sum() != 1:
-        raise LookupError(f"{int(match.sum())} rows of {BUDGET_TABLE} match {selector}")
-    row = budget.loc[match].iloc[0]
     sources = {c.removesuffix(AT_MAX): float(row[c]) for c in budget.columns if c.endswith(AT_MAX)}
     top = sorted(sources.items(), key=lambda kv: -abs(kv[1]))[:largest]
     return (f"Measured cause ({BUDGET_TABLE}, {selector}): at the observer error's max, "
@@ -297,16 +292,24 @@ def lookup(locator: Locator, table: pd.DataFrame, column: str | None = None) -> 
         raise NotComputed(f"{locator.table}: {notes[0] if notes else 'no values'}")
     if absent:
         raise LookupError(f"{locator.table} has no column {absent[0]!r}")
-    match = np.ones(len(table), dtype=bool)
-    for key, wanted in locator.where:
-        match &= _matches(table[key], wanted)
-    if match.sum() != 1:
-        raise LookupError(f"{int(match.sum())} rows of {locator.table} match "
-                          f"{', '.join(f'{k} = {v}' for k, v in locator.where) or '(no selector)'}")
-    value = pd.to_numeric(table.loc[match, column], errors="coerce").iloc[0]
+    value = pd.to_numeric(_one_row(table, locator.where, locator.table)[column], errors="coerce")
     if pd.isna(value):
         raise NotComputed(f"{locator.describe()} is empty")
     return float(value) * locator.scale
+
+
+def _one_row(table: pd.DataFrame, where: Sequence[tuple[str, Any]], name: str) -> pd.Series:
+    """The one row of ``table`` (called ``name`` in errors) that ``where`` selects; LookupError else."""
+    absent = [k for k, _ in where if k not in table.columns]
+    if absent:
+        raise LookupError(f"{name} has no column {absent[0]!r}")
+    match = np.ones(len(table), dtype=bool)
+    for key, wanted in where:
+        match &= _matches(table[key], wanted)
+    if match.sum() != 1:
+        raise LookupError(f"{int(match.sum())} rows of {name} match "
+                          f"{', '.join(f'{k} = {v}' for k, v in where) or '(no selector)'}")
+    return table.loc[match].iloc[0]
 
 
 def _matches(column: pd.Series, wanted: Any) -> np.ndarray:
