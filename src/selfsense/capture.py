@@ -117,6 +117,8 @@ CHANNEL_UNITS: dict[str, tuple[str, str]] = {
     "x_disp": ("m", "position from the displacement sensor"),
 }
 SLOW_CHANNELS = frozenset({"T_top", "T_mid", "T_bot"})
+#: displacement channels of the contract, in order of preference
+DISPLACEMENT = ("x_laser", "x_disp")
 
 
 def channel_spec(name: str, lo: float, hi: float) -> ChannelSpec:

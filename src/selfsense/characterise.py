@@ -19,12 +19,10 @@ from typing import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from .capture import open_capture
+from .capture import DISPLACEMENT, open_capture
 from .figures import UF, UM, loop_grid, placeholder, plt  # plt: after figures has chosen the Agg backend
 from .metrics import branch_gap, branch_means, direction
 
-#: displacement channels of the contract, in order of preference
-DISPLACEMENT = ("x_laser", "x_disp")
 #: a capture is reduced to at most this many block means
 MAX_POINTS = 1 << 20
 #: end points of the chord and of the end-point gain: samples within this fraction of the

@@ -3,7 +3,9 @@
 # gains, the x–U loop's width and nonlinearity, creep after a held step, and with the current the
 # charge–position slope and the q–U loop; a loop figure per capture and a table per dataset.
 
-from selfsense.characterise import DISPLACEMENT
+# from the capture contract, not selfsense.characterise: that imports matplotlib, ≈ 0.5 s of every
+# Snakemake start (each dry run, each cluster job)
+from selfsense.capture import DISPLACEMENT
 
 #: datasets whose DAQ records a drive voltage and a displacement
 CHARACTERISE_DATASETS = [d for d in DATASETS
