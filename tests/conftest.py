@@ -48,6 +48,15 @@ def snakemake(repo, *args, config="tests/config/smoke.yaml"):
                           cwd=repo, capture_output=True, text=True, timeout=1800)
 
 
+def pytest_collection_modifyitems(items):
+    """Under pytest-xdist (the suite's addopts) every test that needs the smoke DAG goes to one
+    worker, which runs that DAG once (a session fixture is per worker); the others share out the
+    rest meanwhile."""
+    for item in items:
+        if "smoke_run" in item.fixturenames:
+            item.add_marker(pytest.mark.xdist_group("smoke_run"))
+
+
 @pytest.fixture(scope="session")
 def smoke_run(tmp_path_factory):
     """The whole DAG on the smoke campaign, run once per test session in a scratch copy."""
