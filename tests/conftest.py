@@ -48,6 +48,7 @@ def snakemake(repo, *args, config="tests/config/smoke.yaml"):
                           cwd=repo, capture_output=True, text=True, timeout=1800)
 
 
+@pytest.hookimpl(tryfirst=True)  # before xdist reads the groups off the markers
 def pytest_collection_modifyitems(items):
     """Under pytest-xdist (the suite's addopts) every test that needs the smoke DAG goes to one
     worker, which runs that DAG once (a session fixture is per worker); the others share out the
