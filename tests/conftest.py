@@ -1,3 +1,6 @@
+import fcntl
+import json
+import os
 import shutil
 import subprocess
 import sys
@@ -50,18 +53,45 @@ def snakemake(repo, *args, config="tests/config/smoke.yaml"):
 
 @pytest.hookimpl(tryfirst=True)  # before xdist reads the groups off the markers
 def pytest_collection_modifyitems(items):
-    """Under pytest-xdist (the suite's addopts) every test that needs the smoke DAG goes to one
-    worker, which runs that DAG once (a session fixture is per worker); the others share out the
-    rest meanwhile."""
+    """The suite runs on pytest-xdist workers (addopts): the tests that run Snakemake inside the
+    shared smoke tree, edit it or copy it whole (``smoke_tree``) go to one worker, one after
+    another; the tests that only read its captures and tables run on any."""
     for item in items:
-        if "smoke_run" in item.fixturenames:
-            item.add_marker(pytest.mark.xdist_group("smoke_run"))
+        if "smoke_tree" in item.fixturenames:
+            item.add_marker(pytest.mark.xdist_group("smoke_tree"))
 
 
 @pytest.fixture(scope="session")
 def smoke_run(tmp_path_factory):
-    """The whole DAG on the smoke campaign, run once per test session in a scratch copy."""
-    repo = copy_repo(tmp_path_factory.mktemp("dag") / "repo")
+    """The whole DAG on the smoke campaign in a scratch copy, run once per test run: under
+    pytest-xdist the first worker that needs it runs it, under a lock in the folder the workers'
+    temporary folders share, and the others wait for it and read the same tree."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return _smoke_dag(tmp_path_factory.mktemp("dag"))
+    shared = tmp_path_factory.getbasetemp().parent
+    with open(shared / "smoke_run.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, also if the worker dies
+        done = shared / "smoke_run.json"
+        if not done.exists():
+            try:
+                repo = _smoke_dag(shared / "dag")
+                done.write_text(json.dumps({"repo": str(repo)}))
+            except AssertionError as err:  # every worker fails with the same reason, none runs it again
+                done.write_text(json.dumps({"failed": str(err)}))
+    state = json.loads(done.read_text())
+    assert "failed" not in state, state.get("failed")
+    return Path(state["repo"])
+
+
+def _smoke_dag(folder: Path) -> Path:
+    repo = copy_repo(folder / "repo")
     run = snakemake(repo)
     assert run.returncode == 0, run.stderr[-3000:]
     return repo
+
+
+@pytest.fixture(scope="session")
+def smoke_tree(smoke_run):
+    """``smoke_run`` for a test that runs Snakemake inside it, edits it or copies it whole: these
+    run on one pytest-xdist worker, one at a time (pytest_collection_modifyitems)."""
+    return smoke_run

@@ -75,11 +75,11 @@ def test_every_config_key_is_covered():
 
 
 @pytest.mark.parametrize("key", USES)
-def test_a_config_change_reruns_exactly_the_rules_that_declare_it(smoke_run, tmp_path, key):
+def test_a_config_change_reruns_exactly_the_rules_that_declare_it(smoke_tree, tmp_path, key):
     value, rules = USES[key]
     changed = tmp_path / "changed.yaml"
     changed.write_text(yaml.safe_dump(with_change(key, value), sort_keys=False))
-    dry = snakemake(smoke_run, "-n", "--quiet", "rules", config=str(changed))
+    dry = snakemake(smoke_tree, "-n", "--quiet", "rules", config=str(changed))
     assert dry.returncode == 0, dry.stderr[-2000:]
     out = dry.stdout + dry.stderr
     if not rules:

@@ -40,12 +40,12 @@ def datasets(repo):
 
 
 @pytest.fixture(scope="module")
-def report(smoke_run):
+def report(smoke_tree):
     """`snakemake --report` on the smoke run; the report's embedded JSON (results, categories,
     description) and the build's stderr."""
-    run = snakemake(smoke_run, "--report", "report.html")
+    run = snakemake(smoke_tree, "--report", "report.html")
     assert run.returncode == 0, run.stderr[-3000:]
-    page = (smoke_run / "report.html").read_text(encoding="utf-8")
+    page = (smoke_tree / "report.html").read_text(encoding="utf-8")
     blocks = dict(re.findall(r'<script id="([\w-]+)">\s*var \w+ = (.*?);\s*</script>', page, re.S))
     found = {name: json.loads(blocks[name]) for name in ("workflow-desc", "results", "categories")}
     return found | {"stderr": run.stderr}
@@ -246,13 +246,13 @@ def jobs(dry_run_output):
     return found
 
 
-def test_changing_one_parameter_reruns_only_what_depends_on_it(smoke_run, tmp_path):
+def test_changing_one_parameter_reruns_only_what_depends_on_it(smoke_tree, tmp_path):
     # a second config file, not --config: --config cannot type a nested value (ripple.n_periods)
-    changed = yaml.safe_load((smoke_run / SMOKE).read_text())
+    changed = yaml.safe_load((smoke_tree / SMOKE).read_text())
     changed["ripple"]["n_periods"] = 8
     # key order kept: Snakemake compares a dict param by its text, so a reordered config reruns
     (tmp_path / "np8.yaml").write_text(yaml.safe_dump(changed, sort_keys=False))
-    dry = snakemake(smoke_run, "-n", config=str(tmp_path / "np8.yaml"))
+    dry = snakemake(smoke_tree, "-n", config=str(tmp_path / "np8.yaml"))
     assert dry.returncode == 0, dry.stderr[-3000:]
     planned = jobs(dry.stdout)
     assert any(r.startswith("Params have changed") for r in planned["extract_ripple"])
@@ -274,7 +274,7 @@ def made_by(repo):
     return {row[0]: row[2] for row in rows}
 
 
-def test_rebuilding_from_the_same_captures_gives_byte_identical_tables(smoke_run, tmp_path):
+def test_rebuilding_from_the_same_captures_gives_byte_identical_tables(smoke_tree, tmp_path):
     """Every table's job runs again on the same captures; its CSV must come out byte for byte.
 
     By default the tables are deleted and only the jobs that write tables run again, on the same
@@ -283,7 +283,7 @@ def test_rebuilding_from_the_same_captures_gives_byte_identical_tables(smoke_run
     Either way the captures are kept: the rules that write raw/ are not allowed to run.
     """
     copy = tmp_path / "repo"
-    shutil.copytree(smoke_run, copy, symlinks=True)
+    shutil.copytree(smoke_tree, copy, symlinks=True)
     made = made_by(copy)
     tables = sorted(p for p in made if p.endswith(".csv"))
     assert tables == [p for p in outputs(copy) if p.endswith(".csv")]

@@ -86,10 +86,10 @@ def headless(chromium, profile, *args):
 
 
 @pytest.fixture(scope="module")
-def built_report(smoke_run, tmp_path_factory):
+def built_report(smoke_tree, tmp_path_factory):
     """The smoke run's report, built into a scratch folder."""
     out = tmp_path_factory.mktemp("browser") / "report.html"
-    run = snakemake(smoke_run, "--report", str(out))
+    run = snakemake(smoke_tree, "--report", str(out))
     assert run.returncode == 0, run.stderr[-3000:]
     return out
 

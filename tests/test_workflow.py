@@ -29,8 +29,8 @@ def test_every_rule_leaves_a_log_and_a_benchmark(smoke_run):
     assert list((smoke_run / "benchmarks/out/pi_p885/simulate").glob("*.tsv"))
 
 
-def test_up_to_date_tree_has_nothing_to_do(smoke_run):
-    dry = snakemake(smoke_run, "-n")
+def test_up_to_date_tree_has_nothing_to_do(smoke_tree):
+    dry = snakemake(smoke_tree, "-n")
     assert dry.returncode == 0
     assert "Nothing to be done" in dry.stdout + dry.stderr
 
@@ -51,16 +51,16 @@ def _jobs_after_editing(repo, module):
     return set(re.findall(r"^(\w+)\s+\d+$", dry.stdout + dry.stderr, re.M)) - {"all", "job", "total"}
 
 
-def test_a_library_edit_reruns_the_rules_whose_code_it_changes(smoke_run):
+def test_a_library_edit_reruns_the_rules_whose_code_it_changes(smoke_tree):
     # the ripple estimator runs in every analysis of the ripple and in the closed loop's real-time
     # chain, but not in an open-loop simulation
-    ripple = _jobs_after_editing(smoke_run, "ripple.py")
+    ripple = _jobs_after_editing(smoke_tree, "ripple.py")
     assert {"extract_ripple", "observe", "thermal_extract", "simulate_closed_loop"} <= ripple
     assert "simulate" not in ripple
-    assert {"simulate", "simulate_closed_loop"} <= _jobs_after_editing(smoke_run, "twin/kernel.py")
+    assert {"simulate", "simulate_closed_loop"} <= _jobs_after_editing(smoke_tree, "twin/kernel.py")
     # the curve comparison reads the thesis's printed Γ from the registry through the scorecard module,
     # and the twin's calibration table locates its numbers with the scorecard's locators
-    assert _jobs_after_editing(smoke_run, "scorecard.py") == {"scorecard", "scorecard_summary", "curve_vs_thesis",
+    assert _jobs_after_editing(smoke_tree, "scorecard.py") == {"scorecard", "scorecard_summary", "curve_vs_thesis",
                                                                 "twin_calibration"}
 
 
