@@ -14,6 +14,7 @@ from scipy.io import savemat
 from selfsense import characterise as ch
 from selfsense.capture import INT16_FULL, CaptureError, open_capture
 from selfsense.cli import main as cli
+from selfsense.figure_names import loop_pages
 from selfsense.manifest import ManifestError, load_dataset, load_yaml
 from selfsense.reference_values import KIND, reference_rows
 from selfsense.scorecard import PUBLISHED, WITHIN, applicable, parse_registry, scorecard
@@ -46,12 +47,13 @@ def imported(tmp_path, source, *channel_args, experiment="sine_1hz", dataset="la
 
 
 def characterised(tmp_path, folder, experiment="sine_1hz"):
-    """The rule characterise on one capture: its row and its loop figure's page."""
+    """The rules characterise_page and characterise on one capture: its row and its loop figure's page."""
     out = tmp_path / folder.name
-    table, figures = out / "summary.csv", out / "loops"
-    script("characterise").main(str(folder / "dataset.yaml"), [str(folder / f"{experiment}.nc")], str(table),
-                                str(out / "instruments.csv"), str(figures))
-    return pd.read_csv(table).iloc[0].to_dict(), figures / "loops_01.png"
+    out.mkdir()
+    table, page, figure = out / "summary.csv", out / "page_01.json", out / "loops_01.png"
+    script("characterise_page").main([str(folder / f"{experiment}.nc")], str(page), str(figure), folder.name)
+    script("characterise").main(str(folder / "dataset.yaml"), [str(page)], str(table), str(out / "instruments.csv"))
+    return pd.read_csv(table).iloc[0].to_dict(), figure
 
 
 def test_a_csv_of_u_and_x_gives_stroke_gain_loop_width_and_the_loop_figure(tmp_path):
@@ -335,10 +337,17 @@ def test_a_capture_that_contradicts_its_manifest_stops_the_run_and_its_log_says_
     assert not (repo / "results" / "lab_fs" / "qc" / "sine_1hz.json").exists()
 
 
-def test_the_loop_figure_has_six_captures_a_page_and_keeps_one_page_open_at_a_time():
-    u = np.linspace(0.0, 100.0, 50)
-    captures = [ch.LoopPanels(f"run_{k}", ((u, 0.3 * u, "U [V]", "x_laser [µm]"),)) for k in range(31)]
-    before = set(ch.plt.get_fignums())  # figures other tests of the session left open
-    open_pages = [len(set(ch.plt.get_fignums()) - before) for _ in ch.loop_pages(captures, "lab_stack")]
-    assert open_pages == [1] * 6  # 31 captures: 6 pages, each closed when the next is made
+def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():
+    names = [f"run_{k}" for k in range(31)]
+    pages = loop_pages(names)
+    assert list(pages) == ["01", "02", "03", "04", "05", "06"]  # 31 captures: 6 pages, the last with one
+    assert [len(p) for p in pages.values()] == [6, 6, 6, 6, 6, 1]
+    assert [n for p in pages.values() for n in p] == names
+
+
+def test_a_page_without_loops_says_so():
+    before = set(ch.plt.get_fignums())
+    fig = ch.loop_page([], "lab_stack (1 of 1)")
+    assert "no capture records a drive voltage U and a displacement" in [t.get_text() for t in fig.axes[0].texts]
+    ch.plt.close(fig)
     assert set(ch.plt.get_fignums()) == before

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Iterator, Mapping, Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -198,10 +198,6 @@ def instruments(manifest: Mapping) -> list[dict]:
     return rows
 
 
-#: captures per page of the dataset's loop figure
-LOOPS_PER_PAGE = 6
-
-
 @dataclass(frozen=True)
 class LoopPanels:
     """One capture's loops as drawn: (x, y, xlabel, ylabel) per panel, thinned to the figure's
@@ -235,13 +231,9 @@ def characterise_capture(path, settle_s: float, min_hold_s: float) -> tuple[dict
     return row(name, characterise(reduced, x, settle_s, min_hold_s), x, reduced.fs), loop_panels(reduced, x, name)
 
 
-def loop_pages(captures: Sequence[LoopPanels], title: str, per_page: int = LOOPS_PER_PAGE) -> Iterator:
-    """The dataset's loop figure, ``per_page`` captures a page (one row each); a page that says
-    so when no capture has U and a displacement. One page at a time, closed once the caller asks
-    for the next: a lab's dataset may have hundreds of captures."""
-    pages = [captures[k:k + per_page] for k in range(0, len(captures), per_page)]
-    figures = (loop_grid([(c.name, c.panels) for c in page], f"{title} ({k} of {len(pages)})")
-               for k, page in enumerate(pages, 1))
-    for fig in figures if pages else [placeholder(title, "no capture records a drive voltage U and a displacement")]:
-        yield fig
-        plt.close(fig)
+def loop_page(captures: Sequence[LoopPanels], title: str):
+    """One page of the dataset's loop figure, a row per capture; a page that says so when none of
+    its captures has U and a displacement."""
+    if not captures:
+        return placeholder(title, "no capture records a drive voltage U and a displacement")
+    return loop_grid([(c.name, c.panels) for c in captures], title)

@@ -30,3 +30,13 @@ CH7_GAMMA_T, CH7_FREQUENCY, CH7_DIAGRAM = "fig_7_7", "fig_7_8", "fig_7_9"
 CH7_COUPLED = {"fig_7_10": "ch7_freq_100hz", "fig_7_11": "ch7_freq_50hz", "fig_7_12": "ch7_mixed_ae"}
 #: {figure of Ronkanen 2002: file name} of ``ronkanen.figures_paper``
 RONKANEN = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}
+
+#: captures a page of a dataset's loop figure (``characterise.loop_page``)
+LOOPS_PER_PAGE = 6
+
+
+def loop_pages(experiments) -> dict[str, list[str]]:
+    """The pages of a dataset's loop figure, figures/<dataset>/characterise/loops_<page>.png:
+    {page ("01", "02", …): its experiments}, :data:`LOOPS_PER_PAGE` a page in catalogue order."""
+    names = list(experiments)
+    return {f"{k // LOOPS_PER_PAGE + 1:02d}": names[k:k + LOOPS_PER_PAGE] for k in range(0, len(names), LOOPS_PER_PAGE)}

@@ -1,23 +1,59 @@
 # Stage "characterise": what the channels allow, whatever the protocol. Every capture with a drive
 # voltage U and a displacement (x_laser or x_disp) of a dataset whose DAQ records both: stroke,
 # gains, the x–U loop's width and nonlinearity, creep after a held step, and with the current the
-# charge–position slope and the q–U loop; a loop figure per capture and a table per dataset.
+# charge–position slope and the q–U loop; a loop figure six captures a page and a table per dataset.
 
 # from the capture contract, not selfsense.characterise: that imports matplotlib, ≈ 0.5 s of every
 # Snakemake start (each dry run, each cluster job)
 from selfsense.capture import DISPLACEMENT
+from selfsense.figure_names import loop_pages
 
 #: datasets whose DAQ records a drive voltage and a displacement
 CHARACTERISE_DATASETS = [d for d in DATASETS
                          if has_channels(d, "U") and any(has_channels(d, x) for x in DISPLACEMENT)]
 
 
-rule characterise:
-    """Every capture of the dataset streamed once: the characterisation table (one row per capture),
-    the actuator and its sensors, and the loops (x–U, and q–U with the current), a page per six
-    captures. One job per dataset: a capture's own work is a fraction of a job's start-up."""
+#: {dataset: {page: its experiments}} of the loop figures
+LOOP_PAGES = {d: loop_pages(EXPERIMENTS[d]) for d in CHARACTERISE_DATASETS}
+
+
+rule characterise_page:
+    """Up to six captures of the dataset, each streamed once: their rows of the characterisation
+    table and their page of the loop figure (x–U, and q–U with the current). A job per page, not
+    per capture (a capture's own work is a fraction of a job's start-up) nor per dataset (its
+    pages, one after another, kept a core busy alone at the end of the run): a page runs as soon
+    as its captures are there."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=list(EXPERIMENTS[w.dataset]))),
+        unpack(lambda w: captures(w.dataset, capture=LOOP_PAGES[w.dataset][w.page])),
+        library=library_sources("characterise_page"),
+    output:
+        rows="results/{dataset}/characterise/page_{page}.json",
+        figure=report("figures/{dataset}/characterise/loops_{page}.png",
+                      caption="../report/characterise_loops.rst", category="{dataset}",
+                      subcategory="Characterisation"),
+    params:
+        title=lambda w: f"{w.dataset} ({int(w.page)} of {len(LOOP_PAGES[w.dataset])})",
+        settle_s=0.1,  # x after a step is read this long after it (the stack's mechanics settle in ms)
+        min_hold_s=1.0,  # a shorter final hold is no creep test
+    wildcard_constraints:
+        page=r"\d+",
+    log:
+        "logs/{dataset}/characterise_page/{page}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/characterise_page/{page}.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/characterise_page.py"
+
+
+rule characterise:
+    """The dataset's characterisation table, one row per capture in catalogue order, from its
+    loop pages' rows; and the actuator and its sensors as the manifest describes them."""
+    input:
+        pages=lambda w: expand(rules.characterise_page.output.rows, dataset=w.dataset, page=LOOP_PAGES[w.dataset]),
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("characterise"),
     output:
@@ -25,23 +61,19 @@ rule characterise:
                      category="{dataset}", subcategory="Characterisation"),
         instruments=report("results/{dataset}/characterise/instruments.csv", caption="../report/instruments.rst",
                            category="{dataset}", subcategory="Characterisation"),
-        figures=report(directory("figures/{dataset}/characterise"), patterns=["{name}.png"],
-                       caption="../report/characterise_loops.rst", category="{dataset}",
-                       subcategory="Characterisation"),
-    params:
-        settle_s=0.1,  # x after a step is read this long after it (the stack's mechanics settle in ms)
-        min_hold_s=1.0,  # a shorter final hold is no creep test
     log:
         "logs/{dataset}/characterise.log",
     benchmark:
         "benchmarks/out/{dataset}/characterise.tsv"
     threads: 1
     resources:
-        mem_mb=config["resources"]["analysis_mem_mb"],
-        runtime=30,
+        mem_mb=500,
+        runtime=5,
     script:
         "../scripts/characterise.py"
 
 
 #: what the stage makes for rule all and the scorecard
-CHARACTERISE_OUTPUTS = expand(rules.characterise.output, dataset=CHARACTERISE_DATASETS)
+CHARACTERISE_OUTPUTS = (expand(rules.characterise.output, dataset=CHARACTERISE_DATASETS)
+                        + [f for d in CHARACTERISE_DATASETS
+                           for f in expand(rules.characterise_page.output.figure, dataset=d, page=LOOP_PAGES[d])])
