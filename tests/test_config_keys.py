@@ -28,7 +28,7 @@ USES = {
     "observer.sweep_settle_s": (0.03, {"frequency_response"}),
     "observer.study_omegas": ([1.0, 6.283], {"observer_study"}),
     "observer.study_offsets": ([0.0], {"observer_study"}),
-    "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results"}),
+    "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results", "tracking_budget"}),
     "capture.chunk_len": (32768, {"simulate", "simulate_closed_loop"}),
     "capture.compression": ("zlib", {"simulate", "simulate_closed_loop"}),
     "capture.complevel": (2, {"simulate", "simulate_closed_loop"}),

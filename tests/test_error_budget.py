@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from selfsense.error_budget import SOURCES, TRUTH_STATES, BudgetStats, Superposition, Truth
 from selfsense.manifest import load_yaml
 from selfsense.observer import HPOGains, HybridPositionObserver
-from selfsense.scorecard import parse_registry
+from selfsense.scorecard import BUDGET_TABLE, parse_registry
 
 from .conftest import ROOT
 from .tolerances import rtol
@@ -218,6 +218,7 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
     assert not (smoke_run / "results/tokin_nb40/twin/error_budget.csv").exists()  # no observer runs there
     # the scorecard's note of each number the budget splits names its measured sources
     card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
-    caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY)) if e.cause and e.model == "stack"]
-    assert len(caused) == 52
+    caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY))
+              if e.cause and e.model == "stack" and e.cause_table == BUDGET_TABLE]
+    assert len(caused) == 36
     assert card.loc[caused, "note"].str.contains("Measured cause (twin/error_budget.csv", regex=False).all()

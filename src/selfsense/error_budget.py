@@ -62,22 +62,23 @@ class Truth:
     """The twin's noiseless states of one capture, stored every ``decimation``-th sample.
 
     ``source`` names the capture in error messages; ``n_samples`` is the capture's length, which the
-    states must cover.
+    states must cover; ``names`` are the states a budget reads (the observer's by default).
     """
 
     states: Mapping[str, np.ndarray]
     decimation: int
     n_samples: int
     source: str = "capture"
+    names: tuple[str, ...] = TRUTH_STATES
     _values: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        missing = [s for s in TRUTH_STATES if s not in self.states]
+        missing = [s for s in self.names if s not in self.states]
         if missing:
             raise ValueError(f"{self.source}: /truth lacks the state(s) {', '.join(missing)}")
         if int(self.decimation) < 1:
             raise ValueError(f"{self.source}: /truth decimation must be >= 1, got {self.decimation!r}")
-        values = np.array([np.asarray(self.states[s], dtype=np.float64) for s in TRUTH_STATES])
+        values = np.array([np.asarray(self.states[s], dtype=np.float64) for s in self.names])
         needed = -(-int(self.n_samples) // int(self.decimation))
         if values.shape[1] < needed:
             raise ValueError(f"{self.source}: /truth has {values.shape[1]} values, the capture's "
@@ -88,11 +89,11 @@ class Truth:
 
     @classmethod
     def from_group(cls, attrs: Mapping[str, object], states: Mapping[str, np.ndarray], n_samples: int,
-                   source: str = "capture") -> "Truth":
+                   source: str = "capture", names: tuple[str, ...] = TRUTH_STATES) -> "Truth":
         """From :meth:`selfsense.capture.Capture.read_truth`'s (attributes, states)."""
         if "decimation" not in attrs:
             raise ValueError(f"{source}: /truth has no decimation attribute")
-        return cls(states, int(attrs["decimation"]), int(n_samples), source)
+        return cls(states, int(attrs["decimation"]), int(n_samples), source, tuple(names))
 
     def at(self, index: np.ndarray) -> dict[str, np.ndarray]:
         """Each state at the global sample indices ``index``.
@@ -108,7 +109,7 @@ class Truth:
                    (-(s + 1) * s * (s - 2) / 2), ((s + 1) * s * (s - 1) / 6))
         last = self._values.shape[1] - 1
         out = sum(w * self._values[:, np.clip(i + k, 0, last)] for k, w in zip((-1, 0, 1, 2), weights))
-        return dict(zip(TRUTH_STATES, out))
+        return dict(zip(self.names, out))
 
 
 class Superposition:
@@ -143,43 +144,50 @@ class Superposition:
 
 @dataclass
 class BudgetStats:
-    """Streaming statistics of the error and its sources over the samples counted (Table 5.4's)."""
+    """Streaming statistics of an error and its ``sources`` over the samples counted (Table 5.4's
+    for the observer's; :mod:`selfsense.tracking_budget` counts Chapter 6's tracking error)."""
 
+    sources: tuple[str, ...] = SOURCES
     n: int = 0
     total_sq: float = 0.0
     total_max: float = 0.0
     total_at_max: float = 0.0
     time_of_max: float = float("nan")
     closure: float = 0.0
-    sq: dict[str, float] = field(default_factory=lambda: dict.fromkeys(SOURCES, 0.0))
-    peak: dict[str, float] = field(default_factory=lambda: dict.fromkeys(SOURCES, 0.0))
-    at_max: dict[str, float] = field(default_factory=lambda: dict.fromkeys(SOURCES, float("nan")))
+    sq: dict[str, float] = field(init=False)
+    peak: dict[str, float] = field(init=False)
+    at_max: dict[str, float] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.sq, self.peak = dict.fromkeys(self.sources, 0.0), dict.fromkeys(self.sources, 0.0)
+        self.at_max = dict.fromkeys(self.sources, float("nan"))
 
     def add(self, t: np.ndarray, total: np.ndarray, parts: Mapping[str, np.ndarray], counted: np.ndarray) -> None:
-        """One chunk: ``total`` = x̂ − x_laser, its ``parts``, ``counted`` the samples that count."""
+        """One chunk: ``total`` the error (x̂ − x_laser for the observer), its ``parts``, ``counted``
+        the samples that count."""
         keep = counted & np.isfinite(total)  # a NaN laser sample counts nowhere, as in Table 5.4
         if not keep.any():
             return
-        e, p = total[keep], {s: parts[s][keep] for s in SOURCES}
+        e, p = total[keep], {s: parts[s][keep] for s in self.sources}
         self.n += e.size
         self.total_sq += float(np.sum(e * e))
         self.closure = max(self.closure, float(np.max(np.abs(sum(p.values()) - e))))
-        for s in SOURCES:
+        for s in self.sources:
             self.sq[s] += float(np.sum(p[s] * p[s]))
             self.peak[s] = max(self.peak[s], float(np.max(np.abs(p[s]))))
         k = int(np.argmax(np.abs(e)))
         if abs(e[k]) > self.total_max:
             self.total_max, self.total_at_max, self.time_of_max = float(abs(e[k])), float(e[k]), float(t[keep][k])
-            self.at_max = {s: float(p[s][k]) for s in SOURCES}
+            self.at_max = {s: float(p[s][k]) for s in self.sources}
 
     def row(self) -> dict[str, float]:
         """The run's budget in µm (shares of the error's mean square, with the cross terms between
         sources, which make the shares add up to 1)."""
         um, n, ms = 1e6, max(self.n, 1), self.total_sq / max(self.n, 1)
-        share = {s: self.sq[s] / n / ms if ms > 0 else float("nan") for s in SOURCES}
+        share = {s: self.sq[s] / n / ms if ms > 0 else float("nan") for s in self.sources}
         row = {"total max error [µm]": self.total_max * um, "total rms [µm]": np.sqrt(ms) * um,
                "total at max [µm]": self.total_at_max * um, "time of max [s]": self.time_of_max}
-        for s in SOURCES:
+        for s in self.sources:
             row |= {f"{s} rms [µm]": np.sqrt(self.sq[s] / n) * um, f"{s} max [µm]": self.peak[s] * um,
                     f"{s} at total max [µm]": self.at_max[s] * um, f"{s} share of mean square": share[s]}
         return row | {"cross terms share of mean square": 1.0 - sum(share.values()),

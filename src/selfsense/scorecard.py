@@ -42,8 +42,11 @@ COLUMNS = ["section", "kind", "chapter", "source", "quantity", "unit", "publishe
 EDGE_RTOL = 1e-9
 #: how a scorecard note starts when the stage made the table but left the number out
 LEFT_OUT = "left out by its stage: "
-#: the observer's error budget (rule error_budget, twin datasets only), which an entry's `cause` reads
+#: the observer's error budget (rule error_budget, twin datasets only): what an entry's `cause` reads
+#: unless it names another of CAUSE_TABLES
 BUDGET_TABLE = "twin/error_budget.csv"
+#: the error budgets a `cause` can read (twin datasets only), and the error each splits
+CAUSE_TABLES = {BUDGET_TABLE: "the observer error", "twin/tracking_budget.csv": "the tracking error"}
 AT_MAX = " at total max [µm]"
 
 
@@ -143,7 +146,8 @@ class Entry:
     locate: Locator | None = None
     truth: str | None = None
     printed: str | None = None  # the published number as printed, where trailing zeros matter
-    cause: tuple[tuple[str, Any], ...] = ()  # the row of BUDGET_TABLE that splits the number's error
+    cause: tuple[tuple[str, Any], ...] = ()  # the row of cause_table that splits the number's error
+    cause_table: str = BUDGET_TABLE
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -214,11 +218,15 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
         if ref <= 0:
             raise RegistryError(f"{where}: band {band.name!r} is on a log scale, which needs "
                                 f"{'a positive value' if band.tolerance.scale == 'log' else 'a value below 1'}")
+    cause = {**group.get("cause", {}), **item.get("cause", {})}
+    if cause.get("table", BUDGET_TABLE) not in CAUSE_TABLES:
+        raise RegistryError(f"{where}: cause table {cause['table']!r} is none of {', '.join(CAUSE_TABLES)}")
     return Entry(section=section, kind=value["kind"], chapter=group["chapter"], source=group["source"],
                  model=group["model"], quantity=item["quantity"], unit=value["unit"],
                  published=None if truth else float(published), band=band, bound=bound,
                  note=value.get("note", ""), locate=locate, truth=truth, printed=item.get("printed"),
-                 cause=tuple({**group.get("cause", {}).get("where", {}), **item.get("cause", {}).get("where", {})}.items()))
+                 cause=tuple({**group.get("cause", {}).get("where", {}), **item.get("cause", {}).get("where", {})}.items()),
+                 cause_table=cause.get("table", BUDGET_TABLE))
 
 
 def _locator(locate: Mapping[str, Any], where: str) -> Locator | None:
@@ -244,17 +252,20 @@ def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[En
 def tables_read(entries: Sequence[Entry]) -> list[str]:
     """Tables (relative to results/<dataset>/) the entries read, in registry order."""
     return list(dict.fromkeys([e.locate.table for e in entries if e.locate]
-                              + [BUDGET_TABLE for e in entries if e.cause]))
+                              + [e.cause_table for e in entries if e.cause]))
 
 
-def budget_note(budget: pd.DataFrame, where: Sequence[tuple[str, Any]], largest: int = 3) -> str:
-    """The note of a number whose error the observer's error budget splits (its row ``where``):
-    the error at its max and its ``largest`` sources at that instant, signed, in µm."""
-    row = _one_row(budget, where, BUDGET_TABLE)
+def budget_note(budget: pd.DataFrame, where: Sequence[tuple[str, Any]], largest: int = 3,
+                table: str = BUDGET_TABLE) -> str:
+    """The note of a number whose error one of CAUSE_TABLES splits (its row ``where``): the error at
+    its max and its ``largest`` sources at that instant, signed, in µm (a row's sources are the
+    columns it fills: an open-loop run's tracking budget has others than a closed loop's)."""
+    row = _one_row(budget, where, table)
     selector = ", ".join(f"{k} = {v}" for k, v in where)
-    sources = {c.removesuffix(AT_MAX): float(row[c]) for c in budget.columns if c.endswith(AT_MAX)}
+    sources = {c.removesuffix(AT_MAX): float(row[c]) for c in budget.columns
+               if c.endswith(AT_MAX) and pd.notna(row[c])}
     top = sorted(sources.items(), key=lambda kv: -abs(kv[1]))[:largest]
-    return (f"Measured cause ({BUDGET_TABLE}, {selector}): at the observer error's max, "
+    return (f"Measured cause ({table}, {selector}): at {CAUSE_TABLES[table]}'s max, "
             f"{float(row['total at max [µm]']):+.2f} µm, its largest sources are "
             + ", ".join(f"{name} {value:+.2f}" for name, value in top) + " µm")
 
@@ -338,7 +349,8 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
         return Score(entry, published, band(published, entry), verdict=MISSING, detail=str(err))
     limits = band(published, entry)
     verdict = INFORMATION if entry.tolerance is None else judge(reproduced, *limits)
-    cause = budget_note(tables[BUDGET_TABLE], entry.cause) if entry.cause and BUDGET_TABLE in tables else ""
+    cause = (budget_note(tables[entry.cause_table], entry.cause, table=entry.cause_table)
+             if entry.cause and entry.cause_table in tables else "")
     return Score(entry, published, limits, reproduced, verdict, cause=cause)
 
 

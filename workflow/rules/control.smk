@@ -100,5 +100,37 @@ rule ch6_results:
         "../scripts/ch6_results.py"
 
 
+#: the runs of Tables 6.1–6.2 whose tracking error the budget splits
+TRACKED_RUNS = {d: [e for e in CH6_RUNS[d] if e.startswith(("ch6_p1_", "ch6_p2"))] for d in DATASETS}
+
+
+rule tracking_budget:
+    """Chapter 6's tracking errors ε_TOL and ε_TCL (Tables 6.1–6.2) split into their sources with
+    the twin's truth (verification)."""
+    input:
+        unpack(lambda w: captures(w.dataset, capture=TRACKED_RUNS[w.dataset])),
+        library=library_sources("tracking_budget"),
+    output:
+        table=report("results/{dataset}/twin/tracking_budget.csv", caption="../report/tracking_budget.rst",
+                     category="{dataset}", subcategory="Twin validation"),
+    params:
+        protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in TRACKED_RUNS[w.dataset]},
+        controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in TRACKED_RUNS[w.dataset]},
+        omega_c=config["control"]["omega_c"],
+    log:
+        "logs/{dataset}/tracking_budget.log",
+    benchmark:
+        "benchmarks/out/{dataset}/tracking_budget.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/tracking_budget.py"
+
+
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
-CONTROL_OUTPUTS = expand([*rules.ch6_results.output, *rules.audit_realtime.output], dataset=CONTROL_DATASETS)
+CONTROL_OUTPUTS = (
+    expand([*rules.ch6_results.output, *rules.audit_realtime.output], dataset=CONTROL_DATASETS)
+    + expand(rules.tracking_budget.output, dataset=[d for d in CONTROL_DATASETS if d in SIMULATED])  # reads /truth
+)

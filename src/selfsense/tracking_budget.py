@@ -1,0 +1,112 @@
+"""Chapter 6's tracking error split into its sources with the twin's truth (a verification step).
+
+The companion of :mod:`selfsense.error_budget`, which splits the observer's error: it needs a
+simulated capture's ``/truth`` group, so it runs on the twin's datasets only. The tracking error
+of Tables 6.1–6.2, ε_T = x_R − x_laser (:func:`selfsense.chapters.ch6.errors`), is taken on the same
+means over each folded ripple period (the real-time loop's 4 kHz rate) of the same run, with the
+laser zeroed at its first mean (:func:`selfsense.chapters.ch6.load_run`), and split at truth signals
+so that the parts add up to it exactly, mean by mean.
+
+Open loop, where the drive is Chapter 6's feedforward U = x_R·k/α, by the voltage balance
+U = U_P + U_H + ΣU_c (Eq 1.6) and the stack's static mechanics k x = α U_P (Eq 1.4):
+
+    ε_TOL = [x_R − (α/k)·U] + (α/k)·U_H + (α/k)·(U − U_P − U_H) + [(α/k)·U_P − x] + [x − x_laser]
+            feedforward      hysteresis   creep                   stack dynamics     laser
+
+Closed loop, with the estimate x̂ the loop logged (channel ``x_hpo_rt``):
+
+    ε_TCL = [x_R − x̂] + [x̂ − x] + [x − x_laser]
+            controller   observer   laser
+
+* ``feedforward``: what the drive U misses of x_R through the twin's own α/k (the drive's hold
+  between loop updates and its quantisation; a gain error would land here);
+* ``hysteresis``, ``creep``: the Maxwell operator's voltage (Eq 1.11–1.12) and the creep elements',
+  each as the position it takes from U_P;
+* ``stack dynamics``: inertia and damping, (m ẍ + b ẋ)/k, and any load force;
+* ``controller``: ε_CCL, the loop's error against its own estimate (Eq 6.1–6.3);
+* ``observer``: the estimate's error against the true position (its own sources are the observer's
+  budget's);
+* ``laser``: the laser's resolution, its drift and the zero it is read from.
+
+The truth is stored every ``decimation``-th sample; each mean's truth is the mean of the 4-point
+cubic (:meth:`selfsense.error_budget.Truth.at`) over the mean's samples. That is exact for the
+smooth P2 profiles, not for what happens between two stored values: P1's voltage steps and the
+bench's 2.5 kHz mode they ring, above the stored rate's 2 kHz Nyquist frequency. In the means next
+to a step the interpolated U, U_P and x are off, and feedforward, stack dynamics and laser take
+errors that cancel in their sum (the sources still add up to ε_T exactly).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from .capture import open_capture
+from .chapters.ch6 import load_run, segment_windows, settled_after
+from .error_budget import BudgetStats, Truth
+from .ripple import plan_from_capture
+
+OPEN_SOURCES = ("feedforward", "hysteresis", "creep", "stack dynamics", "laser")
+CLOSED_SOURCES = ("controller", "observer", "laser")
+
+#: the /truth states the budget reads
+TRUTH_STATES = ("x", "U_P", "U_H", "U_drive")
+
+#: means whose truth is averaged at once (bounds the memory: ns samples × states per mean)
+_BLOCK = 1 << 14
+
+
+def window_truth(truth: Truth, last: np.ndarray, ns: int) -> dict[str, np.ndarray]:
+    """Each state's mean over the ``ns`` samples ending at the global indices ``last``."""
+    offsets = np.arange(1 - ns, 1)
+    parts = []
+    for start in range(0, len(last), _BLOCK):
+        block = last[start:start + _BLOCK]
+        values = truth.at((block[:, None] + offsets).ravel())
+        parts.append({k: v.reshape(len(block), ns).mean(axis=1) for k, v in values.items()})
+    return {k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0) for k in truth.names}
+
+
+def split(run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_over_k: float,
+          closed: bool) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """ε_T = x_R − x_laser of one run's means and its sources (module docstring), in metres."""
+    x_ref, x_laser, x = run["x_ref"], run["x_laser"], true["x"]
+    total = x_ref - x_laser
+    if closed:
+        x_hat = run["x_hat"]
+        return total, {"controller": x_ref - x_hat, "observer": x_hat - x, "laser": x - x_laser}
+    U, U_P, U_H = true["U_drive"], true["U_P"], true["U_H"]
+    return total, {"feedforward": x_ref - alpha_over_k * U, "hysteresis": alpha_over_k * U_H,
+                   "creep": alpha_over_k * (U - U_P - U_H), "stack dynamics": alpha_over_k * U_P - x,
+                   "laser": x - x_laser}
+
+
+def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: float) -> dict[str, dict[str, float]]:
+    """One Chapter 6 run's tracking budget, counted as its table counts: P1 (``ch6_p1_*``) per
+    segment a–h over the steady windows of :func:`selfsense.chapters.ch6.segment_windows` (Table
+    6.1), a P2 profile from the loop's settling on (:func:`selfsense.chapters.ch6.settled_after`,
+    Table 6.2). Returns {segment or "": :meth:`selfsense.error_budget.BudgetStats.row`}."""
+    run = load_run(path, protocol)
+    if closed and run["x_hat"] is None:
+        raise ValueError(f"{path}: a closed-loop run without the logged estimate x_hpo_rt")
+    with open_capture(path, require=("U", "x_laser")) as cap:
+        attrs, states = cap.read_truth()
+        truth = Truth.from_group(attrs, states, cap.length(), str(path), names=TRUTH_STATES)
+        fs, ns = cap.fs, plan_from_capture(cap, 1).ns
+    last = np.rint(run["t"] * fs + (ns - 1) / 2).astype(np.int64)
+    total, parts = split(run, window_truth(truth, last, ns), float(attrs["stack_alpha"]) / float(attrs["stack_k"]),
+                         closed)
+    if Path(path).stem.startswith("ch6_p1_"):
+        spans = segment_windows(protocol, omega_c)
+    else:
+        spans = [("", settled_after(protocol.get("warmup", 0.0), omega_c), np.inf)]
+    sources = CLOSED_SOURCES if closed else OPEN_SOURCES
+    stats = {label: BudgetStats(sources) for label, _, _ in spans}
+    counted = {label: np.zeros(len(total), dtype=bool) for label in stats}
+    for label, begin, end in spans:
+        counted[label] |= (run["t"] >= begin) & (run["t"] < end)
+    for label, budget in stats.items():
+        budget.add(run["t"], total, parts, counted[label])
+    return {label: budget.row() for label, budget in stats.items()}
