@@ -18,7 +18,7 @@ SMOKE = ROOT / "tests" / "config" / "smoke.yaml"
 
 #: config key: (a changed value, the rules whose params declare it; see workflow/rules/*.smk)
 USES = {
-    "ripple.n_periods": (5, {"extract_ripple", "ce_recovery", "gamma_fit", "observe", "observer_study",
+    "ripple.n_periods": (5, {"extract_ripple", "ce_recovery", "gamma_fit", "observe", "observer_study", "charge_budget",
                              "ch5_figures", "simulate_closed_loop", "audit_realtime", "thermal_extract",
                              "estimator_diagram", "coupled", "error_budget"}),
     "ripple.np_sweep": ([1, 2, 4], {"ce_np_study"}),

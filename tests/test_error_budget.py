@@ -10,13 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.error_budget import SOURCES, TRUTH_STATES, BudgetStats, Superposition, Truth
+from selfsense.error_budget import (CHARGE_SOURCES, SOURCES, TRUTH_STATES, BudgetStats, Superposition, Truth,
+                                   charge_position_budget)
 from selfsense.manifest import load_yaml
 from selfsense.observer import HPOGains, HybridPositionObserver
 from selfsense.scorecard import BUDGET_TABLE, parse_registry
 
 from .conftest import ROOT
-from .tolerances import rtol
+from .tolerances import CLOSED_FORM, rtol
 
 REGISTRY = ROOT / "workflow" / "scorecard.yaml"
 
@@ -175,6 +176,47 @@ def test_bad_truth_fails_with_one_line_naming_the_file(states, n, problem):
         Truth.from_group({}, states, n, "raw/x/run.nc")
 
 
+def test_a_means_truth_is_the_mean_over_its_samples():
+    """A cubic in the sample index is reproduced exactly by the 4-point cubic between the stored
+    values, so each window's mean is the cubic's mean over the window's samples."""
+    decimation, ns, n = 12, 12, 1200
+    k = np.arange(n, dtype=float)
+    cubic = 1e-6 * (1 + 3e-3 * k - 2e-6 * k ** 2 + 1e-9 * k ** 3)
+    truth = Truth({s: cubic[::decimation] for s in TRUTH_STATES}, decimation, n)
+    last = np.arange(2 * ns - 1, n - 2 * decimation, ns)  # clear of the ends, which hold the nearest value
+    got = truth.means(last, ns)
+    expected = np.array([cubic[i - ns + 1:i + 1].mean() for i in last])
+    assert np.allclose(got["x"], expected, rtol=CLOSED_FORM, atol=0)  # four weights ≤ 1, terms of one size
+    assert set(got) == set(TRUTH_STATES)
+
+
+@pytest.mark.parametrize("loop_um", [0.0, 0.3])
+def test_the_charge_position_error_splits_into_current_path_q_x_map_and_laser(loop_um):
+    """q = a0·(x + a q–x loop term), the probe's offset integrated (q0 + I_0·t, which the fit
+    removes) and a laser 10 nm off, read from its first sample. Without a loop the fit is exact and
+    every source is zero; with one the q–x map holds it (the offset fit takes a little of it into
+    the current path)."""
+    fs, block = 48_000.0, 48
+    n = block * 400
+    k = np.arange(n)
+    x = 15e-6 * (1 - np.cos(2 * np.pi * 10 * k / fs))
+    q = 17.0 * (x + loop_um * 1e-6 * np.sin(2 * np.pi * 10 * k / fs))
+    truth = Truth({"x": x, "q": q}, 1, n, names=("x", "q"))
+    last = np.arange(block - 1, n, block)
+    means = truth.means(last, block)
+    series = {"time": (last - (block - 1) / 2) / fs, "x_laser": means["x"] + 10e-9,
+              "q": means["q"] + 1e-9 + 2e-9 * (last / fs)}
+    row = charge_position_budget(series, truth, fs, block)
+    assert row["max |sum of sources − total| [µm]"] <= 1e-9
+    assert row["laser max [µm]"] < 1e-6  # its offset is gone with its zero
+    if loop_um == 0.0:  # κ of the fit's 3-column least squares ≈ 1e4 on these scales: far below 1 pm
+        assert row["q–x map max [µm]"] < 1e-6 and row["current path max [µm]"] < 1e-6
+    else:
+        assert 0.2 < row["q–x map max [µm]"] < 0.4
+        assert row["q–x map rms [µm]"] > 3 * row["current path rms [µm]"]
+    assert [c.removesuffix(" rms [µm]") for c in row if c.endswith(" rms [µm]") and c != "total rms [µm]"] == list(CHARGE_SOURCES)
+
+
 # --- on the smoke DAG ---------------------------------------------------------------------------
 
 @pytest.mark.slow
@@ -214,6 +256,12 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
         shares = sum(row[f"{s} share of mean square"] for s in SOURCES) + row["cross terms share of mean square"]
         assert shares == pytest.approx(1.0, rel=1e-8)
         assert row["max |sum of sources − total| [µm]"] <= 1e-9 * stroke
+    charge = pd.read_csv(res / "twin/charge_budget.csv").set_index("frequency [Hz]")
+    table = pd.read_csv(res / "ch5/charge_sensing.csv").set_index("frequency [Hz]")["max error [µm]"]
+    assert list(charge.index) == list(table.index)
+    # the same series and the same fit: equal but for the CSV's 10 significant digits
+    assert charge["total max error [µm]"].to_numpy() == pytest.approx(table.to_numpy(), rel=1e-9)
+    assert (charge["max |sum of sources − total| [µm]"] <= 1e-9 * 30).all()
     assert (smoke_run / "figures/pi_p885/fig_5_error_budget.png").exists()
     assert not (smoke_run / "results/tokin_nb40/twin/error_budget.csv").exists()  # no observer runs there
     # the scorecard's note of each number the budget splits names its measured sources
@@ -222,3 +270,7 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
               if e.cause and e.model == "stack" and e.cause_table == BUDGET_TABLE]
     assert len(caused) == 36
     assert card.loc[caused, "note"].str.contains("Measured cause (twin/error_budget.csv", regex=False).all()
+    charged = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY))
+               if e.cause_table == "twin/charge_budget.csv"]
+    assert len(charged) == 8
+    assert card.loc[charged, "note"].str.contains("at the charge–position error's max", regex=False).all()

@@ -7,10 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.error_budget import Truth
 from selfsense.manifest import load_yaml
 from selfsense.scorecard import parse_registry
-from selfsense.tracking_budget import CLOSED_SOURCES, OPEN_SOURCES, TRUTH_STATES, split, window_truth
+from selfsense.tracking_budget import CLOSED_SOURCES, OPEN_SOURCES, TRUTH_STATES, split
 
 from .conftest import ROOT
 from .tolerances import CLOSED_FORM
@@ -44,20 +43,6 @@ def test_a_closed_loop_splits_into_controller_observer_and_laser():
     assert list(parts) == list(CLOSED_SOURCES)
     assert [p[0] for p in parts.values()] == pytest.approx([0.5e-6, 0.5e-6, 1e-6], rel=CLOSED_FORM)
     assert total[0] == pytest.approx(2e-6, rel=CLOSED_FORM)
-
-
-def test_a_means_truth_is_the_mean_over_its_samples():
-    """A cubic in the sample index is reproduced exactly by the 4-point cubic between the stored
-    values, so each window's mean is the cubic's mean over the window's samples."""
-    decimation, ns, n = 12, 12, 1200
-    k = np.arange(n, dtype=float)
-    cubic = 1e-6 * (1 + 3e-3 * k - 2e-6 * k ** 2 + 1e-9 * k ** 3)
-    truth = Truth({s: cubic[::decimation] for s in TRUTH_STATES}, decimation, n, names=TRUTH_STATES)
-    last = np.arange(2 * ns - 1, n - 2 * decimation, ns)  # clear of the ends, which hold the nearest value
-    got = window_truth(truth, last, ns)
-    expected = np.array([cubic[i - ns + 1:i + 1].mean() for i in last])
-    assert np.allclose(got["x"], expected, rtol=CLOSED_FORM, atol=0)  # four weights ≤ 1, terms of one size
-    assert set(got) == set(TRUTH_STATES)
 
 
 @pytest.mark.slow

@@ -43,7 +43,8 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .capture import open_capture
+from .capture import open_capture, read_series
+from .chapters.ch5 import offset_compensated_charge
 from .chapters.ch6 import segment_windows, settled_after
 from .gamma import GammaPolynomial
 from .observer import HPOGains, HybridPositionObserver
@@ -110,6 +111,17 @@ class Truth:
         last = self._values.shape[1] - 1
         out = sum(w * self._values[:, np.clip(i + k, 0, last)] for k, w in zip((-1, 0, 1, 2), weights))
         return dict(zip(self.names, out))
+
+    def means(self, last: np.ndarray, n: int, block: int = 1 << 14) -> dict[str, np.ndarray]:
+        """Each state's mean over the ``n`` samples ending at each global index of ``last`` (the
+        windows a series of means was taken over), ``block`` windows at a time to bound the memory."""
+        offsets = np.arange(1 - n, 1)
+        parts = []
+        for start in range(0, len(last), block):
+            ends = np.asarray(last[start:start + block])
+            values = self.at((ends[:, None] + offsets).ravel())
+            parts.append({k: v.reshape(len(ends), n).mean(axis=1) for k, v in values.items()})
+        return {k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0) for k in self.names}
 
 
 class Superposition:
@@ -256,3 +268,42 @@ def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains
             return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, warmup, truth)
         return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, settled_after(warmup, omega_c),
                           truth, loop_rate=plan_from_capture(cap, 1), windows=windows)
+
+
+#: the sources of the charge–position error (Fig 5.2), in the order they telescope
+CHARGE_SOURCES = ("current path", "q–x map", "laser")
+
+
+def charge_position_budget(series: Mapping[str, np.ndarray], truth: Truth, fs: float,
+                           block_len: int) -> dict[str, float]:
+    """Fig 5.2's charge–position error, x_I − x with x_I = q/a0 (:func:`selfsense.chapters.ch5.charge_sensing`:
+    the integrated current with q0 + I_0·t fitted out, the laser from its start), split at the
+    truth's charge q and position x over the same windows of ``block_len`` samples, x taken from its
+    first window as the laser is:
+
+        q_c/a0 − x_laser = (q_c − q − c)/a0 + ((q + c)/a0 − x) + (x − x_laser)
+                           current path       q–x map             laser
+
+    with c the mean of q_c − q (the fit's charge offset, so that the current path has zero mean).
+    The current path holds the probe's resolution and offset as far as the fit leaves them, and
+    the integrated ripple current; the q–x map the q–x hysteresis and a0's error. Returns
+    :meth:`BudgetStats.row` over the whole record, "total max error [µm]" being the table's."""
+    x_laser, q_c, fit = offset_compensated_charge(series)
+    last = np.rint(series["time"] * fs + (block_len - 1) / 2).astype(np.int64)
+    true = truth.means(last, block_len)
+    q, x = true["q"] + float(np.mean(q_c - true["q"])), true["x"] - true["x"][0]
+    a0 = fit.a1
+    parts = {"current path": (q_c - q) / a0, "q–x map": q / a0 - x, "laser": x - x_laser}
+    stats = BudgetStats(CHARGE_SOURCES)
+    stats.add(series["time"], q_c / a0 - x_laser, parts, np.ones(len(last), dtype=bool))
+    return stats.row()
+
+
+def capture_charge_budget(series, capture, n_periods: int) -> dict[str, float]:
+    """:func:`charge_position_budget` of one Chapter 5 sine: its ripple series (rule
+    ``extract_ripple``, windows of ``n_periods`` folded periods) and the simulated capture it came from."""
+    with open_capture(capture) as cap:
+        truth = Truth.from_group(*cap.read_truth(), cap.length(), str(capture), names=("x", "q"))
+        fs, block_len = cap.fs, plan_from_capture(cap, n_periods).block_len
+    return charge_position_budget(read_series(series), truth, fs, block_len)
+

@@ -46,7 +46,8 @@ LEFT_OUT = "left out by its stage: "
 #: unless it names another of CAUSE_TABLES
 BUDGET_TABLE = "twin/error_budget.csv"
 #: the error budgets a `cause` can read (twin datasets only), and the error each splits
-CAUSE_TABLES = {BUDGET_TABLE: "the observer error", "twin/tracking_budget.csv": "the tracking error"}
+CAUSE_TABLES = {BUDGET_TABLE: "the observer error", "twin/tracking_budget.csv": "the tracking error",
+                "twin/charge_budget.csv": "the charge–position error"}
 AT_MAX = " at total max [µm]"
 
 

@@ -29,7 +29,7 @@ Closed loop, with the estimate x̂ the loop logged (channel ``x_hpo_rt``):
 * ``laser``: the laser's resolution, its drift and the zero it is read from.
 
 The truth is stored every ``decimation``-th sample; each mean's truth is the mean of the 4-point
-cubic (:meth:`selfsense.error_budget.Truth.at`) over the mean's samples. That is exact for the
+cubic (:meth:`selfsense.error_budget.Truth.means`) over the mean's samples. That is exact for the
 smooth P2 profiles, not for what happens between two stored values: P1's voltage steps and the
 bench's 2.5 kHz mode they ring, above the stored rate's 2 kHz Nyquist frequency. In the means next
 to a step the interpolated U, U_P and x are off, and feedforward, stack dynamics and laser take
@@ -53,20 +53,6 @@ CLOSED_SOURCES = ("controller", "observer", "laser")
 
 #: the /truth states the budget reads
 TRUTH_STATES = ("x", "U_P", "U_H", "U_drive")
-
-#: means whose truth is averaged at once (bounds the memory: ns samples × states per mean)
-_BLOCK = 1 << 14
-
-
-def window_truth(truth: Truth, last: np.ndarray, ns: int) -> dict[str, np.ndarray]:
-    """Each state's mean over the ``ns`` samples ending at the global indices ``last``."""
-    offsets = np.arange(1 - ns, 1)
-    parts = []
-    for start in range(0, len(last), _BLOCK):
-        block = last[start:start + _BLOCK]
-        values = truth.at((block[:, None] + offsets).ravel())
-        parts.append({k: v.reshape(len(block), ns).mean(axis=1) for k, v in values.items()})
-    return {k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0) for k in truth.names}
 
 
 def split(run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_over_k: float,
@@ -96,7 +82,7 @@ def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: floa
         truth = Truth.from_group(attrs, states, cap.length(), str(path), names=TRUTH_STATES)
         fs, ns = cap.fs, plan_from_capture(cap, 1).ns
     last = np.rint(run["t"] * fs + (ns - 1) / 2).astype(np.int64)
-    total, parts = split(run, window_truth(truth, last, ns), float(attrs["stack_alpha"]) / float(attrs["stack_k"]),
+    total, parts = split(run, truth.means(last, ns), float(attrs["stack_alpha"]) / float(attrs["stack_k"]),
                          closed)
     if Path(path).stem.startswith("ch6_p1_"):
         spans = segment_windows(protocol, omega_c)

@@ -167,6 +167,30 @@ rule error_budget:
         "../scripts/error_budget.py"
 
 
+rule charge_budget:
+    """Fig 5.2's charge–position error split into its sources with the twin's truth (verification)."""
+    input:
+        unpack(lambda w: captures(w.dataset, capture=list(CHARGE_SINES[w.dataset].values()))),
+        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CHARGE_SINES[w.dataset].values()],
+        library=library_sources("charge_budget"),
+    output:
+        table=report("results/{dataset}/twin/charge_budget.csv", caption="../report/charge_budget.rst",
+                     category="{dataset}", subcategory="Twin validation"),
+    params:
+        frequencies=lambda w: list(CHARGE_SINES[w.dataset]),
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/charge_budget.log",
+    benchmark:
+        "benchmarks/out/{dataset}/charge_budget.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["analysis_mem_mb"],
+        runtime=10,
+    script:
+        "../scripts/charge_budget.py"
+
+
 rule ch5_figures:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14."""
     input:
@@ -228,5 +252,6 @@ OBSERVER_OUTPUTS = (
     expand(rules.frequency_response.output, dataset=FREQUENCY_RESPONSE_DATASETS)
     + expand([*rules.charge_sensing.output, *rules.ch5_tables.output, *rules.observer_study.output,
               *rules.ch5_figures.output], dataset=OBSERVER_DATASETS)
-    + expand(rules.error_budget.output, dataset=[d for d in OBSERVER_DATASETS if d in SIMULATED])  # reads /truth
+    + expand([*rules.error_budget.output, *rules.charge_budget.output],
+             dataset=[d for d in OBSERVER_DATASETS if d in SIMULATED])  # read /truth
 )

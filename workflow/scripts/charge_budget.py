@@ -1,0 +1,36 @@
+"""Rule `charge_budget`: Fig 5.2's charge–position error (the max errors of the charge-sensing
+table) split into the current path, the q–x map and the laser with the twin's truth → one row per
+drive frequency.
+
+Alone: python workflow/scripts/charge_budget.py out.csv \
+    10=results/pi_p885/ripple/ch5_sine_10hz.nc,raw/pi_p885/ch5_sine_10hz.nc --np 4
+"""
+
+import argparse
+
+import pandas as pd
+
+from selfsense.error_budget import capture_charge_budget
+from selfsense.provenance import script_logging, write_table
+
+
+def main(runs, table, n_periods, log=None):
+    """runs: {drive frequency [Hz]: (ripple series, capture)}."""
+    logger = script_logging(log)
+    rows = [{"frequency [Hz]": float(f)} | capture_charge_budget(s, c, n_periods) for f, (s, c) in sorted(runs.items())]
+    result = pd.DataFrame(rows)
+    write_table(result, table, inputs=[p for pair in runs.values() for p in pair], config={"n_periods": n_periods})
+    logger.info("\n%s", result.T.to_string())
+
+
+if "snakemake" in globals():
+    i = snakemake.input
+    main(dict(zip(snakemake.params.frequencies, zip(i.series, i.capture))), snakemake.output.table,
+         snakemake.params.n_periods, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    cli.add_argument("table")
+    cli.add_argument("runs", nargs="+", help="frequency=series,capture")
+    cli.add_argument("--np", dest="n_periods", type=int, default=4)
+    a = cli.parse_args()
+    main({float(f): tuple(p.split(",")) for f, p in (r.split("=", 1) for r in a.runs)}, a.table, a.n_periods)
