@@ -223,7 +223,9 @@ def test_raw_condition_number_grows_with_order():
 )
 def test_fitted_values_invariant_to_basis(order, coef, lo, width, n, noise, seed):
     rng = np.random.default_rng(seed)
-    c_uf = rng.uniform(lo, lo + width, n)
+    # one point at random in each of n equal bins, as a sweep of C_e covers its range: uniform
+    # draws can leave a gap at an end, which the order-6 fit's condition number then feels
+    c_uf = lo + width * (np.arange(n) + rng.uniform(0, 1, n)) / n
     u = (c_uf - lo) / width  # keep x of moderate size for any random coefficients
     x_um = P.polyval(u, coef[: order + 1]) + rng.normal(0, noise, n)
     scaled = fit_gamma(c_uf * 1e-6, x_um * 1e-6, order)
@@ -235,7 +237,10 @@ def test_fitted_values_invariant_to_basis(order, coef, lo, width, n, noise, seed
     np.testing.assert_allclose(scaled.predict(c_new) * 1e6, raw.predict(c_new) * 1e6, rtol=0, atol=tol)
     ssr_tol = 2 * tol * np.sqrt(n * raw.results.ssr) + n * tol**2
     assert scaled.results.ssr == pytest.approx(raw.results.ssr, abs=ssr_tol)
-    assert scaled.condition_number_scaled < 10
+    # Legendre P_0..P_m on the data's range: the continuous Gram matrix is diag(1/(2k + 1)), so the
+    # design's condition number tends to √(2m + 1) (3.6 at m = 6); twice that allows for 20 points
+    # (the worst of 3000 seeds at m = 6, n = 20: 4.25)
+    assert scaled.condition_number_scaled < 2 * np.sqrt(2 * order + 1)
 
 
 # --- predict: SI at the edge ----------------------------------------------------------
