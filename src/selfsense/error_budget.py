@@ -242,12 +242,19 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
             zero = m[0][0] if zero is None else zero  # the laser's first mean is Table 6.2's zero
             t, total = (index - (loop_rate.ns - 1) / 2) / fs, m[1] + zero
             parts = dict(zip(SOURCES, m[2:])) | {"laser": m[2 + SOURCES.index("laser")] + zero}
-        counted = dict.fromkeys(stats, False)
-        for label, begin, end in spans:
-            counted[label] = counted[label] | ((t >= begin) & (t < end))
-        for label, budget in stats.items():
-            budget.add(t, total, parts, counted[label])
+        add_in_spans(stats, spans, t, total, parts)
     return {label: budget.row() for label, budget in stats.items()}
+
+
+def add_in_spans(stats: Mapping[str, BudgetStats], spans: Sequence[tuple[str, float, float]], t: np.ndarray,
+                 total: np.ndarray, parts: Mapping[str, np.ndarray]) -> None:
+    """Add one chunk to each label's statistics over the samples in that label's spans
+    ((label, start, end) [s]; a label may have many, as P1's segments do, one per test)."""
+    counted = dict.fromkeys(stats, False)
+    for label, begin, end in spans:
+        counted[label] = counted[label] | ((t >= begin) & (t < end))
+    for label, budget in stats.items():
+        budget.add(t, total, parts, counted[label])
 
 
 #: the channels the budget streams, as rule `observe` does, so that the chunks are the same
@@ -276,7 +283,7 @@ CHARGE_SOURCES = ("current path", "q–x map", "laser")
 
 def charge_position_budget(series: Mapping[str, np.ndarray], truth: Truth, fs: float,
                            block_len: int) -> dict[str, float]:
-    """Fig 5.2's charge–position error, x_I − x with x_I = q/a0 (:func:`selfsense.chapters.ch5.charge_sensing`:
+    """Fig 5.2's charge–position error, x_I − x_laser with x_I = q/a0 (:func:`selfsense.chapters.ch5.charge_sensing`:
     the integrated current with q0 + I_0·t fitted out, the laser from its start), split at the
     truth's charge q and position x over the same windows of ``block_len`` samples, x taken from its
     first window as the laser is:

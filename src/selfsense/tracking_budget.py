@@ -45,7 +45,7 @@ import numpy as np
 
 from .capture import open_capture
 from .chapters.ch6 import load_run, segment_windows, settled_after
-from .error_budget import BudgetStats, Truth
+from .error_budget import BudgetStats, Truth, add_in_spans
 from .ripple import plan_from_capture
 
 OPEN_SOURCES = ("feedforward", "hysteresis", "creep", "stack dynamics", "laser")
@@ -90,9 +90,5 @@ def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: floa
         spans = [("", settled_after(protocol.get("warmup", 0.0), omega_c), np.inf)]
     sources = CLOSED_SOURCES if closed else OPEN_SOURCES
     stats = {label: BudgetStats(sources) for label, _, _ in spans}
-    counted = {label: np.zeros(len(total), dtype=bool) for label in stats}
-    for label, begin, end in spans:
-        counted[label] |= (run["t"] >= begin) & (run["t"] < end)
-    for label, budget in stats.items():
-        budget.add(run["t"], total, parts, counted[label])
+    add_in_spans(stats, spans, run["t"], total, parts)
     return {label: budget.row() for label, budget in stats.items()}
