@@ -26,6 +26,7 @@ USES = {
     "observer.omega_s": (3.0, {"charge_sensing"}),
     "observer.zeta_s": (0.7, {"charge_sensing"}),
     "observer.sweep_settle_s": (0.03, {"frequency_response"}),
+    "observer.creep_transient_s": (2.0, {"observe", "error_budget"}),
     "observer.study_omegas": ([1.0, 6.283], {"observer_study"}),
     "observer.study_offsets": ([0.0], {"observer_study"}),
     "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results", "tracking_budget"}),

@@ -81,3 +81,18 @@ def test_sensitivity_follows_eq_4_18():
     assert table["C"]["k"] / table["C"]["alpha"] == pytest.approx(table["none"]["k"] / table["none"]["alpha"])
     assert table["C"]["alpha"] < table["none"]["alpha"] < table["dC"]["alpha"]
     assert table["dC"]["k"] / table["dC"]["alpha"] == pytest.approx(table["none"]["k"] / table["none"]["alpha"] / 1.2)
+
+
+def test_the_u_h_share_is_held_to_the_peak_of_the_twins_hysteresis_voltage_over_the_peak_drive():
+    import pandas as pd
+
+    from selfsense.recovery import hysteresis_share_recovery
+
+    t = np.linspace(0, 1, 4001)
+    states = {"U_drive": 50 - 50 * np.cos(2 * np.pi * 10 * t), "U_H": 8 * np.sin(2 * np.pi * 10 * t - 0.3) + 2}
+    identified = pd.DataFrame({"frequency [Hz]": [10.0, 10.0, 100.0], "case": [1, 2, 2],
+                               "U_H share of max U [%]": [12.0, 5.0, 30.0]})
+    rows = hysteresis_share_recovery(identified, states, 10.0).set_index("case")
+    assert list(rows.index) == [1, 2]
+    assert rows["truth"].tolist() == pytest.approx([10.0, 10.0], rel=1e-5)  # (8 + 2) V of a 100 V peak
+    assert rows.loc[2, "error [%]"] == pytest.approx(-50.0, rel=1e-4)

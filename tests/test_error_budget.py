@@ -10,11 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.error_budget import (CHARGE_SOURCES, SOURCES, TRUTH_STATES, BudgetStats, Superposition, Truth,
-                                   charge_position_budget)
+from selfsense.error_budget import (CHARGE_SOURCES, SOURCES, TRUTH_STATES, BudgetStats, SpanBudgets, Superposition,
+                                   Truth, charge_position_budget)
 from selfsense.manifest import load_yaml
 from selfsense.observer import HPOGains, HybridPositionObserver
-from selfsense.scorecard import BUDGET_TABLE, parse_registry
+from selfsense.scorecard import BUDGET_TABLE, LEFT_OUT, parse_registry
 
 from .conftest import ROOT
 from .tolerances import CLOSED_FORM, rtol
@@ -153,6 +153,26 @@ def test_the_stats_report_the_sources_at_the_instant_of_the_max_and_shares_with_
     assert row["max |sum of sources − total| [µm]"] == 0.0
 
 
+def test_spans_of_one_label_are_counted_together_and_their_spread_over_tests_split():
+    """Two segments, each in three tests; chunks cut across the spans. A segment's row is over all its
+    tests; its σ over the tests is Table 6.1's (ddof = 1) of the tests' maxima, and of the sources at
+    each test's max; a label with no samples has no row."""
+    t = np.arange(60.0)
+    tests = np.repeat([1.0, 2.0, 4.0, 1.0, 1.0, 1.0], 10) * 1e-6  # a's tests: 1, 2, 4 µm; b's: 1 µm each
+    parts = dict.fromkeys(SOURCES, np.zeros(60)) | {"laser": tests / 4, "Γ map": 3 * tests / 4}
+    spans = [("a", 0, 10), ("a", 10, 20), ("a", 20, 30), ("b", 30, 40), ("b", 40, 50), ("b", 50, 60), ("c", 70, 80)]
+    budgets = SpanBudgets(spans)
+    for cut in (slice(0, 25), slice(25, 60)):
+        budgets.add(t[cut], tests[cut], {k: v[cut] for k, v in parts.items()})
+    rows = budgets.rows()
+    assert list(rows) == ["a", "b"] and rows["a"]["samples"] == 30 and rows["a"]["tests"] == 3
+    assert rows["a"]["total max error [µm]"] == pytest.approx(4.0)
+    assert rows["a"]["total max σ over tests [µm]"] == pytest.approx(np.std([1, 2, 4], ddof=1))
+    assert rows["a"]["Γ map at max σ over tests [µm]"] == pytest.approx(0.75 * np.std([1, 2, 4], ddof=1))
+    assert rows["a"]["laser at max σ over tests [µm]"] == pytest.approx(0.25 * np.std([1, 2, 4], ddof=1))
+    assert rows["b"]["total max σ over tests [µm]"] == 0.0
+
+
 def test_truth_interpolation_is_aligned_to_the_stored_samples_and_exact_for_cubics():
     decimation, n = 12, 1200
     k = np.arange(0, n, decimation)
@@ -228,7 +248,10 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
     assert {"segment", "frequency [Hz]", "total max error [µm]", "cross terms share of mean square", *columns} <= set(budget)
     t54 = pd.read_csv(res / "ch5/table_5_4.csv")
     assert sorted(budget["frequency [Hz]"].dropna()) == sorted(t54["frequency [Hz]"])
-    assert "ch5_creep" in set(budget["run"])
+    # the creep run in its phases as its table counts them; the smoke run's 5 s hold has no steady state
+    assert list(budget.loc[budget["run"] == "ch5_creep", "segment"]) == ["transient"]
+    creep = pd.read_csv(res / "ch5/creep.csv").set_index("phase")["max error [µm]"]
+    assert np.isnan(creep["steady state"])
     # Chapter 6's rows are its tables' ε_OCL: the logged estimate, which the offline chain equals to the audit's margin
     audit = pd.read_csv(res / "ch6/audit.csv").set_index("run")["max |offline − logged| [nm]"] * 1e-3
     t62 = pd.read_csv(res / "ch6/table_6_2.csv").set_index(["profile", "error"])
@@ -249,7 +272,8 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
         if not run.startswith("ch6_"):
             stats = json.loads((res / f"observer/{run}.json").read_text())
             # the same chain on the same chunks: equal but for the CSV's 10 significant digits
-            assert row["total max error [µm]"] == pytest.approx(stats["max error [µm]"], rel=1e-9), run
+            table = stats["max error by phase [µm]"][row["segment"]] if run == "ch5_creep" else stats["max error [µm]"]
+            assert row["total max error [µm]"] == pytest.approx(table, rel=1e-9), run
             stroke = stats["stroke [µm]"]
         at_max = sum(row[f"{s} at total max [µm]"] for s in SOURCES)
         assert at_max == pytest.approx(row["total at max [µm]"], rel=1e-8), run
@@ -267,10 +291,12 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
     # the scorecard's note of each number the budget splits names its measured sources
     card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
     caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY))
-              if e.cause and e.model == "stack" and e.cause_table == BUDGET_TABLE]
-    assert len(caused) == 36
-    assert card.loc[caused, "note"].str.contains("Measured cause (twin/error_budget.csv", regex=False).all()
+              if e.cause and e.model == "stack" and e.cause.table == BUDGET_TABLE]
+    assert len(caused) == 46  # Table 5.4, the creep run's phases, Chapter 6's ε_OCL and its σ over P1's tests
+    left_out = card.loc[caused, "note"].str.startswith(LEFT_OUT)  # the smoke run's creep has no steady state
+    assert list(card.loc[caused][left_out].index.get_level_values("quantity")) == ["HPO error in steady state"]
+    assert card.loc[caused][~left_out]["note"].str.contains("Measured cause (twin/error_budget.csv", regex=False).all()
     charged = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY))
-               if e.cause_table == "twin/charge_budget.csv"]
+               if e.cause and e.cause.table == "twin/charge_budget.csv"]
     assert len(charged) == 8
     assert card.loc[charged, "note"].str.contains("at the charge–position error's max", regex=False).all()

@@ -11,7 +11,7 @@ from selfsense.manifest import ManifestError, load_yaml
 from selfsense.scorecard import (INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Band, Entry, Locator,
                                  Tolerance, applicable, band, judge, last_digit, lookup, parse_registry, score, scorecard,
                                  scorecard_html, landing_rst, out_of_band_rst, pending_rst, summary, tables_read,
-                                 BUDGET_TABLE)
+                                 BUDGET_TABLE, Cause, RegistryError)
 
 from .conftest import ROOT
 
@@ -215,7 +215,7 @@ def test_a_cause_names_the_largest_sources_the_error_budget_measured_at_the_erro
     doc = group(locate={"table": "ch9/t.csv", "column": "fs [kHz]", "where": {"ns": 12}},
                 cause={"where": {"run": "p1"}}, entries=[{"quantity": "a", "published": 48, "cause": {"where": {"segment": "b"}}}])
     (e,) = parse_registry(doc)
-    assert e.cause == (("run", "p1"), ("segment", "b")) and tables_read([e]) == ["ch9/t.csv", BUDGET_TABLE]
+    assert e.cause == Cause(BUDGET_TABLE, (("run", "p1"), ("segment", "b"))) and tables_read([e]) == ["ch9/t.csv", BUDGET_TABLE]
     budget = pd.DataFrame({"run": ["p1", "p1", "p2"], "segment": ["a", "b", np.nan], "total at max [µm]": [1.0, -1.9, 2.0],
                            "laser at total max [µm]": [0.1, -0.2, 0.0], "C_e estimate at total max [µm]": [0.5, -1.5, 1.0],
                            "q–x map at total max [µm]": [0.4, 0.3, 1.0], "Γ map at total max [µm]": [0.0, -0.5, 0.0]})
@@ -227,6 +227,27 @@ def test_a_cause_names_the_largest_sources_the_error_budget_measured_at_the_erro
     assert score(e, {"ch9/t.csv": TABLE}).cause == "" and score(e, {"ch9/t.csv": TABLE}).verdict == WITHIN
     with pytest.raises(LookupError, match="0 rows of twin/error_budget.csv match run = p1, segment = b"):
         score(e, {"ch9/t.csv": TABLE, BUDGET_TABLE: budget[budget["segment"] != "b"]})
+
+
+def test_a_cause_reads_the_spread_over_tests_or_quotes_another_tables_columns():
+    """statistic σ names the sources with the largest spread over P1's tests; a quoting cause
+    names any table's columns, and a cause that neither quotes nor names a budget is an error."""
+    doc = group(locate={"table": "ch9/t.csv", "column": "fs [kHz]", "where": {"ns": 12}},
+                entries=[{"quantity": "σ", "published": 48,
+                          "cause": {"table": "twin/tracking_budget.csv", "where": {"segment": "b"}, "statistic": "σ"}},
+                         {"quantity": "q", "published": 48,
+                          "cause": {"table": "ch9/t.csv", "where": {"ns": 12}, "quote": ["nf", "fs [kHz]"]}}])
+    sigma, quoted = parse_registry(doc)
+    budget = pd.DataFrame({"segment": ["b"], "total max σ over tests [µm]": [0.0731],
+                           "laser at max σ over tests [µm]": [0.05], "creep at max σ over tests [µm]": [0.002],
+                           "hysteresis at max σ over tests [µm]": [0.061], "total at max [µm]": [3.0]})
+    assert score(sigma, {"ch9/t.csv": TABLE, "twin/tracking_budget.csv": budget}).cause == (
+        "Measured cause (twin/tracking_budget.csv, segment = b): σ over the tests of the tracking error's max, "
+        "0.073 µm; the σ of its largest sources at each test's max are hysteresis 0.061, laser 0.050, creep 0.002 µm")
+    assert score(quoted, {"ch9/t.csv": TABLE}).cause == "Measured (ch9/t.csv, ns = 12): nf = 4, fs [kHz] = 48"
+    assert tables_read([quoted]) == ["ch9/t.csv"]
+    with pytest.raises(RegistryError, match="cause table 'ch9/t.csv' is none of"):
+        parse_registry(group(entries=[{"quantity": "a", "published": 1, "cause": {"table": "ch9/t.csv", "where": {}}}]))
 
 
 @pytest.mark.parametrize("doc, message", [

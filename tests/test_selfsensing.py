@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.chapters.ch5 import charge_estimate_figure, choose_order, table_5_3
+from selfsense.chapters.ch5 import charge_estimate_figure, choose_order, creep_errors, creep_phases, run_observer, table_5_3
 from selfsense.gamma import GammaPolynomial, fit_gamma
 from selfsense.observer import HPOGains
 from selfsense.ripple import SamplingPlan, extract_impedance
@@ -52,6 +52,23 @@ def test_chain_is_chunk_invariant(bench_run):
     whole, _ = run_chain(measured, gamma, [len(t)])
     parts, _ = run_chain(measured, gamma, [1000, 7, 50_000] + [len(t) - 51_007])
     np.testing.assert_array_equal(whole["x_hat"], parts["x_hat"])
+
+
+def test_the_creep_tables_phases_count_every_sample_not_the_figures_traces(bench_run):
+    """Each phase's max is over all its samples (the traces keep one in 48): the two phases split the
+    error after the warm-up, so the larger of their maxima is the run's, and each is at least the
+    traces' max over the same times."""
+    t, measured, gamma = bench_run
+    chunks = [(s, {k: measured[k][s:s + 40_000] for k in ("Ur", "Ir", "I", "x_laser")}) for s in range(0, len(t), 40_000)]
+    stats, traces = run_observer(iter(chunks), PLAN, gamma, HPOGains(16.4), FS, 4.0, phases=creep_phases(4.0, 0.5))
+    phases = stats["max error by phase [µm]"]
+    assert max(phases.values()) == stats["max error [µm]"]
+    err = np.abs(traces["x_hat"] - traces["x_laser"]) * 1e6
+    for label, begin, end in creep_phases(4.0, 0.5):
+        assert phases[label] >= err[(traces["time"] >= begin) & (traces["time"] < end)].max()
+    table = creep_errors(stats, traces, 4.0).set_index("phase")
+    assert table.loc["steady state", "max error [% of stroke]"] == pytest.approx(
+        100 * phases["steady state"] / stats["stroke [µm]"])
 
 
 def test_nan_burst_is_masked_and_counted(bench_run):

@@ -99,6 +99,10 @@ def test_chapter_4_case_2_recovers_the_twin_within_5_percent(smoke_run):
     case2 = rec[rec["case"] == 2].set_index("parameter")
     for key in ("k", "alpha", "C_P0", "dC_x"):
         assert abs(case2.loc[key, "error [%]"]) < 5, key
+    # Fig 4.8's U_H share beside the twin's own hysteresis voltage, the same value as its table
+    share = rec.set_index(["case", "parameter"])["identified mean"].xs("U_H share of max U at 10 Hz [%]", level=1)
+    table = pd.read_csv(smoke_run / "results/pi_p885/ch4/hysteresis_voltage.csv").set_index(["frequency [Hz]", "case"])
+    assert share.to_numpy() == pytest.approx(table.loc[10.0, "U_H share of max U [%]"].to_numpy(), rel=1e-9)
 
 
 def test_chapter_4_tables(smoke_run):

@@ -43,8 +43,9 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from .budget_columns import AT_MAX, AT_MAX_SPREAD
 from .capture import open_capture, read_series
-from .chapters.ch5 import offset_compensated_charge
+from .chapters.ch5 import creep_phases, offset_compensated_charge
 from .chapters.ch6 import segment_windows, settled_after
 from .gamma import GammaPolynomial
 from .observer import HPOGains, HybridPositionObserver
@@ -201,7 +202,7 @@ class BudgetStats:
                "total at max [µm]": self.total_at_max * um, "time of max [s]": self.time_of_max}
         for s in self.sources:
             row |= {f"{s} rms [µm]": np.sqrt(self.sq[s] / n) * um, f"{s} max [µm]": self.peak[s] * um,
-                    f"{s} at total max [µm]": self.at_max[s] * um, f"{s} share of mean square": share[s]}
+                    f"{s}{AT_MAX}": self.at_max[s] * um, f"{s} share of mean square": share[s]}
         return row | {"cross terms share of mean square": 1.0 - sum(share.values()),
                       "max |sum of sources − total| [µm]": self.closure * um, "samples": self.n}
 
@@ -221,13 +222,13 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
     With ``windows`` ((label, start, end) [s], as :func:`selfsense.chapters.ch6.segment_windows`),
     one budget per label over the samples inside its windows instead (Table 6.1's segments).
 
-    Returns {label: :meth:`BudgetStats.row`} ({"": row} without windows); "total max error [µm]"
+    Returns :meth:`SpanBudgets.rows` ({"": row} without windows); "total max error [µm]"
     is Table 5.4's "max error [µm]" (with ``loop_rate``, Table 6.2's max |ε_O|, or Table 6.1's
     largest max |ε_OCL| of each segment).
     """
     chain = SelfSensingChain(plan, gamma, gains, fs)
     spans = windows or [("", settle_s, np.inf)]
-    paths, stats = Superposition(chain.observer), {label: BudgetStats() for label, _, _ in spans}
+    paths, stats = Superposition(chain.observer), SpanBudgets(spans)
     means = None if loop_rate is None else WindowMeans(loop_rate, 2 + len(SOURCES))
     zero = None
     for start, t, x_laser, out in chain.against_laser(chunks):
@@ -242,19 +243,53 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
             zero = m[0][0] if zero is None else zero  # the laser's first mean is Table 6.2's zero
             t, total = (index - (loop_rate.ns - 1) / 2) / fs, m[1] + zero
             parts = dict(zip(SOURCES, m[2:])) | {"laser": m[2 + SOURCES.index("laser")] + zero}
-        add_in_spans(stats, spans, t, total, parts)
-    return {label: budget.row() for label, budget in stats.items()}
+        stats.add(t, total, parts)
+    return stats.rows()
 
 
-def add_in_spans(stats: Mapping[str, BudgetStats], spans: Sequence[tuple[str, float, float]], t: np.ndarray,
-                 total: np.ndarray, parts: Mapping[str, np.ndarray]) -> None:
-    """Add one chunk to each label's statistics over the samples in that label's spans
-    ((label, start, end) [s]; a label may have many, as P1's segments do, one per test)."""
-    counted = dict.fromkeys(stats, False)
-    for label, begin, end in spans:
-        counted[label] = counted[label] | ((t >= begin) & (t < end))
-    for label, budget in stats.items():
-        budget.add(t, total, parts, counted[label])
+class SpanBudgets:
+    """One :class:`BudgetStats` per label over that label's spans ((label, start, end) [s]; a label
+    may have many, as P1's segments do, one per test) and, where a label has several, one per span:
+    Table 6.1's σ is the spread over the tests of each test's max, which :meth:`rows` splits too."""
+
+    def __init__(self, spans: Sequence[tuple[str, float, float]], sources: tuple[str, ...] = SOURCES):
+        self.spans = list(spans)
+        self.labels = {label: BudgetStats(sources) for label, _, _ in self.spans}
+        self.each = [BudgetStats(sources) for _ in self.spans]
+
+    def add(self, t: np.ndarray, total: np.ndarray, parts: Mapping[str, np.ndarray]) -> None:
+        """One chunk of the error ``total`` and its ``parts`` at times ``t`` [s]."""
+        counted = dict.fromkeys(self.labels, False)
+        for (label, begin, end), one in zip(self.spans, self.each):
+            if t.size and (t[0] >= end or t[-1] < begin):
+                continue  # most of a long run's spans miss a given chunk
+            inside = (t >= begin) & (t < end)
+            counted[label] = counted[label] | inside
+            one.add(t, total, parts, inside)
+        for label, budget in self.labels.items():
+            budget.add(t, total, parts, counted[label])
+
+    def rows(self) -> dict[str, dict[str, float]]:
+        """{label: :meth:`BudgetStats.row`} of each label with samples, with :func:`spread_over_spans`
+        where a label has several spans."""
+        rows = {}
+        for label, budget in self.labels.items():
+            tests = [one for (name, _, _), one in zip(self.spans, self.each) if name == label and one.n]
+            if budget.n:  # a span the run is too short for (the creep's steady state on the smoke DAG) has no row
+                rows[label] = budget.row() | (spread_over_spans(tests) if len(tests) > 1 else {})
+        return rows
+
+
+def spread_over_spans(tests: Sequence[BudgetStats]) -> dict[str, float]:
+    """σ over the spans (P1's tests, ddof = 1 as Table 6.1's) of each span's max error, and of the
+    signed error at that max and of each source there: the sources' values add up to that signed
+    error, so its variance is theirs with their covariances."""
+    um = 1e6
+    row = {"tests": len(tests),
+           "total max σ over tests [µm]": float(np.std([s.total_max for s in tests], ddof=1)) * um,
+           "total at max σ over tests [µm]": float(np.std([s.total_at_max for s in tests], ddof=1)) * um}
+    return row | {f"{source}{AT_MAX_SPREAD}": float(np.std([s.at_max[source] for s in tests], ddof=1)) * um
+                  for source in tests[0].sources}
 
 
 #: the channels the budget streams, as rule `observe` does, so that the chunks are the same
@@ -262,17 +297,19 @@ CHANNELS = ("Ur", "Ir", "I", "x_laser")
 
 
 def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains, omega_c: float | None = None,
-                   p1_protocol: Mapping | None = None) -> dict[str, dict[str, float]]:
-    """:func:`run_budget` of one simulated capture, counted as Table 5.4 counts, from the warm-up on;
-    given the loop's ``omega_c``, as Chapter 6 counts a closed-loop run: at the loop's rate, from
-    its settling on (Table 6.2), or, given P1's protocol, in each segment's steady windows (Table
-    6.1, :func:`selfsense.chapters.ch6.segment_windows`)."""
+                   p1_protocol: Mapping | None = None, transient_s: float | None = None) -> dict[str, dict[str, float]]:
+    """:func:`run_budget` of one simulated capture, counted as Table 5.4 counts, from the warm-up on
+    (given the creep run's ``transient_s``, in its transient and steady state as its table counts,
+    :func:`selfsense.chapters.ch5.creep_phases`); given the loop's ``omega_c``, as Chapter 6 counts
+    a closed-loop run: at the loop's rate, from its settling on (Table 6.2), or, given P1's
+    protocol, in each segment's steady windows (Table 6.1, :func:`selfsense.chapters.ch6.segment_windows`)."""
     windows = segment_windows(p1_protocol, omega_c) if p1_protocol else ()
     with open_capture(path, require=CHANNELS) as cap:
         truth = Truth.from_group(*cap.read_truth(), cap.length(), path)
         warmup, plan = float(cap.attribute("warmup_s")), plan_from_capture(cap, n_periods)
         if omega_c is None:
-            return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, warmup, truth)
+            phases = creep_phases(warmup, transient_s) if transient_s is not None else ()
+            return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, warmup, truth, windows=phases)
         return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, settled_after(warmup, omega_c),
                           truth, loop_rate=plan_from_capture(cap, 1), windows=windows)
 

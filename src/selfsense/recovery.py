@@ -44,3 +44,18 @@ def model_recovery(per_set, truth_params: Mapping[str, float]):
                          "identified std": float(sets[key].std(ddof=1)) if len(sets) > 1 else float("nan"),
                          "error [%]": 100 * (mean / truth - 1) if truth else float("nan")})
     return pd.DataFrame(rows)
+
+
+def hysteresis_share_recovery(identified, truth_states: Mapping[str, np.ndarray], frequency: float):
+    """Fig 4.8's U_H share of max U (``identified``: rule identify's hysteresis_voltage table, per
+    case) against the twin's own at ``frequency``: the peak of its hysteresis operator's voltage
+    U_H over the peak drive U (Eq 1.6), from the truth of a capture at that frequency."""
+    import pandas as pd
+
+    truth = 100 * float(np.max(np.abs(truth_states["U_H"])) / np.max(truth_states["U_drive"]))
+    rows = identified[np.isclose(identified["frequency [Hz]"], frequency)]
+    return pd.DataFrame([{"case": int(r["case"]), "parameter": f"U_H share of max U at {frequency:g} Hz [%]",
+                          "truth": truth, "identified mean": float(r["U_H share of max U [%]"]),
+                          "identified std": float("nan"), "error [%]": 100 * (r["U_H share of max U [%]"] / truth - 1)}
+                         for _, r in rows.iterrows()])
+

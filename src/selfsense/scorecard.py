@@ -18,6 +18,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from selfsense.budget_columns import AT_MAX, AT_MAX_SPREAD
 from selfsense.manifest import ManifestError, validate_document
 
 WITHIN = "within band"
@@ -48,7 +49,6 @@ BUDGET_TABLE = "twin/error_budget.csv"
 #: the error budgets a `cause` can read (twin datasets only), and the error each splits
 CAUSE_TABLES = {BUDGET_TABLE: "the observer error", "twin/tracking_budget.csv": "the tracking error",
                 "twin/charge_budget.csv": "the charge–position error"}
-AT_MAX = " at total max [µm]"
 
 
 class RegistryError(ManifestError):
@@ -132,6 +132,49 @@ class Locator:
 
 
 @dataclass(frozen=True)
+class Cause:
+    """What was measured of a number's error: the row ``where`` of ``table`` (results/<dataset>/).
+
+    An error budget (one of CAUSE_TABLES) is read at the error's max, or with ``statistic`` "σ" at
+    the spread over P1's tests of each test's max (:func:`selfsense.error_budget.spread_over_spans`);
+    any other table is quoted: its ``quote`` columns, which the entry's note interprets.
+    """
+
+    table: str = BUDGET_TABLE
+    where: tuple[tuple[str, Any], ...] = ()
+    statistic: str = "max"
+    quote: tuple[str, ...] = ()
+
+    def note(self, table: pd.DataFrame, largest: int = 3) -> str:
+        """The scorecard's note from the table this cause names."""
+        row = _one_row(table, self.where, self.table)
+        selector = ", ".join(f"{k} = {v}" for k, v in self.where)
+        if self.quote:
+            absent = [c for c in self.quote if c not in table.columns]
+            if absent:
+                raise LookupError(f"{self.table} has no column {absent[0]!r}")
+            return (f"Measured ({self.table}, {selector}): "
+                    + ", ".join(f"{c} = {_quoted(row[c])}" for c in self.quote))
+        if self.statistic == "σ":
+            suffix, style = AT_MAX_SPREAD, ".3f"
+            head = (f"σ over the tests of {CAUSE_TABLES[self.table]}'s max, "
+                    f"{float(row['total max σ over tests [µm]']):.3f} µm; the σ of its largest sources at each test's max are ")
+        else:
+            suffix, style = AT_MAX, "+.2f"
+            head = (f"at {CAUSE_TABLES[self.table]}'s max, {float(row['total at max [µm]']):+.2f} µm, "
+                    "its largest sources are ")
+        sources = {c.removesuffix(suffix): float(row[c]) for c in table.columns if c.endswith(suffix) and pd.notna(row[c])}
+        top = sorted(sources.items(), key=lambda kv: -abs(kv[1]))[:largest]
+        return (f"Measured cause ({self.table}, {selector}): {head}"
+                + ", ".join(f"{name} {value:{style}}" for name, value in top) + " µm")
+
+
+def _quoted(value: Any) -> str:
+    number = pd.to_numeric(value, errors="coerce")
+    return str(value) if pd.isna(number) else f"{float(number):.4g}"
+
+
+@dataclass(frozen=True)
 class Entry:
     section: str
     kind: str
@@ -147,8 +190,7 @@ class Entry:
     locate: Locator | None = None
     truth: str | None = None
     printed: str | None = None  # the published number as printed, where trailing zeros matter
-    cause: tuple[tuple[str, Any], ...] = ()  # the row of cause_table that splits the number's error
-    cause_table: str = BUDGET_TABLE
+    cause: Cause | None = None  # the measured table row that explains the number's error
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -168,7 +210,7 @@ class Score:
     reproduced: float | None = None
     verdict: str = NOT_YET
     detail: str = ""
-    cause: str = ""  # what the error budget measured of the number's error (budget_note)
+    cause: str = ""  # what was measured of the number's error (Cause.note)
 
 
 # --- the registry -------------------------------------------------------------------------------
@@ -219,15 +261,27 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
         if ref <= 0:
             raise RegistryError(f"{where}: band {band.name!r} is on a log scale, which needs "
                                 f"{'a positive value' if band.tolerance.scale == 'log' else 'a value below 1'}")
-    cause = {**group.get("cause", {}), **item.get("cause", {})}
-    if cause.get("table", BUDGET_TABLE) not in CAUSE_TABLES:
-        raise RegistryError(f"{where}: cause table {cause['table']!r} is none of {', '.join(CAUSE_TABLES)}")
+    cause = _cause(group.get("cause", {}), item.get("cause", {}), where)
     return Entry(section=section, kind=value["kind"], chapter=group["chapter"], source=group["source"],
                  model=group["model"], quantity=item["quantity"], unit=value["unit"],
                  published=None if truth else float(published), band=band, bound=bound,
                  note=value.get("note", ""), locate=locate, truth=truth, printed=item.get("printed"),
-                 cause=tuple({**group.get("cause", {}).get("where", {}), **item.get("cause", {}).get("where", {})}.items()),
-                 cause_table=cause.get("table", BUDGET_TABLE))
+                 cause=cause)
+
+
+def _cause(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Cause | None:
+    """The group's cause merged with the entry's (entry wins, ``where`` merged key by key)."""
+    if not group and not item:
+        return None
+    merged = {**group, **item, "where": {**group.get("where", {}), **item.get("where", {})}}
+    cause = Cause(merged.get("table", BUDGET_TABLE), tuple(merged["where"].items()), merged.get("statistic", "max"),
+                  tuple(merged.get("quote", ())))
+    if not cause.quote and cause.table not in CAUSE_TABLES:
+        raise RegistryError(f"{where}: cause table {cause.table!r} is none of {', '.join(CAUSE_TABLES)}: "
+                            "another table's cause names the columns it quotes")
+    if cause.quote and cause.statistic != "max":
+        raise RegistryError(f"{where}: a cause that quotes columns has no statistic")
+    return cause
 
 
 def _locator(locate: Mapping[str, Any], where: str) -> Locator | None:
@@ -253,22 +307,7 @@ def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[En
 def tables_read(entries: Sequence[Entry]) -> list[str]:
     """Tables (relative to results/<dataset>/) the entries read, in registry order."""
     return list(dict.fromkeys([e.locate.table for e in entries if e.locate]
-                              + [e.cause_table for e in entries if e.cause]))
-
-
-def budget_note(budget: pd.DataFrame, where: Sequence[tuple[str, Any]], largest: int = 3,
-                table: str = BUDGET_TABLE) -> str:
-    """The note of a number whose error one of CAUSE_TABLES splits (its row ``where``): the error at
-    its max and its ``largest`` sources at that instant, signed, in µm (a row's sources are the
-    columns it fills: an open-loop run's tracking budget has others than a closed loop's)."""
-    row = _one_row(budget, where, table)
-    selector = ", ".join(f"{k} = {v}" for k, v in where)
-    sources = {c.removesuffix(AT_MAX): float(row[c]) for c in budget.columns
-               if c.endswith(AT_MAX) and pd.notna(row[c])}
-    top = sorted(sources.items(), key=lambda kv: -abs(kv[1]))[:largest]
-    return (f"Measured cause ({table}, {selector}): at {CAUSE_TABLES[table]}'s max, "
-            f"{float(row['total at max [µm]']):+.2f} µm, its largest sources are "
-            + ", ".join(f"{name} {value:+.2f}" for name, value in top) + " µm")
+                              + [e.cause.table for e in entries if e.cause]))
 
 
 # --- scoring ------------------------------------------------------------------------------------
@@ -350,8 +389,7 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
         return Score(entry, published, band(published, entry), verdict=MISSING, detail=str(err))
     limits = band(published, entry)
     verdict = INFORMATION if entry.tolerance is None else judge(reproduced, *limits)
-    cause = (budget_note(tables[entry.cause_table], entry.cause, table=entry.cause_table)
-             if entry.cause and entry.cause_table in tables else "")
+    cause = entry.cause.note(tables[entry.cause.table]) if entry.cause and entry.cause.table in tables else ""
     return Score(entry, published, limits, reproduced, verdict, cause=cause)
 
 

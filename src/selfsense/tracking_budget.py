@@ -45,7 +45,7 @@ import numpy as np
 
 from .capture import open_capture
 from .chapters.ch6 import load_run, segment_windows, settled_after
-from .error_budget import BudgetStats, Truth, add_in_spans
+from .error_budget import SpanBudgets, Truth
 from .ripple import plan_from_capture
 
 OPEN_SOURCES = ("feedforward", "hysteresis", "creep", "stack dynamics", "laser")
@@ -89,6 +89,6 @@ def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: floa
     else:
         spans = [("", settled_after(protocol.get("warmup", 0.0), omega_c), np.inf)]
     sources = CLOSED_SOURCES if closed else OPEN_SOURCES
-    stats = {label: BudgetStats(sources) for label, _, _ in spans}
-    add_in_spans(stats, spans, run["t"], total, parts)
-    return {label: budget.row() for label, budget in stats.items()}
+    stats = SpanBudgets(spans, sources)
+    stats.add(run["t"], total, parts)
+    return stats.rows()

@@ -7,6 +7,9 @@ CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage
 #: the Chapter 4 sine sets of each dataset
 CH4_SETS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch4_sine_")] for d in DATASETS}
 
+#: the capture whose truth the identified model is held to (Fig 4.8's U_H at its frequency too)
+RECOVERY_SINE = "ch4_sine_10hz_s1"
+
 #: datasets with the ripple channels, the Chapter 4 sets and the static stiffness tests
 IDENTIFY_DATASETS = [d for d in RIPPLE_DATASETS if CH4_SETS[d]
                      and {"ch4_static_free", "ch4_static_blocked"} <= set(EXPERIMENTS[d])]
@@ -81,12 +84,15 @@ rule ch4_figures:
 rule model_recovery:
     """Identified parameters against the twin's truth (parameter recovery)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture="ch4_sine_10hz_s1")),
+        unpack(lambda w: captures(w.dataset, capture=RECOVERY_SINE)),
         per_set="results/{dataset}/ch4/sets.csv",
+        hysteresis="results/{dataset}/ch4/hysteresis_voltage.csv",
         library=library_sources("model_recovery"),
     output:
         table=report("results/{dataset}/twin/model_recovery.csv", caption="../report/model_recovery.rst",
                      category="{dataset}", subcategory="Twin validation"),
+    params:
+        frequency=lambda w: EXPERIMENTS[w.dataset][RECOVERY_SINE].protocol["segments"][0]["frequency"],
     log:
         "logs/{dataset}/model_recovery.log",
     benchmark:

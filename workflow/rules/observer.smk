@@ -69,6 +69,7 @@ rule observe:
         stats="results/{dataset}/observer/{experiment}.json",
     params:
         n_periods=config["ripple"]["n_periods"],
+        transient_s=lambda w: config["observer"]["creep_transient_s"] if w.experiment == "ch5_creep" else None,
     log:
         "logs/{dataset}/observe/{experiment}.log",
     benchmark:
@@ -86,6 +87,7 @@ rule ch5_tables:
     input:
         stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in OBSERVED_SINES[w.dataset].values()],
         creep="results/{dataset}/observer/ch5_creep.nc",
+        creep_stats="results/{dataset}/observer/ch5_creep.json",
         library=library_sources("ch5_tables"),
     output:
         table=report("results/{dataset}/ch5/table_5_4.csv", caption="../report/table_5_4.rst",
@@ -95,7 +97,6 @@ rule ch5_tables:
     params:
         frequencies=lambda w: list(OBSERVED_SINES[w.dataset]),
         step_at=lambda w: float(EXPERIMENTS[w.dataset]["ch5_creep"].protocol.get("warmup", 0.0)),
-        transient_s=10.0,
     log:
         "logs/{dataset}/ch5_tables.log",
     benchmark:
@@ -154,6 +155,8 @@ rule error_budget:
                                 for e in BUDGET_RUNS[w.dataset]],
         p1_protocols=lambda w: [dict(EXPERIMENTS[w.dataset][e].protocol) if e.startswith("ch6_p1_") else None
                                 for e in BUDGET_RUNS[w.dataset]],
+        transient_s=lambda w: [config["observer"]["creep_transient_s"] if e == "ch5_creep" else None
+                               for e in BUDGET_RUNS[w.dataset]],
         n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/error_budget.log",

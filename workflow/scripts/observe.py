@@ -7,7 +7,7 @@ Alone: python workflow/scripts/observe.py raw/pi_p885/ch5_sine_1hz.nc results/pi
 import argparse
 
 from selfsense.capture import SeriesWriter, open_capture
-from selfsense.chapters.ch5 import run_observer
+from selfsense.chapters.ch5 import creep_phases, run_observer
 from selfsense.gamma import load_gamma
 from selfsense.observer import load_gains
 from selfsense.provenance import provenance, script_logging, write_json
@@ -16,27 +16,33 @@ from selfsense.ripple import plan_from_capture
 UNITS = {"time": "s", "x_laser": "m", "x_hat": "m", "x_cp": "m", "i0_hat": "A"}
 
 
-def main(capture, gamma, observer, traces, stats, n_periods, log=None):
+def main(capture, gamma, observer, traces, stats, n_periods, transient_s=None, log=None):
+    """transient_s: for the creep run, the max error is taken in its transient and steady state too."""
     logger = script_logging(log)
     poly, gains = load_gamma(gamma), load_gains(observer)
     with open_capture(capture, require=("Ur", "Ir", "I", "x_laser")) as cap:
         plan = plan_from_capture(cap, n_periods)
         settle = float(cap.attribute("warmup_s"))
-        result, trace = run_observer(cap.iter_chunks(("Ur", "Ir", "I", "x_laser")), plan, poly, gains, cap.fs, settle)
+        phases = creep_phases(settle, transient_s) if transient_s is not None else ()
+        result, trace = run_observer(cap.iter_chunks(("Ur", "Ir", "I", "x_laser")), plan, poly, gains, cap.fs, settle,
+                                     phases=phases)
         nan = dict(cap.stats.nan)
     with SeriesWriter(traces, UNITS, {"capture": capture}) as out:
         out.write(trace)
     write_json(result | {"warmup [s]": settle, "NaN samples": nan,
-                         "provenance": provenance([capture, gamma, observer], {"n_periods": n_periods})}, stats)
+                         "provenance": provenance([capture, gamma, observer], {"n_periods": n_periods, "transient_s": transient_s})},
+               stats)
     logger.info("%s: %s", capture, result)
 
 
 if "snakemake" in globals():
     i, o = snakemake.input, snakemake.output
-    main(i.capture, i.gamma, i.observer, o.traces, o.stats, snakemake.params.n_periods, snakemake.log[0])
+    p = snakemake.params
+    main(i.capture, i.gamma, i.observer, o.traces, o.stats, p.n_periods, p.transient_s, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("capture", "gamma", "observer", "traces", "stats"):
         cli.add_argument(name)
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
+    cli.add_argument("--transient-s", type=float, default=None, help="the creep run's transient after its step [s]")
     main(**vars(cli.parse_args()))
