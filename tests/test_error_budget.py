@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from selfsense.error_budget import (CHARGE_SOURCES, SOURCES, TRUTH_STATES, BudgetStats, SpanBudgets, Superposition,
                                    Truth, charge_position_budget)
+from selfsense.budget_columns import AT_MAX_SPREAD
 from selfsense.manifest import load_yaml
 from selfsense.observer import HPOGains, HybridPositionObserver
 from selfsense.scorecard import BUDGET_TABLE, LEFT_OUT, parse_registry
@@ -171,6 +172,7 @@ def test_spans_of_one_label_are_counted_together_and_their_spread_over_tests_spl
     assert rows["a"]["Γ map at max σ over tests [µm]"] == pytest.approx(0.75 * np.std([1, 2, 4], ddof=1))
     assert rows["a"]["laser at max σ over tests [µm]"] == pytest.approx(0.25 * np.std([1, 2, 4], ddof=1))
     assert rows["b"]["total max σ over tests [µm]"] == 0.0
+    assert [c for c in rows["a"] if c.endswith(AT_MAX_SPREAD)] == [s + AT_MAX_SPREAD for s in SOURCES]  # sources only
 
 
 def test_truth_interpolation_is_aligned_to_the_stored_samples_and_exact_for_cubics():

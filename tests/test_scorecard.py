@@ -240,7 +240,8 @@ def test_a_cause_reads_the_spread_over_tests_or_quotes_another_tables_columns():
     sigma, quoted = parse_registry(doc)
     budget = pd.DataFrame({"segment": ["b"], "total max σ over tests [µm]": [0.0731],
                            "laser at max σ over tests [µm]": [0.05], "creep at max σ over tests [µm]": [0.002],
-                           "hysteresis at max σ over tests [µm]": [0.061], "total at max [µm]": [3.0]})
+                           "hysteresis at max σ over tests [µm]": [0.061], "total at max [µm]": [3.0],
+                           "σ over tests of the signed error at max [µm]": [0.07]})
     assert score(sigma, {"ch9/t.csv": TABLE, "twin/tracking_budget.csv": budget}).cause == (
         "Measured cause (twin/tracking_budget.csv, segment = b): σ over the tests of the tracking error's max, "
         "0.073 µm; the σ of its largest sources at each test's max are hysteresis 0.061, laser 0.050, creep 0.002 µm")

@@ -287,7 +287,7 @@ def spread_over_spans(tests: Sequence[BudgetStats]) -> dict[str, float]:
     um = 1e6
     row = {"tests": len(tests),
            "total max σ over tests [µm]": float(np.std([s.total_max for s in tests], ddof=1)) * um,
-           "total at max σ over tests [µm]": float(np.std([s.total_at_max for s in tests], ddof=1)) * um}
+           "σ over tests of the signed error at max [µm]": float(np.std([s.total_at_max for s in tests], ddof=1)) * um}
     return row | {f"{source}{AT_MAX_SPREAD}": float(np.std([s.at_max[source] for s in tests], ddof=1)) * um
                   for source in tests[0].sources}
 
