@@ -58,4 +58,3 @@ def hysteresis_share_recovery(identified, truth_states: Mapping[str, np.ndarray]
                           "truth": truth, "identified mean": float(r["U_H share of max U [%]"]),
                           "identified std": float("nan"), "error [%]": 100 * (r["U_H share of max U [%]"] / truth - 1)}
                          for _, r in rows.iterrows()])
-

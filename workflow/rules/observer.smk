@@ -96,7 +96,6 @@ rule ch5_tables:
                      category="{dataset}", subcategory="Chapter 5"),
     params:
         frequencies=lambda w: list(OBSERVED_SINES[w.dataset]),
-        step_at=lambda w: float(EXPERIMENTS[w.dataset]["ch5_creep"].protocol.get("warmup", 0.0)),
     log:
         "logs/{dataset}/ch5_tables.log",
     benchmark:

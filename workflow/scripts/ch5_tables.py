@@ -12,29 +12,29 @@ from selfsense.chapters.ch5 import creep_errors, table_5_4
 from selfsense.provenance import script_logging, write_table
 
 
-def main(stats, creep_stats, creep_traces, creep_step_at, table, creep_table, log=None):
+def main(stats, creep_stats, creep_traces, table, creep_table, log=None):
     """stats: {frequency [Hz]: observe-stats json path}; the creep run's stats come with its phases'
-    maxima (rule observe)."""
+    maxima and its warm-up, which its step ends (rule observe)."""
     logger = script_logging(log)
     by_f = {float(f): json.loads(Path(p).read_text()) for f, p in stats.items()}
     t54 = table_5_4(by_f)
     write_table(t54, table, inputs=list(stats.values()))
-    creep = creep_errors(json.loads(Path(creep_stats).read_text()), read_series(creep_traces), creep_step_at)
+    creep_run = json.loads(Path(creep_stats).read_text())
+    creep = creep_errors(creep_run, read_series(creep_traces), creep_run["warmup [s]"])
     write_table(creep, creep_table, inputs=[creep_stats, creep_traces])
     logger.info("\n%s\n%s", t54.to_string(), creep.to_string())
 
 
 if "snakemake" in globals():
     p = snakemake.params
-    main(dict(zip(p.frequencies, snakemake.input.stats)), snakemake.input.creep_stats, snakemake.input.creep, p.step_at,
+    main(dict(zip(p.frequencies, snakemake.input.stats)), snakemake.input.creep_stats, snakemake.input.creep,
          snakemake.output.table, snakemake.output.creep, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("creep_stats")
     cli.add_argument("creep_traces")
-    cli.add_argument("creep_step_at", type=float)
     cli.add_argument("table")
     cli.add_argument("creep_table")
     cli.add_argument("--stats", nargs="+", required=True, help="frequency=path")
     a = cli.parse_args()
-    main(dict(s.split("=", 1) for s in a.stats), a.creep_stats, a.creep_traces, a.creep_step_at, a.table, a.creep_table)
+    main(dict(s.split("=", 1) for s in a.stats), a.creep_stats, a.creep_traces, a.table, a.creep_table)
