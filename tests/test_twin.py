@@ -198,6 +198,54 @@ def test_capture_carries_truth_and_contract_attributes(tmp_path, stack_params, s
         assert cap.n_slow == 1  # 0.1 s at 10 Hz
 
 
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(1, 3000), every=st.integers(1, 30), first=st.integers(0, 29), seed=st.integers(0, 2**32 - 1))
+def test_compiled_instruments_follow_the_numpy_reference(stack_params, stack_daq, n, every, first, seed):
+    """record.record_block against Bench._instruments, over two chunks (the high-pass states carry).
+
+    Both do the same IEEE operations in the same order; a rounding-level difference (another
+    complex-division algorithm) could move a value across one ADC boundary, so the measured
+    channels agree to one ADC step and the truth to the rounding of a few dozen operations."""
+    first = first % every
+    benches = [Bench(stack_params, stack_daq, experiment_seed(seed, "ref")) for _ in range(2)]
+    for chunk in range(2):
+        t = (chunk * n + np.arange(n)) / FS
+        U = 50 - 50 * np.cos(2 * np.pi * 230 * t) + 20 * (t > 0.01)  # a step: the high-pass leaks
+        (fast, fast_truth), (ref, ref_truth) = (
+            b.step(t, U, truth_every=every, truth_first=first, compiled=compiled)
+            for b, compiled in zip(benches, (True, False)))
+        for c, values in ref.items():
+            step = benches[1].adc[c].scale_factor if c in benches[1].adc else 0.0
+            np.testing.assert_allclose(fast[c], values, rtol=0, atol=step, err_msg=c)
+        for k, values in ref_truth.items():
+            np.testing.assert_allclose(fast_truth[k], values, rtol=rtol(1.0, roundings=40), atol=0, err_msg=k)
+    np.testing.assert_array_equal(benches[0].hp_i.zi, benches[1].hp_i.zi)
+
+
+def test_truth_and_thermometers_keep_their_samples_whatever_the_truth_decimation(tmp_path, stack_params, stack_daq):
+    """The states are recorded on a grid that holds the truth's and the 10 Hz thermometers'
+    samples: with a decimation that does not divide the thermometers' period (7 against 4800),
+    the thermometers and the channels are those of the usual 12, and each truth is the kernel's
+    state at its own samples. Chunks of 1000 samples start off both grids."""
+    drive = Drive("voltage", (Segment(0.25, 10.0, 0.0, 100.0),))
+    runs = {}
+    for dec in (12, 7):
+        path = simulate_capture(tmp_path / f"{dec}.nc", stack_params, stack_daq, drive, {}, 5, "grid",
+                                chunk_len=1000, truth_decimation=dec).path
+        with open_capture(path) as cap:
+            runs[dec] = (cap.read(list(stack_daq.channels[:6])), cap.read(["T_mid"], dim="time_slow"),
+                         cap.read_truth()[1])
+            n = cap.n
+    U = drive(np.arange(n) / FS)
+    x = run(stack_params, U)["x"]
+    for dec, (_, _, truth) in runs.items():
+        np.testing.assert_allclose(truth["x"], x[::dec].astype(np.float32), rtol=0, atol=0)
+    for part in (0, 1):
+        for c, values in runs[12][part].items():
+            np.testing.assert_array_equal(runs[7][part][c], values, err_msg=c)
+    assert len(runs[12][1]["T_mid"]) == 3  # 0.25 s at 10 Hz
+
+
 class Hold:
     """A trivial real-time controller: holds a voltage, logs what it saw."""
 

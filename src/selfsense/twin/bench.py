@@ -15,6 +15,7 @@ reference.
 
 from __future__ import annotations
 
+import math
 import zlib as _zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,10 +28,11 @@ from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport
 from . import kernel
 from .drive import Drive
 from .instruments import HighPass, RippleSource, SlowProcess, resolve, small_signal
+from .record import TRUTH, record
 from .params import TwinParams
 
 #: noiseless states kept in /truth (every `truth_decimation`-th sample)
-TRUTH_STATES = ("x", "q", "U_P", "U_H", "T", "C_P", "C_e", "R_e", "I_offset", "U_drive")
+TRUTH_STATES = TRUTH
 
 
 @dataclass(frozen=True)
@@ -105,16 +107,28 @@ class Bench:
                 **{f"noise_{c}": getattr(ins, NOISY[c]) * gauss(n) for c in NOISY}}
 
     def step(self, t: np.ndarray, U: np.ndarray, F_ext: np.ndarray | None = None,
-             signals: Mapping[str, np.ndarray] | None = None):
-        """Advance over the samples at times t with drive U; returns (measured, truth) dicts.
+             signals: Mapping[str, np.ndarray] | None = None, truth_every: int = 1, truth_first: int = 0,
+             compiled: bool = True):
+        """Advance over the samples at times t with drive U; returns (measured, truth) dicts, the
+        truth at samples truth_first, truth_first + truth_every, … of these.
 
         ``signals``: :meth:`time_signals` of exactly these samples, made beforehand (by default
-        they are made here).
+        they are made here). ``compiled``: the instruments in one numba pass
+        (:func:`.record.record_block`), or else in numpy (:meth:`_instruments`, the reference
+        the tests hold it to).
         """
         n = len(t)
         F_ext = np.zeros(n) if F_ext is None else F_ext
         sig = self.time_signals(t) if signals is None else signals
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
+        if compiled:
+            return record(self, U, out, sig, truth_every, truth_first)
+        measured, truth = self._instruments(U, out, sig)
+        return measured, {k: v[truth_first::truth_every] for k, v in truth.items()}
+
+    def _instruments(self, U: np.ndarray, out: np.ndarray, sig: Mapping[str, np.ndarray]):
+        """The numpy reference of :func:`.record.record`: what the DAQ records from the drive U and
+        the stack's outputs ``out`` (rows of kernel.OUTPUTS), and the truth at every sample."""
         x, v, a, q, U_P, U_H, T, I, C_P = out.T
         u, h, ins = sig["u_ripple"], sig["h"], self.p.instruments
         C_e, R_e = small_signal(C_P, U_H, self.p.ripple)
@@ -181,22 +195,32 @@ def simulate_capture(
                        chunk_len=chunk_len, compression=compression, complevel=complevel,
                        truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
         w.write_truth_attrs(params.truth_attrs())
+        # the states are recorded at the samples on a grid that holds both the truth's and the
+        # thermometers' samples (the truth's own when they share it, as at 48 kHz, 12 and 10 Hz)
+        grid = math.gcd(truth_decimation, slow_every) if slow else truth_decimation
         for start in range(0, n, chunk_len):
             t = (start + np.arange(min(chunk_len, n - start))) / fs
             reference = drive(t)
+            first = -start % grid  # the chunk's first sample on the grid
             if controller is None:
                 U = reference * k_over_alpha if drive.quantity == "position" else reference
-                measured, truth = bench.step(t, U)
+                measured, states = bench.step(t, U, truth_every=grid, truth_first=first)
             else:
-                measured, truth, logs = _closed_loop_chunk(bench, controller, t)
+                measured, states, logs = _closed_loop_chunk(bench, controller, t)
                 measured |= logs
+                states = {k: v[first::grid] for k, v in states.items()}
             w.write({c: measured[c] for c in fast})
-            keep = (start + np.arange(len(t))) % truth_decimation == 0
-            w.write({k: v[keep] for k, v in truth.items()}, dim="time_truth")
+            w.write({k: _every(v, start + first, grid, truth_decimation) for k, v in states.items()},
+                    dim="time_truth")
             if slow:
-                pick = (start + np.arange(len(t))) % slow_every == 0
-                w.write(bench.temperatures(truth["T"][pick]), dim="time_slow")
+                w.write(bench.temperatures(_every(states["T"], start + first, grid, slow_every)), dim="time_slow")
     return w.scan_report()
+
+
+def _every(values: np.ndarray, origin: int, grid: int, period: int) -> np.ndarray:
+    """Of ``values`` at samples origin, origin + grid, … (origin a multiple of grid, which divides
+    period), those at the multiples of ``period``."""
+    return values[(-origin % period) // grid::period // grid]
 
 
 def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):

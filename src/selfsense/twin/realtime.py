@@ -5,17 +5,16 @@ numba loop (Chapter 6).
 block (:func:`.bench._closed_loop_chunk` with :class:`selfsense.control.HPOIntegralController`,
 whose ``run_blocks`` calls it): the controller's command from the errors of the block before (Eq
 6.1–6.3), the stack's response (:func:`.kernel.run_kernel`), the instruments as
-:meth:`.bench.Bench.step` makes them (:func:`record_sample`: ripple current through R_e–C_e, the
-ripple channels' high-pass, the probes' offsets and drifts, the ADC), then the real-time chain on
+:meth:`.bench.Bench.step` makes them (:func:`.record.record_block` over the block: ripple current
+through R_e–C_e, the ripple channels' high-pass, the probes' offsets and drifts, the ADC), then,
+sample by sample, the real-time chain on
 the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq 3.12),
 x_CP = Γ(C_e) (Eq 5.4) held until the next window, and the HPO (Eq 5.5–5.9,
 :func:`selfsense.observer.hpo_update`). The reference's operations in its order, so the captures
 are the reference's bit for bit here; the twin's time-only signals (ripple carrier, drifts, noise)
 are made beforehand by :meth:`.bench.Bench.time_signals`, as the reference makes them once per
 chunk. Every state lives in the Python objects before and after, so the two paths can take turns;
-the tests hold this loop to the reference. Open-loop chunks stay with :meth:`.bench.Bench.step`:
-numpy's whole-chunk arithmetic is faster there than this per-sample loop (440 against 540 ns a
-sample), and the open-loop twin imports no self-sensing code.
+the tests hold this loop to the reference. The open-loop twin imports no self-sensing code.
 """
 
 from __future__ import annotations
@@ -25,60 +24,9 @@ import math
 import numba
 import numpy as np
 
-from ..lti import filter_step
 from ..observer import hpo_update
 from .kernel import N_OUT, run_kernel
-
-
-#: measured channels in the loop's order (rows of its `measured` output)
-MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
-#: rows of the truth output, as bench.TRUTH_STATES
-TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "C_e", "R_e", "I_offset", "U_drive")
-
-
-@numba.njit(cache=True)
-def _quantize(value, scale, offset):
-    """ChannelSpec.quantize for one sample (scale 0: the channel is not recorded by the ADC)."""
-    if scale == 0.0:
-        return value
-    code = np.rint((value - offset) / scale)
-    return min(max(code, -32767.0), 32767.0) * scale + offset
-
-
-@numba.njit(cache=True)
-def _resolve(value, resolution):
-    """instruments.resolve for one sample."""
-    return resolution * np.rint(value / resolution) if resolution else value
-
-
-@numba.njit(cache=True)
-def record_sample(j, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth):
-    """What the DAQ records at sample j, from the drive U and the stack's outputs ``out`` (a row
-    of kernel.OUTPUTS): measured (quantised) and truth columns j, high-pass states updated.
-
-    sig: the arrays f_r, u (complex ripple voltage), h (high-pass at f_r), I_offset, laser_drift and
-    the noise of each channel of bench.NOISY, in its order (U, Ur, Ir, F).
-    bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb, dC_H, dR_H, the current
-    probe's and the laser's resolution.
-    adc: (scale, offset) per MEASURED channel.
-    """
-    x, a, q, U_P, U_H, T, I, C_P = out[0], out[2], out[3], out[4], out[5], out[6], out[7], out[8]
-    C_e = C_P + bench[7] * U_H  # instruments.small_signal
-    R_e = bench[0] + bench[1] * (C_e - bench[2]) + bench[8] * U_H
-    ur, h = sig[1][j], sig[2][j]
-    i_r = ur * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * sig[0][j] * C_e)))  # RippleSource.current
-    leak_u = filter_step(U, hp_b, hp_a, zi_u)
-    leak_i = filter_step(I, hp_b, hp_a, zi_i)
-    values = (U + ur.real + sig[5][j],
-              _resolve(I + i_r.real + sig[3][j], bench[9]),
-              (ur * h).real + leak_u + sig[6][j],
-              (i_r * h).real + leak_i + sig[7][j],
-              _resolve(x + sig[4][j], bench[10]),
-              bench[3] + bench[4] * x + bench[5] * a + sig[8][j])
-    for c in range(6):
-        measured[c, j] = _quantize(values[c], adc[c, 0], adc[c, 1])
-    truth[0, j], truth[1, j], truth[2, j], truth[3, j], truth[4, j] = x, q, U_P, U_H, T
-    truth[5, j], truth[6, j], truth[7, j], truth[8, j], truth[9, j] = C_P, C_e, R_e, sig[3][j], U
+from .record import MEASURED, TRUTH, bench_arrays, record_block
 
 
 @numba.njit(cache=True)
@@ -86,7 +34,7 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
                        adc, weights, tail, sums, gamma, hpo, hpo_state, loop, pending, measured, truth, logs):
     """Advance the closed loop over len(t_ref) samples, block by block; see the module docstring.
 
-    sig, bench, adc: as record_sample. weights: sin and cos rows (ns).
+    sig, bench, adc: as record.record_block. weights: sin and cos rows (ns).
     tail: (2, ns) samples of the open period; sums: (4, np − 1) last whole periods' sums, oldest
     first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
     loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np, pending_len,
@@ -120,9 +68,9 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
         if nb:
             u = U[nb - 1]
         run_kernel(U[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb])
+        record_block(s, U[:nb], out[:nb], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth, 1, 0)
         for k in range(nb):
             j = s + k
-            record_sample(j, U[k], out[k], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth)
             # the real-time chain sees this sample with the x_CP of windows ended before it
             current = measured[1, j] if np.isfinite(measured[1, j]) else 0.0
             x_hat, i0_hat = hpo_update(Ad, Bd, Cd, Dd, hpo_state, current, x_cp)
@@ -171,25 +119,6 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
         done += nb
     loop[3], loop[6], loop[7], loop[8] = u, x_cp, done, masked
     loop[9], loop[10], loop[15], loop[16] = tail_len, sums_len, pend_len, i0_hat
-
-
-def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
-    """The (sig, bench, adc) arguments of :func:`record_sample` for a :class:`.bench.Bench` and its
-    :meth:`~.bench.Bench.time_signals` (the signals as they are: stacking them cost as much as the
-    loop)."""
-    from .bench import NOISY
-    from .instruments import effective_resistance
-
-    p, ins = bench.p, bench.p.instruments
-    sig = tuple(np.ascontiguousarray(signals[k]) for k in ("f_r", "u_ripple", "h", "I_offset", "laser_drift",
-                                                            *(f"noise_{c}" for c in NOISY)))
-    rp = p.ripple
-    constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
-                          ins.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb,
-                          rp.dC_H, rp.dR_H, ins.I_resolution, ins.laser_resolution])
-    adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
-                    for c in MEASURED])
-    return sig, constants, adc
 
 
 def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, dict]:
