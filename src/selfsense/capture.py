@@ -80,11 +80,14 @@ class ChannelSpec:
     def pack(self, values: np.ndarray) -> tuple[np.ndarray, int]:
         """Quantise to int16 as a 16-bit ADC does; returns codes and the count clipped."""
         codes = np.rint((np.asarray(values, dtype=np.float64) - self.add_offset) / self.scale_factor)
+        clipped = int(np.count_nonzero(np.abs(codes) > INT16_FULL))  # NaN compares false
         nan = np.isnan(codes)
-        clipped = int(np.count_nonzero(np.abs(codes[~nan]) > INT16_FULL))
-        codes = np.clip(np.where(nan, 0, codes), -INT16_FULL, INT16_FULL).astype(np.int16)
-        codes[nan] = FILL
-        return codes, clipped
+        if nan.any():  # NaN has no int16 value: FILL stands for it
+            codes[nan] = 0
+            packed = np.clip(codes, -INT16_FULL, INT16_FULL, out=codes).astype(np.int16)
+            packed[nan] = FILL
+            return packed, clipped
+        return np.clip(codes, -INT16_FULL, INT16_FULL, out=codes).astype(np.int16), clipped
 
     def quantize(self, values: np.ndarray) -> np.ndarray:
         """The values as the ADC reports them: on the int16 grid, clipped to range, NaN kept.
