@@ -1,4 +1,4 @@
-"""What the DAQ records, compiled: the instruments of :meth:`.bench.Bench.step_reference` over a
+"""What the DAQ records, compiled: the instruments of :meth:`.bench.Bench._instruments` over a
 block of samples in one numba function, which the open-loop bench and the closed loop
 (:mod:`.realtime`) share.
 
@@ -7,16 +7,14 @@ ripple current through the series R_e–C_e (Eq 3.12's quantities, :func:`.instr
 the ripple channels' high-pass with the drive's leak, the probes' offsets, resolutions and noise,
 the ADC's quantisation, and the noiseless states of /truth. The numpy reference does the same
 operations on whole arrays in the same order, so the two agree bit for bit (the tests hold them
-to it); a chunk's arithmetic in one pass costs a fifth of numpy's, whose every operation walks
-every array again.
+to it); a chunk's arithmetic in one pass costs about a third of numpy's, whose every operation
+walks the chunk's arrays again.
 """
 
 from __future__ import annotations
 
 import numba
 import numpy as np
-
-from ..lti import filter_run
 
 #: measured channels in the recorder's order (rows of its ``measured`` output)
 MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
@@ -41,7 +39,9 @@ def _resolve(value, resolution):
 
 @numba.njit(cache=True)
 def _leaks(b, a, x1, x2, z1, z2, y1, y2):
-    """Two second-order sections side by side (lti.filter_run's arithmetic, states in registers)."""
+    """The drive's and the current's leak through the ripple channels' high-pass: lti.filter_run's
+    arithmetic for the two second-order sections side by side, their states in registers (through
+    the state arrays, one filter after the other, they took half the recording's time)."""
     p0, p1, q0, q1 = z1[0], z1[1], z2[0], z2[1]
     b0, b1, b2, a1, a2 = b[0], b[1], b[2], a[1], a[2]
     for n in range(x1.size):
@@ -113,6 +113,8 @@ def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np
     from .instruments import effective_resistance
 
     p, ins = bench.p, bench.p.instruments
+    if len(bench.hp_u.a) != 3:  # record_block's _leaks is written for the 2nd-order Sallen-Key
+        raise ValueError(f"the ripple high-pass has order {len(bench.hp_u.a) - 1}; the recorder takes 2")
     sig = tuple(np.ascontiguousarray(signals[k]) for k in ("f_r", "u_ripple", "h", "I_offset", "laser_drift",
                                                             *(f"noise_{c}" for c in NOISY)))
     rp = p.ripple
