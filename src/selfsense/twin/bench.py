@@ -31,10 +31,6 @@ from .instruments import HighPass, RippleSource, SlowProcess, resolve, small_sig
 from .record import TRUTH, record
 from .params import TwinParams
 
-#: noiseless states kept in /truth (every `truth_decimation`-th sample)
-TRUTH_STATES = TRUTH
-
-
 @dataclass(frozen=True)
 class DaqPlan:
     """What the DAQ records and how: rates, channels and their ADC ranges."""
@@ -193,7 +189,7 @@ def simulate_capture(
     path = Path(path)
     with CaptureWriter(path, all_attrs, specs, n, n_slow, params.instruments.T_rate,
                        chunk_len=chunk_len, compression=compression, complevel=complevel,
-                       truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
+                       truth=TRUTH, truth_decimation=truth_decimation) as w:
         w.write_truth_attrs(params.truth_attrs())
         # the states are recorded at the samples on a grid that holds both the truth's and the
         # thermometers' samples (the truth's own when they share it, as at 48 kHz, 12 and 10 Hz)

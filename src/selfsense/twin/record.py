@@ -18,7 +18,8 @@ import numpy as np
 
 #: measured channels in the recorder's order (rows of its ``measured`` output)
 MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
-#: rows of the truth output, as bench.TRUTH_STATES
+#: rows of the truth output: the noiseless states a simulated capture keeps in /truth (every
+#: ``truth_decimation``-th sample)
 TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "C_e", "R_e", "I_offset", "U_drive")
 
 
