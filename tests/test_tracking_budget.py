@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 from selfsense.manifest import load_yaml
 from selfsense.scorecard import parse_registry
-from selfsense.tracking_budget import CLOSED_SOURCES, OPEN_SOURCES, TRUTH_STATES, split
+from selfsense.tracking_budget import (CLOSED_SOURCES, CONTROLLER_SOURCES, OPEN_SOURCES, TRUTH_STATES,
+                                      controller_split, loop_sensitivity, split)
 
 from .conftest import ROOT
 from .tolerances import CLOSED_FORM
@@ -45,6 +46,80 @@ def test_a_closed_loop_splits_into_controller_observer_and_laser():
     assert total[0] == pytest.approx(2e-6, rel=CLOSED_FORM)
 
 
+OMEGA_C, FS, NS = 2 * np.pi * 250, 48_000.0, 12  # Chapter 6's crossover, the bench's DAQ and ripple plan
+
+
+def test_the_loop_sensitivity_is_python_controls_closed_loop_of_the_delayed_integrator():
+    """S = 1/(1 + L), L(z) = h[(ns + 1)/2·z⁻¹ + (ns − 1)/2·z⁻²]/(1 − z⁻¹) at the means' rate, h = ω_C/fs:
+    the lfilter coefficients against python-control's feedback of that L, to rounding."""
+    import control as ct
+    from scipy.signal import freqz
+
+    h, dt = OMEGA_C / FS, NS / FS
+    loop = ct.tf([h * (NS + 1) / 2, h * (NS - 1) / 2], [1, -1, 0], dt)
+    S = ct.feedback(ct.tf([1], [1], dt), loop)
+    w = 2 * np.pi * np.array([1.0, 10, 50, 125, 250, 1000]) * dt
+    _, response = freqz(*loop_sensitivity(OMEGA_C, FS, NS), worN=w)
+    assert response == pytest.approx(np.array([complex(S(np.exp(1j * v))) for v in w]), rel=1e-12)
+    # well below crossover the Type-I loop leaves ω/ω_C of the reference, its design (Eq 6.3)
+    assert abs(response[0]) == pytest.approx(2 * np.pi / OMEGA_C, rel=1e-3)
+
+
+def _delayed_integral_loop(x_ref, U_H, alpha_over_k):
+    """The real-time loop per sample as HPOIntegralController steps it (each sample of a block
+    integrates the error of the same sample of the block before), around a stack with hysteresis
+    only, x = (α/k)(u − U_H), and a perfect observer."""
+    K_I, u, e = OMEGA_C / alpha_over_k, np.zeros(len(x_ref)), np.zeros(len(x_ref))
+    start = 0.0
+    for b in range(0, len(x_ref), NS):
+        steps = K_I / FS * e[b - NS:b] if b else np.zeros(NS)
+        u[b:b + NS] = start + np.cumsum(steps)
+        start = u[b + NS - 1]
+        e[b:b + NS] = x_ref[b:b + NS] - alpha_over_k * (u[b:b + NS] - U_H[b:b + NS])
+    return u
+
+
+@pytest.mark.parametrize("frequency", [10.0, 50.0, 125.0])  # P2a–d's range
+def test_the_controller_split_finds_the_loops_lag_and_the_hysteresis_it_rejects(frequency):
+    """On the loop simulated per sample, the split's means-rate model leaves a residual ("loop
+    model") from the error's change within a block: a ramp of slope s per sample moves a block's
+    mean command by h·s·m against the model, m = mean over the block of (i + 1)(ns − 1 − i)/2, so
+    |r| ≤ ‖S‖∞·h·m·max|s|, with s = Δε̄/ns between consecutive means (the first-order term; the
+    slopes of consecutive blocks partly cancel, so the residual is smaller still). The sources the
+    stack does not have are exactly zero, the parts add up to ε_CCL, and the loop lag and the
+    hysteresis part are what the same loop does without hysteresis and what the hysteresis adds."""
+    from scipy.signal import freqz
+
+    t = np.arange(int(0.2 * FS)) / FS
+    x_ref = 15e-6 * (1 - np.cos(2 * np.pi * frequency * t))
+    U_H = 1.5e-6 / ALPHA_OVER_K * np.sin(2 * np.pi * frequency * t + 1.0)
+    u = _delayed_integral_loop(x_ref, U_H, ALPHA_OVER_K)
+    means = {name: v.reshape(-1, NS).mean(axis=1) for name, v in
+             {"x_ref": x_ref, "u": u, "U_H": U_H, "x": ALPHA_OVER_K * (u - U_H)}.items()}
+    run = {"x_ref": means["x_ref"], "x_hat": means["x"], "u_cmd": means["u"]}
+    true = {"x": means["x"], "U_P": means["u"] - means["U_H"], "U_H": means["U_H"], "U_drive": means["u"]}
+    sensitivity = loop_sensitivity(OMEGA_C, FS, NS)
+    total, parts = controller_split(run, true, ALPHA_OVER_K, sensitivity, np.ones(len(total := run["x_ref"]), bool))
+    assert list(parts) == list(CONTROLLER_SOURCES)
+    assert np.abs(sum(parts.values()) - total).max() <= CLOSED_FORM * 30e-6
+    for name in ("creep", "stack dynamics", "observer", "drive"):
+        assert np.abs(parts[name]).max() <= CLOSED_FORM * 30e-6, name
+    m = np.mean([(i + 1) * (NS - 1 - i) / 2 for i in range(NS)])
+    peak = np.abs(freqz(*sensitivity, worN=4096)[1]).max()
+    steady = slice(len(total) // 4, None)  # after the first blocks' step from rest
+
+    def bound(error):
+        return peak * OMEGA_C / FS * m / NS * np.abs(np.diff(error)[steady]).max()
+
+    assert np.abs(parts["loop model"][steady]).max() <= bound(total)
+    # against the counterfactual: the same loop around a stack without hysteresis errs by the loop
+    # lag alone, and the hysteresis part is what the hysteresis adds (each to its own model bound)
+    u_linear = _delayed_integral_loop(x_ref, np.zeros_like(U_H), ALPHA_OVER_K)
+    lag = means["x_ref"] - ALPHA_OVER_K * u_linear.reshape(-1, NS).mean(axis=1)
+    for name, expected in (("loop lag", lag), ("hysteresis", total - lag)):
+        assert np.abs(parts[name] - expected)[steady].max() <= bound(expected), name
+
+
 @pytest.mark.slow
 def test_smoke_tracking_budget_totals_are_tables_6_1_and_6_2s_errors(smoke_run):
     res = smoke_run / "results/pi_p885"
@@ -73,6 +148,12 @@ def test_smoke_tracking_budget_totals_are_tables_6_1_and_6_2s_errors(smoke_run):
         assert row[[f"{s} at total max [µm]" for s in others]].isna().all()
         if not closed:  # the twin's open loop drives U = x_R·k/α with its own α/k: only the drive's hold is left
             assert abs(row["feedforward at total max [µm]"]) < 0.1
+    controller = pd.read_csv(res / "twin/controller_budget.csv")
+    assert sorted(controller["run"].unique()) == sorted(f"ch6_p{p}_closed" for p in ("1", "2a", "2b", "2c", "2d"))
+    for _, row in controller[controller["run"] != "ch6_p1_closed"].iterrows():  # Table 6.1 has no ε_CCL
+        profile = "P" + row["run"].split("_")[1][1:]
+        assert row["total max error [µm]"] == pytest.approx(t62.loc[(profile, "e_CCL"), "max [µm]"], rel=1e-9)
+        assert sum(row[f"{s} at total max [µm]"] for s in CONTROLLER_SOURCES) == pytest.approx(row["total at max [µm]"], rel=1e-8)
     assert not (smoke_run / "results/tokin_nb40/twin/tracking_budget.csv").exists()  # no Chapter 6 there
     card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
     caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(ROOT / "workflow" / "scorecard.yaml"))

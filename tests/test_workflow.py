@@ -58,10 +58,10 @@ def test_a_library_edit_reruns_the_rules_whose_code_it_changes(smoke_tree):
     assert {"extract_ripple", "observe", "thermal_extract", "simulate_closed_loop"} <= ripple
     assert "simulate" not in ripple
     assert {"simulate", "simulate_closed_loop"} <= _jobs_after_editing(smoke_tree, "twin/kernel.py")
-    # the curve comparison reads the thesis's printed Γ from the registry through the scorecard module,
+    # the curve comparisons read the thesis's printed Γ from the registry through the scorecard module,
     # and the twin's calibration table locates its numbers with the scorecard's locators
     assert _jobs_after_editing(smoke_tree, "scorecard.py") == {"scorecard", "scorecard_summary", "curve_vs_thesis",
-                                                                "twin_calibration"}
+                                                                "gamma_truth", "twin_calibration"}
 
 
 def test_chapter_3_tables_equal_the_thesis(smoke_run):

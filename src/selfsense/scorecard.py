@@ -48,7 +48,7 @@ LEFT_OUT = "left out by its stage: "
 BUDGET_TABLE = "twin/error_budget.csv"
 #: the error budgets a `cause` can read (twin datasets only), and the error each splits
 CAUSE_TABLES = {BUDGET_TABLE: "the observer error", "twin/tracking_budget.csv": "the tracking error",
-                "twin/charge_budget.csv": "the charge–position error"}
+                "twin/charge_budget.csv": "the charge–position error", "twin/controller_budget.csv": "the controller error"}
 
 
 class RegistryError(ManifestError):
@@ -613,6 +613,20 @@ def printed(entries: Sequence[Entry], model: str, source: str, quantity: str) ->
         if (e.model, e.source, e.quantity) == (model, source, quantity) and e.published is not None:
             return e.published
     raise RegistryError(f"the registry lists no {source}, {quantity!r} for model {model}")
+
+
+#: the stroke the printed Γ and Γ_T run over (their fits' position range)
+THESIS_STROKE = ("Table 5.4", "max stroke, 0.1 Hz")
+
+
+def printed_gamma(entries: Sequence[Entry], source: str, coefficients: Sequence[str], g: str | None = None):
+    """The Γ (Table 5.2) or Γ_T (Table 7.3) ``source`` prints, from the registry's ``coefficients``
+    (b0…b5) and ``g``, and the stroke [µm] its C range spans (:func:`selfsense.gamma.printed_range`)."""
+    from .gamma import GammaPolynomial
+
+    gamma = GammaPolynomial(tuple(printed(entries, "stack", source, q) for q in coefficients),
+                            printed(entries, "stack", source, g) if g else 0.0)
+    return gamma, printed(entries, "stack", *THESIS_STROKE)
 
 
 # --- the numbers the documentation quotes ---------------------------------------------------------

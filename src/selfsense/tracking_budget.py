@@ -28,6 +28,31 @@ Closed loop, with the estimate x̂ the loop logged (channel ``x_hpo_rt``):
   budget's);
 * ``laser``: the laser's resolution, its drift and the zero it is read from.
 
+The controller's own error ε_CCL = x_R − x̂ (Table 6.2) is split further, through the loop that
+made it. The loop integrates ε_CCL per sample, each sample of a block applying the error of the same
+sample of the block before (:class:`selfsense.control.HPOIntegralController`), so that over the
+means, for an error constant within a block,
+
+    (α/k)(ū_k − ū_(k−1)) = (ω_C/fs)·[(ns + 1)/2·ε_(k−1) + (ns − 1)/2·ε_(k−2)],
+
+and with x̂ = (α/k)·u_cmd + d, where d is everything the quasi-static plant (Eq 6.3's α/k) does not
+explain, ε_CCL = S·(x_R − d), S(z) = (1 − z⁻¹)/(1 − z⁻¹ + h₁z⁻¹ + h₂z⁻²) the loop's sensitivity at the
+means' rate (:func:`loop_sensitivity`). Splitting d at the truth as the open loop's ε_TOL is split:
+
+    ε_CCL = S·x_R + S·(α/k)U_H + S·(α/k)(U − U_P − U_H) − S·[x − (α/k)U_P] − S·[x̂ − x] − S·(α/k)(U − u_cmd) + r
+            loop lag  hysteresis   creep                  stack dynamics     observer     drive             loop model
+
+* ``loop lag``: what the linear Type-I loop with its one-block delay leaves of the reference, the
+  error a hysteresis-free stack and a perfect observer would still have (|1 − T| of
+  :func:`selfsense.control.tracking_prediction`, with the delay);
+* ``hysteresis``, ``creep``, ``stack dynamics``: the plant's departures from α/k, as the loop
+  rejects them;
+* ``observer``: the estimate's error, which the loop follows inside its bandwidth;
+* ``drive``: the amplifier's departure from the command (none in the twin but the logged
+  command's quantisation);
+* ``loop model``: r, what the means-rate model of the per-sample loop misses (an error that varies
+  within a block; the engagement's first block).
+
 The truth is stored every ``decimation``-th sample; each mean's truth is the mean of the 4-point
 cubic (:meth:`selfsense.error_budget.Truth.means`) over the mean's samples. That is exact for the
 smooth P2 profiles, not for what happens between two stored values: P1's voltage steps and the
@@ -43,6 +68,8 @@ from typing import Mapping
 
 import numpy as np
 
+from scipy.signal import lfilter
+
 from .capture import open_capture
 from .chapters.ch6 import load_run, segment_windows, settled_after
 from .error_budget import SpanBudgets, Truth
@@ -50,6 +77,7 @@ from .ripple import plan_from_capture
 
 OPEN_SOURCES = ("feedforward", "hysteresis", "creep", "stack dynamics", "laser")
 CLOSED_SOURCES = ("controller", "observer", "laser")
+CONTROLLER_SOURCES = ("loop lag", "hysteresis", "creep", "stack dynamics", "observer", "drive", "loop model")
 
 #: the /truth states the budget reads
 TRUTH_STATES = ("x", "U_P", "U_H", "U_drive")
@@ -69,26 +97,55 @@ def split(run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_o
                    "laser": x - x_laser}
 
 
-def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: float) -> dict[str, dict[str, float]]:
+def loop_sensitivity(omega_c: float, fs: float, ns: int) -> tuple[np.ndarray, np.ndarray]:
+    """S(z) = ε_CCL/(x_R − d) of the real-time loop at the rate of its blocks' means (module
+    docstring): (b, a) for :func:`scipy.signal.lfilter`."""
+    h = omega_c / fs
+    return np.array([1.0, -1.0]), np.array([1.0, h * (ns + 1) / 2 - 1.0, h * (ns - 1) / 2])
+
+
+def controller_split(run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_over_k: float,
+                     sensitivity: tuple[np.ndarray, np.ndarray], engaged: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """ε_CCL = x_R − x̂ of one closed-loop run's means and its sources (module docstring), in metres;
+    the loop's filter starts from rest at the first ``engaged`` mean, as the loop does (0 before)."""
+    x_hat, x, U = run["x_hat"], true["x"], true["U_drive"]
+    drives = {"loop lag": run["x_ref"], "hysteresis": alpha_over_k * true["U_H"],
+              "creep": alpha_over_k * (U - true["U_P"] - true["U_H"]), "stack dynamics": alpha_over_k * true["U_P"] - x,
+              "observer": x - x_hat, "drive": alpha_over_k * (run["u_cmd"] - U)}
+    total = run["x_ref"] - x_hat
+    parts = {name: np.where(engaged, lfilter(*sensitivity, np.where(engaged, v, 0.0)), 0.0) for name, v in drives.items()}
+    parts["loop model"] = total - sum(parts.values())
+    return total, parts
+
+
+def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: float) -> dict[str, dict[str, dict[str, float]]]:
     """One Chapter 6 run's tracking budget, counted as its table counts: P1 (``ch6_p1_*``) per
     segment a–h over the steady windows of :func:`selfsense.chapters.ch6.segment_windows` (Table
     6.1), a P2 profile from the loop's settling on (:func:`selfsense.chapters.ch6.settled_after`,
-    Table 6.2). Returns {segment or "": :meth:`selfsense.error_budget.BudgetStats.row`}."""
-    run = load_run(path, protocol)
-    if closed and run["x_hat"] is None:
-        raise ValueError(f"{path}: a closed-loop run without the logged estimate x_hpo_rt")
+    Table 6.2). Returns {"tracking": {segment or "": :meth:`selfsense.error_budget.BudgetStats.row`}}
+    and, in closed loop, "controller": the same of ε_CCL's split (:func:`controller_split`)."""
+    run = load_run(path, protocol, command=closed)
+    if closed and (run["x_hat"] is None or run["u_cmd"] is None):
+        raise ValueError(f"{path}: a closed-loop run without the logged estimate x_hpo_rt and command u_cmd")
     with open_capture(path, require=("U", "x_laser")) as cap:
         attrs, states = cap.read_truth()
         truth = Truth.from_group(attrs, states, cap.length(), str(path), names=TRUTH_STATES)
         fs, ns = cap.fs, plan_from_capture(cap, 1).ns
     last = np.rint(run["t"] * fs + (ns - 1) / 2).astype(np.int64)
-    total, parts = split(run, truth.means(last, ns), float(attrs["stack_alpha"]) / float(attrs["stack_k"]),
-                         closed)
+    true, alpha_over_k = truth.means(last, ns), float(attrs["stack_alpha"]) / float(attrs["stack_k"])
+    warmup = float(protocol.get("warmup", 0.0))
     if Path(path).stem.startswith("ch6_p1_"):
         spans = segment_windows(protocol, omega_c)
     else:
-        spans = [("", settled_after(protocol.get("warmup", 0.0), omega_c), np.inf)]
-    sources = CLOSED_SOURCES if closed else OPEN_SOURCES
-    stats = SpanBudgets(spans, sources)
-    stats.add(run["t"], total, parts)
-    return stats.rows()
+        spans = [("", settled_after(warmup, omega_c), np.inf)]
+    splits = {"tracking": (CLOSED_SOURCES if closed else OPEN_SOURCES, split(run, true, alpha_over_k, closed))}
+    if closed:
+        engaged = last - (ns - 1) >= warmup * fs  # the loop engages at the warm-up's end (realtime_controller)
+        splits["controller"] = (CONTROLLER_SOURCES, controller_split(run, true, alpha_over_k,
+                                                                     loop_sensitivity(omega_c, fs, ns), engaged))
+    out = {}
+    for name, (sources, (total, parts)) in splits.items():
+        stats = SpanBudgets(spans, sources)
+        stats.add(run["t"], total, parts)
+        out[name] = stats.rows()
+    return out

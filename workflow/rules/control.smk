@@ -106,13 +106,15 @@ TRACKED_RUNS = {d: [e for e in CH6_RUNS[d] if e.startswith(("ch6_p1_", "ch6_p2")
 
 rule tracking_budget:
     """Chapter 6's tracking errors ε_TOL and ε_TCL (Tables 6.1–6.2) split into their sources with
-    the twin's truth (verification)."""
+    the twin's truth, and the closed loops' controller error ε_CCL split through the loop (verification)."""
     input:
         unpack(lambda w: captures(w.dataset, capture=TRACKED_RUNS[w.dataset])),
         library=library_sources("tracking_budget"),
     output:
-        table=report("results/{dataset}/twin/tracking_budget.csv", caption="../report/tracking_budget.rst",
-                     category="{dataset}", subcategory="Twin validation"),
+        tracking=report("results/{dataset}/twin/tracking_budget.csv", caption="../report/tracking_budget.rst",
+                        category="{dataset}", subcategory="Twin validation"),
+        controller=report("results/{dataset}/twin/controller_budget.csv", caption="../report/controller_budget.rst",
+                          category="{dataset}", subcategory="Twin validation"),
     params:
         protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in TRACKED_RUNS[w.dataset]},
         controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in TRACKED_RUNS[w.dataset]},

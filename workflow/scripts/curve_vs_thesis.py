@@ -7,21 +7,17 @@ Alone: python workflow/scripts/curve_vs_thesis.py workflow/scorecard.yaml out.cs
 
 import argparse
 
-from selfsense.gamma import GammaPolynomial, curve_table, load_gamma
+from selfsense.gamma import curve_table, load_gamma
 from selfsense.manifest import load_yaml
 from selfsense.provenance import script_logging, write_table
-from selfsense.scorecard import parse_registry, printed
+from selfsense.scorecard import parse_registry, printed_gamma
 
 
-def main(registry, fits, table, source, coefficients, g=None, stroke=("Table 5.4", "max stroke, 0.1 Hz"),
-         temperatures=(0.0,), log=None):
+def main(registry, fits, table, source, coefficients, g=None, temperatures=(0.0,), log=None):
     """fits: {name: Γ record path}; coefficients: the registry's quantities b0…b5 of ``source``."""
     logger = script_logging(log)
-    entries = parse_registry(load_yaml(registry), registry)
-    thesis = GammaPolynomial(tuple(printed(entries, "stack", source, q) for q in coefficients),
-                             printed(entries, "stack", source, g) if g else 0.0)
-    result = curve_table({name: load_gamma(path) for name, path in fits.items()}, thesis,
-                         printed(entries, "stack", *stroke), temperatures)
+    thesis, stroke = printed_gamma(parse_registry(load_yaml(registry), registry), source, coefficients, g)
+    result = curve_table({name: load_gamma(path) for name, path in fits.items()}, thesis, stroke, temperatures)
     write_table(result, table, inputs=[registry, *fits.values()], config={"source": source, "temperatures": list(temperatures)})
     logger.info("\n%s", result.to_string())
 

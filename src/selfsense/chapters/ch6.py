@@ -46,11 +46,13 @@ def p1_window(protocol: Mapping, tests: int = 2) -> float:
     return protocol_duration(dict(protocol, repeat=tests))
 
 
-def load_run(path, protocol: Mapping) -> dict[str, np.ndarray | None]:
+def load_run(path, protocol: Mapping, command: bool = False) -> dict[str, np.ndarray | None]:
     """One run's means over one folded ripple period (the real-time loop's 4 kHz rate): U, x_laser
-    (zeroed at the start), x_R (logged, else the protocol's) and, in closed loop, the logged x̂."""
+    (zeroed at the start), x_R (logged, else the protocol's), in closed loop the logged x̂ and, with
+    ``command``, the loop's logged drive command u_cmd (None in open loop)."""
     with open_capture(path, require=("U", "x_laser")) as cap:
-        names = [c for c in ("U", "x_laser", "x_ref", "x_hpo_rt") if c in cap.channels]
+        logged = ("x_ref", "x_hpo_rt", "u_cmd") if command else ("x_ref", "x_hpo_rt")
+        names = [c for c in ("U", "x_laser", *logged) if c in cap.channels]
         plan = plan_from_capture(cap, 1)
         means = WindowMeans(plan, len(names))
         parts = [means.process(*(d[c] for c in names)) for _, d in cap.iter_chunks(names)]
@@ -61,6 +63,8 @@ def load_run(path, protocol: Mapping) -> dict[str, np.ndarray | None]:
     run = {"t": t, "U": values["U"], "x_laser": values["x_laser"] - values["x_laser"][0]}
     run["x_ref"] = values["x_ref"] if "x_ref" in values else drive_from_protocol(protocol)(t)
     run["x_hat"] = values.get("x_hpo_rt")
+    if command:
+        run["u_cmd"] = values.get("u_cmd")
     return run
 
 

@@ -1,0 +1,52 @@
+"""Rule `gamma_truth`: Γ (Table 5.2) or Γ_T (Tables 7.2–7.3, given the thermometers' --power series) refitted
+with the measured C_e, x (and T) replaced by the twin's truth, one at a time and all at once (selfsense.gamma_truth).
+
+Alone: python workflow/scripts/gamma_truth.py workflow/scorecard.yaml out.csv "Table 5.2" raw/pi_p885/ch5_sine_0p1hz.nc \
+    results/pi_p885/ripple/ch5_sine_0p1hz.nc --fit "thesis order=results/pi_p885/ch5/gamma_j5.json" --fit "our order=…"
+"""
+
+import argparse
+
+from selfsense.capture import open_capture, read_series
+from selfsense.error_budget import Truth
+from selfsense.gamma import load_gamma
+from selfsense.gamma_truth import curve_rows, gamma_t_variants, gamma_variants
+from selfsense.manifest import load_yaml
+from selfsense.provenance import script_logging, write_table
+from selfsense.ripple import plan_from_capture
+from selfsense.scorecard import parse_registry, printed_gamma
+
+
+def main(registry, capture, series, fits, table, source, coefficients, g=None, temperatures=(0.0,), power=None,
+         n_periods=4, log=None):
+    logger = script_logging(log)
+    thesis, stroke = printed_gamma(parse_registry(load_yaml(registry), registry), source, coefficients, g)
+    with open_capture(capture) as cap:
+        truth = Truth.from_group(*cap.read_truth(), cap.length(), capture, names=("C_e", "x", "T"))
+        fs, block_len, warmup = cap.fs, plan_from_capture(cap, n_periods).block_len, float(cap.attrs.get("warmup_s", 0.0))
+    if power is None:
+        data = gamma_variants(read_series(series), truth, fs, block_len, n_periods, warmup)
+    else:
+        T = read_series(power, ["time", "T_mid"])
+        data = gamma_t_variants(read_series(series), T["time"], T["T_mid"], truth, fs, block_len)
+    orders = {name: load_gamma(path).order for name, path in fits.items()}
+    result = curve_rows(data, orders, thesis, stroke, temperatures, orders["thesis order"] if power else None)
+    write_table(result, table, inputs=[registry, capture, series, *fits.values(), *filter(None, [power])],
+                config={"source": source, "temperatures": list(temperatures), "n_periods": n_periods})
+    logger.info("\n%s", result.T.to_string())
+
+
+if "snakemake" in globals():
+    i, p = snakemake.input, snakemake.params
+    main(i.registry, i.capture, i.series, dict(zip(p.fits, i.fits)), snakemake.output.table, p.source, p.coefficients,
+         p.g, p.temperatures, i.power[0] if i.power else None, p.n_periods, snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("registry", "table", "source", "capture", "series"):
+        cli.add_argument(name)
+    for name, default in (("--power", None), ("--prefix", "b"), ("--g", None), ("--np", 4), ("--temperature", 0.0)):
+        cli.add_argument(name, default=default, type=type(default) if default is not None else str)
+    cli.add_argument("--fit", action="append", required=True, help="name=path of a Γ record ('thesis order' among them)")
+    a = cli.parse_args()
+    main(a.registry, a.capture, a.series, dict(f.split("=", 1) for f in a.fit), a.table, a.source,
+         [f"{a.prefix}{i}" for i in range(6)], a.g, [a.temperature], a.power, a.np)
