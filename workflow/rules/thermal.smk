@@ -240,10 +240,34 @@ rule thermal_recovery:
         "../scripts/thermal_recovery.py"
 
 
+rule temperature_budget:
+    """The mixed run's coupled temperature errors (Fig 7.12) split into their sources with the twin's
+    truth: power estimate, thermal model, thermometer (verification; simulated datasets: it reads /truth)."""
+    input:
+        unpack(lambda w: captures(w.dataset, capture=COUPLED_FIGURES["fig_7_12"])),
+        traces=f"results/{{dataset}}/ch7/coupled/{COUPLED_FIGURES['fig_7_12']}.nc",
+        stats=f"results/{{dataset}}/ch7/coupled/{COUPLED_FIGURES['fig_7_12']}.json",
+        thermal_model="results/{dataset}/ch7/thermal_model.json",
+        library=library_sources("temperature_budget"),
+    output:
+        report("results/{dataset}/twin/temperature_budget.csv", caption="../report/temperature_budget.rst",
+               category="{dataset}", subcategory="Twin validation"),
+    log:
+        "logs/{dataset}/temperature_budget.log",
+    benchmark:
+        "benchmarks/out/{dataset}/temperature_budget.tsv"
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    script:
+        "../scripts/temperature_budget.py"
+
+
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
 #: (the twin's truth only for simulated datasets: a measured one has none)
 THERMAL_OUTPUTS = (
     expand([*rules.thermal_identify.output, *rules.gamma_t_fit.output, *rules.frequency_effect.output,
             *rules.estimator_diagram.output, *rules.ch7_summary.output], dataset=THERMAL_DATASETS)
-    + expand(rules.thermal_recovery.output, dataset=[d for d in THERMAL_DATASETS if d in SIMULATED])
+    + expand([*rules.thermal_recovery.output, *rules.temperature_budget.output], dataset=[d for d in THERMAL_DATASETS if d in SIMULATED])
 )

@@ -1,0 +1,47 @@
+"""Rule `temperature_budget`: Chapter 7's coupled temperature errors (rule `coupled`'s max |T_SH(PS) − T|
+and max |T_SH(HPO) − T| against the middle thermometer) split into their sources with the twin's truth
+→ one row per estimator.
+
+Alone: python workflow/scripts/temperature_budget.py raw/pi_p885/ch7_mixed_ae.nc \
+    results/pi_p885/ch7/coupled/ch7_mixed_ae.nc results/pi_p885/ch7/thermal_model.json out.csv \
+    --stats results/pi_p885/ch7/coupled/ch7_mixed_ae.json
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from selfsense.capture import read_series
+from selfsense.provenance import script_logging, write_table
+from selfsense.temperature_budget import SOURCES, capture_temperature_budget
+from selfsense.thermal import ThermalModel
+
+
+def main(capture, traces, thermal_model, table, stats=None, log=None):
+    logger = script_logging(log)
+    inputs = [capture, traces, thermal_model, *([stats] if stats else [])]
+    th = json.loads(Path(thermal_model).read_text())
+    if not th["identified"]:  # rule coupled skipped the run: no estimate to split, say why
+        write_table(pd.DataFrame({"note": [f"skipped: {th['reason']}"]}), table, inputs=inputs)
+        logger.warning("%s: skipped, %s", capture, th["reason"])
+        return
+    stated = json.loads(Path(stats).read_text()) if stats else None
+    budget = capture_temperature_budget(capture, read_series(traces), ThermalModel(th["tau"], th["gamma"]),
+                                        th["T_amb"], stats=stated)
+    write_table(budget, table, inputs=inputs)
+    for _, r in budget.iterrows():
+        logger.info("%s %s: %+.3f K at %.1f s = %s", capture, r["estimator"], r["total at max [K]"],
+                    r["time of max [s]"], " ".join(f"{s} {r[f'{s} at max [K]']:+.3f}" for s in SOURCES))
+
+
+if "snakemake" in globals():
+    i = snakemake.input
+    main(i.capture, i.traces, i.thermal_model, snakemake.output[0], i.get("stats"), snakemake.log[0])
+elif __name__ == "__main__":
+    cli = argparse.ArgumentParser(description=__doc__)
+    for name in ("capture", "traces", "thermal_model", "table"):
+        cli.add_argument(name)
+    cli.add_argument("--stats", help="rule coupled's stats JSON: its max errors are checked against the budget's")
+    main(**vars(cli.parse_args()))
