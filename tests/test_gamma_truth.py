@@ -6,7 +6,8 @@ import pandas as pd
 import pytest
 
 from selfsense.gamma import fit_gamma
-from selfsense.gamma_truth import ALL_TRUE, DISTANCE, INTERACTION, MEASURED, curve_rows, variants
+from selfsense.gamma_truth import (ALL_TRUE, DISTANCE, INTERACTION, MEASURED, RESIDUAL, SLOPE_T_T, curve_rows,
+                                  variants)
 from selfsense.manifest import load_yaml
 from selfsense.scorecard import parse_registry, printed_gamma
 
@@ -36,7 +37,9 @@ def _stroke_of(printed, stroke, n, rng):
 def test_the_fit_on_noiseless_data_is_the_relation_it_was_made_with():
     """x = Γ_thesis(C) + 0.5 µm exactly ('all true'): that fit lies 0.5 µm from the printed curve
     everywhere, to the raw power basis's conditioning (GammaPolynomial evaluates it); measured
-    inputs with 1 % of C's range and 0.3 µm of noise move the fit, which the 'measured' row shows."""
+    inputs with 1 % of C's range and 0.3 µm of noise move the fit, which the 'measured' row shows,
+    and leave at least the laser's 0.3 µm as the residual's scatter (less by the estimate's own
+    sampling spread, 1/√(2n) relative: 5 of those)."""
     printed, stroke = printed_gamma(ENTRIES, "Table 5.2", [f"b{i}" for i in range(6)])
     rng = np.random.default_rng(1)
     C = _stroke_of(printed, stroke, 4000, rng)
@@ -46,6 +49,8 @@ def test_the_fit_on_noiseless_data_is_the_relation_it_was_made_with():
     kappa = fit_gamma(C, x, 5).condition_number
     assert rows[f"{DISTANCE}, {ALL_TRUE}"] == pytest.approx(0.5, abs=rtol(kappa) * stroke)
     assert rows[f"{DISTANCE}, {MEASURED}"] > 0.5 + 10 * rtol(kappa) * stroke
+    assert rows[f"{RESIDUAL}, {ALL_TRUE}"] == pytest.approx(0.0, abs=rtol(kappa) * stroke)
+    assert rows[f"{RESIDUAL}, {MEASURED}"] > 0.3 * (1 - 5 / np.sqrt(2 * C.size))
 
 
 def test_the_interaction_of_a_noiseless_relation_is_its_own():
@@ -65,10 +70,16 @@ def test_the_interaction_of_a_noiseless_relation_is_its_own():
 
 @pytest.mark.slow
 def test_smoke_refits_with_the_measured_inputs_are_the_pipelines_own(smoke_run):
-    """The 'measured' variant is the fit the pipeline made: its distance is curve_vs_thesis's."""
+    """The 'measured' variant is the fit the pipeline made: its distance is curve_vs_thesis's, its
+    scatter and g those of Tables 7.2 and 7.3."""
     res = smoke_run / "results/pi_p885"
     for folder, fit in (("ch5", "gamma"), ("ch7", "gamma_t")):
         ours = pd.read_csv(res / folder / f"{fit}_vs_thesis.csv").set_index("fit")
         truth = pd.read_csv(res / "twin" / f"{fit}_truth.csv").set_index("fit")
         for name in ours.index:
             assert truth.loc[name, f"{DISTANCE}, {MEASURED}"] == pytest.approx(ours.loc[name, DISTANCE], rel=1e-9)
+    n5 = truth.loc["thesis order"]
+    assert n5[f"{RESIDUAL}, {MEASURED}"] == pytest.approx(
+        pd.read_csv(res / "ch7/table_7_2.csv").set_index("model").loc["n=5", "standard error [µm]"], rel=1e-9)
+    assert n5[f"{SLOPE_T_T}, {MEASURED}"] == pytest.approx(
+        pd.read_csv(res / "ch7/table_7_3_coefficients.csv").set_index("coefficient").loc["g", "t Stat"], rel=1e-9)

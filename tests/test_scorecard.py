@@ -1,6 +1,7 @@
 """The scorecard module and its registry: bands, verdicts, lookups, missing tables, the schema."""
 
 import math
+from dataclasses import replace
 
 import docutils.core
 import numpy as np
@@ -229,6 +230,21 @@ def test_a_cause_names_the_largest_sources_the_error_budget_measured_at_the_erro
         score(e, {"ch9/t.csv": TABLE, BUDGET_TABLE: budget[budget["segment"] != "b"]})
 
 
+def test_a_cause_can_select_its_row_by_the_entrys_located_row():
+    """P1's summary names the segment it is stated at: the cause is read at that segment, whichever
+    it is, and a located column the entry's table lacks is a locator to fix, said in one line."""
+    doc = group(locate={"table": "ch9/t.csv", "column": "fs [kHz]", "where": {"ns": 12}},
+                entries=[{"quantity": "q", "published": 48,
+                          "cause": {"table": "ch9/u.csv", "where": {}, "quote": ["v"], "located": ["loop"]}}])
+    (entry,) = parse_registry(doc)
+    other = pd.DataFrame({"loop": ["C_e–x", "R–C"], "v": [1.0, 2.0]})
+    assert score(entry, {"ch9/t.csv": TABLE, "ch9/u.csv": other}).cause == "Measured (ch9/u.csv, loop = R–C): v = 2"
+    moved = TABLE.assign(loop=["C_e–U", "R–C", "C_e–x"])
+    assert score(entry, {"ch9/t.csv": moved, "ch9/u.csv": other}).cause == "Measured (ch9/u.csv, loop = C_e–x): v = 1"
+    with pytest.raises(LookupError, match="ch9/t.csv has no column 'loop' to select the cause's row by"):
+        score(entry, {"ch9/t.csv": TABLE.drop(columns="loop"), "ch9/u.csv": other})
+
+
 def test_a_cause_reads_the_spread_over_tests_or_quotes_another_tables_columns():
     """statistic σ names the sources with the largest spread over P1's tests; a quoting cause
     names any table's columns, and a cause that neither quotes nor names a budget is an error."""
@@ -246,6 +262,9 @@ def test_a_cause_reads_the_spread_over_tests_or_quotes_another_tables_columns():
         "Measured cause (twin/tracking_budget.csv, segment = b): σ over the tests of the tracking error's max, "
         "0.073 µm; the σ of its largest sources at each test's max are hysteresis 0.061, laser 0.050, creep 0.002 µm")
     assert score(quoted, {"ch9/t.csv": TABLE}).cause == "Measured (ch9/t.csv, ns = 12): nf = 4, fs [kHz] = 48"
+    # a count is quoted whole, anything else to 4 significant digits
+    counts = TABLE.assign(nf=[0, 2, 19999], **{"fs [kHz]": [400.0, 80.0, 47.98765]})
+    assert score(quoted, {"ch9/t.csv": counts}).cause == "Measured (ch9/t.csv, ns = 12): nf = 19999, fs [kHz] = 47.99"
     assert tables_read([quoted]) == ["ch9/t.csv"]
     with pytest.raises(RegistryError, match="cause table 'ch9/t.csv' is none of"):
         parse_registry(group(entries=[{"quantity": "a", "published": 1, "cause": {"table": "ch9/t.csv", "where": {}}}]))
@@ -285,7 +304,10 @@ def test_summary_is_valid_restructuredtext_naming_what_is_out_and_why():
     card = scorecard(entries, {"t.csv": TABLE}, STACK)
     pages = [render({"stack_ds": card}) for render in (landing_rst, out_of_band_rst, pending_rst)]
     text = "\n".join(pages)
-    assert "emergent 1 within band of 3 (1 not reproduced yet)" in text and "(1 without a note" in text
+    assert "emergent 1 within band of 3 (1 not reproduced yet)" in text
+    assert "(0 of 2 with a measured cause; 1 without a note" in text
+    entries[2] = replace(entries[2], cause=Cause("t.csv", (("ns", 12),), quote=("nf",)))
+    assert "(1 of 2 with a measured cause)" in out_of_band_rst({"stack_ds": scorecard(entries, {"t.csv": TABLE}, STACK)})
     html = "".join(docutils.core.publish_parts(page, writer="html",
                                                settings_overrides={"halt_level": 2, "report_level": 5})["body"]
                    for page in pages)

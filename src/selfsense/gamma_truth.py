@@ -30,6 +30,9 @@ TRUE_STATE = {"C_e": "C_e", "x": "x", "T": "T"}
 MEASURED = "measured"
 ALL_TRUE = "all true"
 DISTANCE = "max |Γ − Γ_thesis| [µm]"
+RESIDUAL = "residual standard error [µm]"
+SLOPE_T = "g [µm/K]"
+SLOPE_T_T = "t of g"
 INTERACTION = "g_CT [µm/(µF·K)]"
 INTERACTION_T = "t of g_CT"
 
@@ -59,11 +62,13 @@ def variants(measured: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray])
 def curve_rows(data: Mapping[str, Mapping[str, np.ndarray]], orders: Mapping[str, int], printed: GammaPolynomial,
                x_max_um: float, temperatures: Sequence[float] = (0.0,),
                interaction_order: int | None = None) -> pd.DataFrame:
-    """One row per fit of ``orders`` ({name: order}): max |Γ − Γ_thesis| over the printed curve's
-    C range (:func:`selfsense.gamma.curve_difference`) for each variant of :func:`variants`, in
-    columns "<DISTANCE>, <variant>". With ``interaction_order`` (Γ_T), a row more: the fit with a C·T
-    term (Table 7.2's last column), its coefficient and t statistic per variant (the t, not Table
-    7.2's p, which underflows to 0 for every |t| above ≈ 38)."""
+    """One row per fit of ``orders`` ({name: order}), in columns "<quantity>, <variant>" for each
+    variant of :func:`variants`: max |Γ − Γ_thesis| over the printed curve's C range
+    (:func:`selfsense.gamma.curve_difference`), the residual standard error (the scatter Tables 5.2
+    and 7.2–7.3 report through R², MS and F) and, with a temperature, g and its t statistic. With
+    ``interaction_order`` (Γ_T), a row more: the fit with a C·T term (Table 7.2's last column), its
+    coefficient and t statistic (the t, not Table 7.2's p, which underflows to 0 for every |t| above
+    ≈ 38)."""
     rows = []
     for name, order in orders.items():
         row: dict[str, object] = {"fit": name, "order": order}
@@ -71,16 +76,27 @@ def curve_rows(data: Mapping[str, Mapping[str, np.ndarray]], orders: Mapping[str
             fit = fit_gamma(d["C_e"], d["x"], order, temperature=d.get("T"))
             row[f"{DISTANCE}, {variant}"] = curve_difference(GammaPolynomial.from_fit(fit), printed, x_max_um,
                                                             temperatures)[DISTANCE]
+            row |= _statistics(fit, variant, {"g": (SLOPE_T, SLOPE_T_T)} if "T" in d else {})
         rows.append(row)
     if interaction_order is not None:
         row = {"fit": "thesis order + C·T", "order": interaction_order}
         for variant, d in data.items():
-            coefs = coefficient_table(fit_gamma(d["C_e"], d["x"], interaction_order, temperature=d["T"],
-                                                interaction=True))
-            row[f"{INTERACTION}, {variant}"] = float(coefs.loc["g_CT", "Coefficients"])
-            row[f"{INTERACTION_T}, {variant}"] = float(coefs.loc["g_CT", "t Stat"])
+            fit = fit_gamma(d["C_e"], d["x"], interaction_order, temperature=d["T"], interaction=True)
+            row |= _statistics(fit, variant, {"g_CT": (INTERACTION, INTERACTION_T)})
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _statistics(fit, variant: str, coefficients: Mapping[str, tuple[str, str]]) -> dict[str, float]:
+    """A fit's residual standard error and, for each of ``coefficients`` ({name: (column of its value,
+    column of its t)}), its value and t statistic, in columns for ``variant``."""
+    out = {f"{RESIDUAL}, {variant}": float(np.sqrt(fit.results.mse_resid))}
+    if coefficients:
+        table = coefficient_table(fit)
+        for name, (value, t) in coefficients.items():
+            out |= {f"{value}, {variant}": float(table.loc[name, "Coefficients"]),
+                    f"{t}, {variant}": float(table.loc[name, "t Stat"])}
+    return out
 
 
 def gamma_variants(series: Mapping[str, np.ndarray], truth: Truth, fs: float, block_len: int, n_periods: int,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import html
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -47,6 +47,9 @@ LEFT_OUT = "left out by its stage: "
 #: unless it names another of CAUSE_TABLES
 BUDGET_TABLE = "twin/error_budget.csv"
 #: the error budgets a `cause` can read (twin datasets only), and the error each splits
+#: how a measured cause's part of a note starts (Cause.note), which the summary counts by
+CAUSE_MARK = "Measured"
+
 CAUSE_TABLES = {BUDGET_TABLE: "the observer error", "twin/tracking_budget.csv": "the tracking error",
                 "twin/charge_budget.csv": "the charge–position error", "twin/controller_budget.csv": "the controller error"}
 
@@ -137,13 +140,23 @@ class Cause:
 
     An error budget (one of CAUSE_TABLES) is read at the error's max, or with ``statistic`` "σ" at
     the spread over P1's tests of each test's max (:func:`selfsense.error_budget.spread_over_spans`);
-    any other table is quoted: its ``quote`` columns, which the entry's note interprets.
+    any other table is quoted: its ``quote`` columns, which the entry's note interprets. The
+    ``located`` columns are selected by their values in the entry's own located row: a number
+    stated at the segment its table names (P1's worst) is explained at that segment.
     """
 
     table: str = BUDGET_TABLE
     where: tuple[tuple[str, Any], ...] = ()
     statistic: str = "max"
     quote: tuple[str, ...] = ()
+    located: tuple[str, ...] = ()
+
+    def at(self, row: pd.Series, name: str) -> "Cause":
+        """The cause with its ``located`` columns selected at their values in ``row`` (of table ``name``)."""
+        absent = [c for c in self.located if c not in row.index]
+        if absent:
+            raise LookupError(f"{name} has no column {absent[0]!r} to select the cause's row by")
+        return replace(self, where=self.where + tuple((c, row[c]) for c in self.located), located=())
 
     def note(self, table: pd.DataFrame, largest: int = 3) -> str:
         """The scorecard's note from the table this cause names."""
@@ -153,7 +166,7 @@ class Cause:
             absent = [c for c in self.quote if c not in table.columns]
             if absent:
                 raise LookupError(f"{self.table} has no column {absent[0]!r}")
-            return (f"Measured ({self.table}, {selector}): "
+            return (f"{CAUSE_MARK} ({self.table}, {selector}): "
                     + ", ".join(f"{c} = {_quoted(row[c])}" for c in self.quote))
         if self.statistic == "σ":
             suffix, style = AT_MAX_SPREAD, ".3f"
@@ -165,13 +178,16 @@ class Cause:
                     "its largest sources are ")
         sources = {c.removesuffix(suffix): float(row[c]) for c in table.columns if c.endswith(suffix) and pd.notna(row[c])}
         top = sorted(sources.items(), key=lambda kv: -abs(kv[1]))[:largest]
-        return (f"Measured cause ({self.table}, {selector}): {head}"
+        return (f"{CAUSE_MARK} cause ({self.table}, {selector}): {head}"
                 + ", ".join(f"{name} {value:{style}}" for name, value in top) + " µm")
 
 
 def _quoted(value: Any) -> str:
+    """A quoted cell to 4 significant digits; a count whole (a df of 19999 is not 2e+04)."""
     number = pd.to_numeric(value, errors="coerce")
-    return str(value) if pd.isna(number) else f"{float(number):.4g}"
+    if pd.isna(number):
+        return str(value)
+    return f"{int(number)}" if float(number).is_integer() else f"{float(number):.4g}"
 
 
 @dataclass(frozen=True)
@@ -275,7 +291,7 @@ def _cause(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Cau
         return None
     merged = {**group, **item, "where": {**group.get("where", {}), **item.get("where", {})}}
     cause = Cause(merged.get("table", BUDGET_TABLE), tuple(merged["where"].items()), merged.get("statistic", "max"),
-                  tuple(merged.get("quote", ())))
+                  tuple(merged.get("quote", ())), tuple(merged.get("located", ())))
     if not cause.quote and cause.table not in CAUSE_TABLES:
         raise RegistryError(f"{where}: cause table {cause.table!r} is none of {', '.join(CAUSE_TABLES)}: "
                             "another table's cause names the columns it quotes")
@@ -389,7 +405,11 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
         return Score(entry, published, band(published, entry), verdict=MISSING, detail=str(err))
     limits = band(published, entry)
     verdict = INFORMATION if entry.tolerance is None else judge(reproduced, *limits)
-    cause = entry.cause.note(tables[entry.cause.table]) if entry.cause and entry.cause.table in tables else ""
+    cause, measured = "", entry.cause
+    if measured and measured.located:
+        measured = measured.at(_one_row(table, entry.locate.where, entry.locate.table), entry.locate.table)
+    if measured and measured.table in tables:
+        cause = measured.note(tables[measured.table])
     return Score(entry, published, limits, reproduced, verdict, cause=cause)
 
 
@@ -520,8 +540,11 @@ def _out_of_band(card: pd.DataFrame) -> list[str]:
     if not len(out):
         return []
     unexplained = int((out["note"] == "").sum())
-    return [f"- Out of band, by source ({unexplained} without a note in workflow/scorecard.yaml "
-            "saying why):" if unexplained else "- Out of band, by source:",
+    measured = int(out["note"].str.contains(rf"(?:^|; ){CAUSE_MARK} (?:cause )?\(").sum())
+    counts = [f"{measured} of {len(out)} with a measured cause"]
+    if unexplained:
+        counts.append(f"{unexplained} without a note in workflow/scorecard.yaml saying why")
+    return [f"- Out of band, by source ({'; '.join(counts)}):",
             *_by_source(out, lambda row: f"{_describe(row)}." + (f" Why: {_rst(row['note'])}" if row["note"] else ""))]
 
 
