@@ -63,6 +63,30 @@ def test_extract_is_chunk_invariant_and_measures_hysteresis_power(stack_params, 
     assert np.mean(whole[5:]) == pytest.approx(true_power, rel=0.2)  # the loss seen through the instruments
 
 
+@pytest.mark.parametrize("period", [20, 40, 80, 133.3, 200, 400, 1000, 4000, 40_000])
+def test_gamma_t_samples_see_every_phase_of_any_drive(period):
+    """One window kept per group of 200, at every phase of a drive of any period (in windows): the
+    widest gap between the kept phases stays within a few times the even spread's 1/n (the
+    three-distance theorem bounds {k·φ}'s gaps by ≈ 2.6/n; 4/n leaves room for the stride's own
+    residues), where a fixed stride kept two phases of a 50 Hz drive (80 windows) and one of 100 Hz."""
+    every, groups = 200, 5000
+    window = np.arange(groups * every)
+    kept = window[ch7.kept_windows(window, every)]
+    assert np.array_equal(kept // every, np.arange(groups))  # one per group: the stride's count
+    phases = np.sort(np.mod(kept, period) / period)
+    gaps = np.diff(np.concatenate([phases, phases[:1] + 1]))
+    assert gaps.max() <= 4.0 / min(groups, period)
+    if period in (40, 80):
+        assert np.unique(np.mod(window[window % every == 0], period)).size == {80: 2, 40: 1}[period]
+
+
+def test_gamma_t_windows_are_the_same_in_any_chunks():
+    every = 200
+    whole = ch7.kept_windows(np.arange(100_000), every)
+    parts = np.concatenate([ch7.kept_windows(np.arange(a, b), every) for a, b in ((0, 7), (7, 33_333), (33_333, 100_000))])
+    assert np.array_equal(parts, whole)
+
+
 LINEAR_GAMMA = GammaPolynomial((32.0 * 3.13, -32.0))  # x [µm] = 32 (3.13 − C [µF]): 0 at rest, 32 µm at 2.13 µF
 
 

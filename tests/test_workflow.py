@@ -3,8 +3,11 @@
 import os
 import re
 
+import numpy as np
 import pandas as pd
 import pytest
+
+from selfsense.capture import read_series
 
 from .conftest import copy_repo, snakemake
 
@@ -191,6 +194,12 @@ def test_chapter_7_runs_and_says_why_when_runs_are_too_short(smoke_run):
         assert pd.read_csv(res / "coupled.csv")["note"].str.startswith("skipped").all()
     t72 = pd.read_csv(res / "table_7_2.csv")
     assert list(t72["model"]) == ["n=4", "n=5", "n=6", "n=5 + C·T"]
+    # Γ_T's samples see the whole stroke: uniform in the drive's phase, a third of the moving ones
+    # lie in its middle half (the arcsine law), where a stride of 2.5 drive periods kept none
+    x = read_series(smoke_run / "results/pi_p885/thermal/ch7_freq_50hz_gamma.nc")["x_laser"]
+    moving = x[np.isfinite(x) & (x > 0.01 * np.nanmax(x))]
+    middle = np.mean(np.abs(moving / np.max(moving) - 0.5) < 0.25)
+    assert moving.size > 50 and 0.2 < middle < 0.5, (moving.size, middle)
     for n in (1, 2, 3, 5, 6, 7, 8, 9, 10, 11, 12):
         assert (smoke_run / f"figures/pi_p885/fig_7_{n}.png").exists()
     # Fig 7.8 uses the Chapter 5 sines: their protocol's frequencies (smoke speeds up the slow ones)

@@ -37,9 +37,29 @@ THESIS_TABLE_7_2 = {"n=4": (0.998189, 0.998188, 0.474422), "n=5": (0.998194, 0.9
                     "n=6": (0.998194, 0.998193, 0.47377), "n=5 + C·T": (0.998193, 0.998193, 0.473825)}
 
 
+#: {k·φ} (φ the golden ratio's fractional part) is the most evenly spread sequence in [0, 1): the
+#: offsets :func:`kept_windows` takes within each group of windows
+GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
+
+
+def kept_windows(window: np.ndarray, every: int) -> np.ndarray:
+    """Which ripple windows (their indices from the capture's start) Γ_T's samples keep: one in each
+    group of ``every``, the k-th group's at offset ⌊{k·φ}·every⌋.
+
+    A fixed stride samples a periodic drive stroboscopically: 200 windows of 12 samples at 48 kHz
+    are 2.5 periods of a 50 Hz drive and 5 of a 100 Hz one, so every 200th window sees two phases
+    of the stroke, or one, and Γ_T would be fitted through two clusters of (C_e, x). The offsets
+    {k·φ} fill every phase for any drive period, and the selection depends on the window's index
+    alone, so a capture read in any chunks keeps the same windows."""
+    window = np.asarray(window, dtype=np.int64)
+    offset = np.floor(np.mod((window // every) * GOLDEN, 1.0) * every).astype(np.int64)
+    return window % every == offset
+
+
 def extract(chunks, fs: float, plan: SamplingPlan, k_over_alpha: float, interval: float, every: int):
     """Stream a capture into (a) mean loss power per interval from the laser position (Eq 7.4)
-    and (b) C_e with the window-mean position, every ``every``-th ripple window (for Γ_T).
+    and (b) C_e with the window-mean position, one ripple window in ``every`` (for Γ_T,
+    :func:`kept_windows`).
 
     Yields ({"time", "P_PS"}, {"time", "C_e", "x_laser"}, (max U [V], max x [m])) per chunk; the
     maxima over the run give k/α by Eq 7.11.
@@ -56,7 +76,7 @@ def extract(chunks, fs: float, plan: SamplingPlan, k_over_alpha: float, interval
         emitted += len(P)
         blocks = extractor.process(d["Ur"], d["Ir"])
         _, (xm,) = means.process(x)
-        keep = (blocks.sample_index // plan.ns) % every == 0
+        keep = kept_windows(blocks.sample_index // plan.ns, every)
         yield ({"time": t, "P_PS": P},
                {"time": (blocks.sample_index[keep] - (plan.block_len - 1) / 2) / fs, "C_e": blocks.C_e[keep],
                 "x_laser": xm[keep]}, (float(np.max(d["U"], initial=-np.inf)), float(np.max(x, initial=-np.inf))))
