@@ -158,5 +158,5 @@ def test_smoke_tracking_budget_totals_are_tables_6_1_and_6_2s_errors(smoke_run):
     card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
     caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(ROOT / "workflow" / "scorecard.yaml"))
               if e.cause and e.cause.table == "twin/tracking_budget.csv"]
-    assert len(caused) == 62  # Tables 6.1–6.2's ε_TOL and ε_TCL, Table 6.1's σ of them over the tests too
+    assert len(caused) == 65  # Tables 6.1–6.2's ε_TOL and ε_TCL, Table 6.1's σ of them over the tests, P1's summary
     assert card.loc[caused, "note"].str.contains(r"(?:at|σ over the tests of) the tracking error's max").all()

@@ -146,33 +146,33 @@ rule powerloss_recovery:
         "../scripts/powerloss_recovery.py"
 
 
-rule bender_truth:
+rule powerloss_truth:
     """Section 7's results from the sensor and from the twin's true displacement, and the sensor's
     share (twin validation: it reads /truth)."""
     input:
         unpack(lambda w: captures(w.dataset, **RONKANEN_PAIRS)),
         identified=f"{POWERLOSS}/identified.csv",
-        library=library_sources("bender_truth"),
+        library=library_sources("powerloss_truth"),
     output:
-        report("results/{dataset}/twin/bender_truth.csv", caption="../report/bender_truth.rst", **RONKANEN_REPORT),
+        report(f"{POWERLOSS}/performance_truth.csv", caption="../report/ronkanen_performance_truth.rst", **RONKANEN_REPORT),
     params:
         drift_start=rules.powerloss_performance.params.drift_start,
         drift_duration=rules.powerloss_performance.params.drift_duration,
     log:
-        "logs/{dataset}/bender_truth.log",
+        "logs/{dataset}/powerloss_truth.log",
     benchmark:
-        "benchmarks/out/{dataset}/bender_truth.tsv"
+        "benchmarks/out/{dataset}/powerloss_truth.tsv"
     threads: 1
     resources:
         mem_mb=config["resources"]["analysis_mem_mb"],
         runtime=10,
     script:
-        "../scripts/bender_truth.py"
+        "../scripts/powerloss_truth.py"
 
 
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
 POWERLOSS_OUTPUTS = (
     expand([*rules.powerloss_identify.output, *rules.powerloss_table_2.output, *rules.powerloss_performance.output,
             *rules.powerloss_figures.output], dataset=POWERLOSS_DATASETS)
-    + expand([*rules.powerloss_recovery.output, *rules.bender_truth.output], dataset=[d for d in POWERLOSS_DATASETS if d in SIMULATED])
+    + expand([*rules.powerloss_recovery.output, *rules.powerloss_truth.output], dataset=[d for d in POWERLOSS_DATASETS if d in SIMULATED])
 )

@@ -1,14 +1,14 @@
-"""Rule `bender_truth`: Ronkanen's Section 7 results from the sensor and from the twin's true
+"""Rule `powerloss_truth`: Ronkanen's Section 7 results from the sensor and from the twin's true
 displacement, and the sensor's share (twin validation: reads /truth).
 
-Alone: python workflow/scripts/bender_truth.py identified.csv table.csv \
+Alone: python workflow/scripts/powerloss_truth.py identified.csv table.csv \
     --captures decay_current=raw/tokin_nb40/rk_decay_current.nc ... --drift-start 40
 """
 
 import argparse
 
-from selfsense.bender_truth import performance_truth, true_displacement
 from selfsense.chapters import ronkanen
+from selfsense.powerloss_truth import performance_truth, true_displacement
 from selfsense.provenance import script_logging, write_table
 
 

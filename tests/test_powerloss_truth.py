@@ -1,4 +1,4 @@
-"""Ronkanen's Section 7 results on the twin's truth (selfsense.bender_truth): a perfect sensor has no
+"""Ronkanen's Section 7 results on the twin's truth (selfsense.powerloss_truth): a perfect sensor has no
 share, a sensor offset drifting by a known amount has exactly that share, and the smoke run's
 measured column is the performance table's."""
 
@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.bender_truth import SENSOR, performance_truth
+from selfsense.powerloss_truth import SENSOR, performance_truth
 from selfsense.chapters.ronkanen import CONTROLS, Record, performance
 
 FS, A_CMD = 100.0, 1.0e3
@@ -55,7 +55,7 @@ def test_a_perfect_sensor_has_no_share_and_a_drifting_one_its_own():
 @pytest.mark.slow
 def test_smoke_measured_column_is_the_performance_table(smoke_run):
     res = smoke_run / "results/tokin_nb40"
-    truth = pd.read_csv(res / "twin/bender_truth.csv")
+    truth = pd.read_csv(res / "powerloss/performance_truth.csv")
     table = pd.read_csv(res / "powerloss/performance.csv")
     assert truth["measured"].tolist() == pytest.approx(table["value"].tolist(), rel=1e-12)
-    assert not (smoke_run / "results/pi_p885/twin/bender_truth.csv").exists()
+    assert not (smoke_run / "results/pi_p885/powerloss/performance_truth.csv").exists()
