@@ -124,6 +124,12 @@ class HPOIntegralController:
         return {"x_ref": x_ref, "x_hpo_rt": x_hat, "u_cmd": u_cmd}
 
 
+def controller_factory(n_periods: int, gamma: GammaPolynomial, observer: HPOGains, controller: IntegralController):
+    """``controller_for`` of :func:`selfsense.twin.simulate_experiment`: each closed-loop run's
+    :func:`realtime_controller` with these identified values."""
+    return lambda daq, drive, warmup: realtime_controller(daq, drive, warmup, n_periods, gamma, observer, controller)
+
+
 def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int, gamma: GammaPolynomial,
                         observer: HPOGains, controller: IntegralController,
                         compiled: bool = True) -> HPOIntegralController:

@@ -20,10 +20,12 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from .capture import open_capture
 from .chapters.ch5 import gamma_data
 from .chapters.ch7 import gamma_t_data
 from .error_budget import Truth
 from .gamma import GammaPolynomial, coefficient_table, curve_difference, fit_gamma
+from .ripple import plan_from_capture
 
 #: the fitted inputs and the truth state each is replaced by
 TRUE_STATE = {"C_e": "C_e", "x": "x", "T": "T"}
@@ -121,3 +123,15 @@ def gamma_t_variants(samples: Mapping[str, np.ndarray], T_time: np.ndarray, T_mi
     C, x, T = gamma_t_data(samples, T_time, T_mid)
     x0 = truth.at(np.zeros(1))["x"][0]
     return variants({"C_e": C, "x": x, "T": T}, {"C_e": true["C_e"][ok], "x": true["x"][ok] - x0, "T": true["T"][ok]})
+
+
+def capture_variants(capture, series: Mapping[str, np.ndarray], n_periods: int,
+                     thermometer: Mapping[str, np.ndarray] | None = None) -> dict[str, dict[str, np.ndarray]]:
+    """:func:`gamma_variants` of a simulated capture's ripple ``series`` or, given the middle
+    thermometer's ``thermometer`` ({"time", "T_mid"}), :func:`gamma_t_variants` of its Γ_T samples."""
+    with open_capture(capture) as cap:
+        truth = Truth.from_group(*cap.read_truth(), cap.length(), str(capture), names=("C_e", "x", "T"))
+        fs, block_len, warmup = cap.fs, plan_from_capture(cap, n_periods).block_len, float(cap.attrs.get("warmup_s", 0.0))
+    if thermometer is None:
+        return gamma_variants(series, truth, fs, block_len, n_periods, warmup)
+    return gamma_t_variants(series, thermometer["time"], thermometer["T_mid"], truth, fs, block_len)

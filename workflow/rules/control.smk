@@ -131,8 +131,43 @@ rule tracking_budget:
         "../scripts/tracking_budget.py"
 
 
+#: the closed-loop runs the leak study simulates again (Table 6.2's P2 profiles: seconds each)
+LEAK_RUNS = {d: [e for e in CLOSED_LOOP[d] if e.startswith("ch6_p2")] for d in DATASETS}
+
+
+rule loop_leak:
+    """The closed loop's drive at the folded ripple frequency and the C_e bias it makes: each P2 run
+    as simulated and again with the drive kept out of the ripple channels (twin study: reads /truth)."""
+    input:
+        unpack(lambda w: captures(w.dataset, capture=LEAK_RUNS[w.dataset])),
+        manifest=RAW / "{dataset}" / "dataset.yaml",  # the what-if simulates from it
+        gamma="results/{dataset}/ch5/gamma.json",
+        observer="results/{dataset}/ch5/observer.json",
+        model="results/{dataset}/ch4/model.json",
+        library=library_sources("loop_leak"),
+    output:
+        report("results/{dataset}/twin/loop_leak.csv", caption="../report/loop_leak.rst", category="{dataset}",
+               subcategory="Twin validation"),
+    params:
+        campaign=config["campaign"],
+        capture=config["capture"],
+        omega_c=config["control"]["omega_c"],
+        n_periods=config["ripple"]["n_periods"],
+    log:
+        "logs/{dataset}/loop_leak.log",
+    benchmark:
+        "benchmarks/out/{dataset}/loop_leak.tsv"
+    threads: 1
+    resources:
+        mem_mb=config["resources"]["simulate_mem_mb"],
+        runtime=30,
+    script:
+        "../scripts/loop_leak.py"
+
+
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
 CONTROL_OUTPUTS = (
     expand([*rules.ch6_results.output, *rules.audit_realtime.output], dataset=CONTROL_DATASETS)
-    + expand(rules.tracking_budget.output, dataset=[d for d in CONTROL_DATASETS if d in SIMULATED])  # reads /truth
+    + expand([*rules.tracking_budget.output, *rules.loop_leak.output],  # they read /truth
+             dataset=[d for d in CONTROL_DATASETS if d in SIMULATED and LEAK_RUNS[d]])
 )

@@ -7,13 +7,11 @@ Alone: python workflow/scripts/gamma_truth.py workflow/scorecard.yaml out.csv "T
 
 import argparse
 
-from selfsense.capture import open_capture, read_series
-from selfsense.error_budget import Truth
+from selfsense.capture import read_series
 from selfsense.gamma import load_gamma
-from selfsense.gamma_truth import curve_rows, gamma_t_variants, gamma_variants
+from selfsense.gamma_truth import capture_variants, curve_rows
 from selfsense.manifest import load_yaml
 from selfsense.provenance import script_logging, write_table
-from selfsense.ripple import plan_from_capture
 from selfsense.scorecard import parse_registry, printed_gamma
 
 
@@ -21,14 +19,7 @@ def main(registry, capture, series, fits, table, source, coefficients, g=None, t
          n_periods=4, log=None):
     logger = script_logging(log)
     thesis, stroke = printed_gamma(parse_registry(load_yaml(registry), registry), source, coefficients, g)
-    with open_capture(capture) as cap:
-        truth = Truth.from_group(*cap.read_truth(), cap.length(), capture, names=("C_e", "x", "T"))
-        fs, block_len, warmup = cap.fs, plan_from_capture(cap, n_periods).block_len, float(cap.attrs.get("warmup_s", 0.0))
-    if power is None:
-        data = gamma_variants(read_series(series), truth, fs, block_len, n_periods, warmup)
-    else:
-        T = read_series(power, ["time", "T_mid"])
-        data = gamma_t_variants(read_series(series), T["time"], T["T_mid"], truth, fs, block_len)
+    data = capture_variants(capture, read_series(series), n_periods, read_series(power, ["time", "T_mid"]) if power else None)
     orders = {name: load_gamma(path).order for name, path in fits.items()}
     result = curve_rows(data, orders, thesis, stroke, temperatures, orders["thesis order"] if power else None)
     write_table(result, table, inputs=[registry, capture, series, *fits.values(), *filter(None, [power])],

@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 
 from selfsense.capture import write_scan_report
-from selfsense.control import IntegralController, realtime_controller
+from selfsense.control import IntegralController, controller_factory
 from selfsense.electromech import load_k_over_alpha
 from selfsense.gamma import load_gamma
 from selfsense.manifest import load_config
@@ -23,11 +23,8 @@ def main(raw_dir, dataset, experiment, gamma, observer, model, campaign, capture
          output=None, report=None, log=None):
     logger = script_logging(log)
     g, gains, loop = load_gamma(gamma), load_gains(observer), IntegralController(omega_c, load_k_over_alpha(model))
-    def controller_for(daq, drive, warmup):
-        return realtime_controller(daq, drive, warmup, n_periods, g, gains, loop)
-
     scan = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output,
-                               controller_for=controller_for)
+                               controller_for=controller_factory(n_periods, g, gains, loop))
     write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
     logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", scan.path, loop.k_over_alpha, gains.a0)
 

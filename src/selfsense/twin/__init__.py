@@ -36,9 +36,11 @@ def daq_plan(manifest: Mapping) -> DaqPlan:
 
 def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
                         output: str | Path | None = None,
-                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None) -> ScanReport:
+                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None,
+                        drive_leak: bool = True) -> ScanReport:
     """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
     capture is validated as it is written, :meth:`selfsense.capture.CaptureWriter.scan_report`).
+    ``drive_leak=False`` is a study's what-if (:class:`.bench.Bench`), never a capture of the campaign.
 
     Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
     bench's real-time loop (:func:`selfsense.control.realtime_controller`). It is passed in rather
@@ -60,14 +62,14 @@ def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, conf
     path = output or Path(raw_dir) / dataset / f"{experiment}.nc"
     settings = compression_settings(cap)
     try:
-        return _simulate(path, manifest, exp, attrs, cap, settings, where, controller_for)
+        return _simulate(path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak)
     except UnshrinkableChunk as err:  # blosc fails on a chunk it cannot shrink; the twin is deterministic
         LOG.warning("%s; writing it again with zlib level 1", err)
         return _simulate(path, manifest, exp, attrs, cap, {"compression": "zlib", "complevel": 1}, where,
-                         controller_for)
+                         controller_for, drive_leak)
 
 
-def _simulate(path, manifest, exp, attrs, cap, compression, where, controller_for) -> ScanReport:
+def _simulate(path, manifest, exp, attrs, cap, compression, where, controller_for, drive_leak=True) -> ScanReport:
     """One run of the experiment into ``path`` with the writer's ``compression`` arguments."""
     if manifest["model"] == "bender":
         from . import bender  # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
@@ -85,4 +87,4 @@ def _simulate(path, manifest, exp, attrs, cap, compression, where, controller_fo
     return simulate_capture(
         path, params, daq, drive, attrs, manifest.get("seed", 0), exp.name,
         load_stiffness=exp.load_stiffness, controller=controller, chunk_len=cap["chunk_len"],
-        truth_decimation=cap["truth_decimation"], **compression)
+        truth_decimation=cap["truth_decimation"], drive_leak=drive_leak, **compression)

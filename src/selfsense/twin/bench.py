@@ -72,7 +72,7 @@ class Bench:
     """One run of the bench: owns the twin's state, the instruments' state and the RNG."""
 
     def __init__(self, params: TwinParams, daq: DaqPlan, seed: np.random.SeedSequence,
-                 load_stiffness: float = 0.0, T_amb: float | None = None):
+                 load_stiffness: float = 0.0, T_amb: float | None = None, drive_leak: bool = True):
         self.p = params
         self.daq = daq
         rng = np.random.default_rng(seed)
@@ -87,6 +87,8 @@ class Bench:
         self.ripple = RippleSource(params.ripple, daq.fs, rng)
         self.hp_u = HighPass(params.ripple.highpass_hz, daq.fs)
         self.hp_i = HighPass(params.ripple.highpass_hz, daq.fs)
+        if not drive_leak:  # a what-if for studies (selfsense.loop_leak): the ripple channels see the ripple alone
+            self.hp_u.b = self.hp_i.b = np.zeros_like(self.hp_u.b)
         self.offset_drift = SlowProcess(rng, ins.I_offset_drift, 0.05)
         self.laser_drift = SlowProcess(rng, ins.laser_drift, 0.005)
 
@@ -165,8 +167,10 @@ def simulate_capture(
     truth_decimation: int = 12,
     compression: str | None = TWIN_COMPRESSION[0],
     complevel: int = TWIN_COMPRESSION[1],
+    drive_leak: bool = True,
 ) -> ScanReport:
-    """Run one experiment on the twin and write its capture (atomically); returns its QC scan."""
+    """Run one experiment on the twin and write its capture (atomically); returns its QC scan.
+    ``drive_leak=False``: :class:`Bench`'s what-if, the drive kept out of the ripple channels."""
     fs = daq.fs
     n = int(round(drive.duration * fs))
     fast = [c for c in daq.channels if c not in SLOW_CHANNELS]
@@ -177,7 +181,7 @@ def simulate_capture(
         fast += [c for c in controller.logs if c not in fast]
         chunk_len = controller.block_len * max(1, chunk_len // controller.block_len)
     specs = [channel_spec(c, *daq.ranges[c]) for c in fast + slow]
-    bench = Bench(params, daq, experiment_seed(seed, experiment), load_stiffness)
+    bench = Bench(params, daq, experiment_seed(seed, experiment), load_stiffness, drive_leak=drive_leak)
     k_over_alpha = params.stack.k / params.stack.alpha
     all_attrs = dict(attrs) | {
         "experiment": experiment, "seed": int(seed), "fs": fs, "software_version": __version__,
