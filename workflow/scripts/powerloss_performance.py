@@ -34,9 +34,7 @@ elif __name__ == "__main__":
     cli.add_argument("identified")
     cli.add_argument("performance")
     cli.add_argument("repeatability")
-    cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
-    cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
-    cli.add_argument("--drift-duration", dest="drift_duration", type=float, default=120.0, help="[s]")
+    ronkanen.add_run_arguments(cli)
     args = cli.parse_args()
     main(dict(c.split("=", 1) for c in args.captures), args.identified, args.performance, args.repeatability,
          args.drift_start, args.drift_duration)

@@ -32,9 +32,7 @@ elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("identified")
     cli.add_argument("table")
-    cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
-    cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
-    cli.add_argument("--drift-duration", dest="drift_duration", type=float, default=120.0, help="[s]")
+    ronkanen.add_run_arguments(cli)
     args = cli.parse_args()
     main(dict(c.split("=", 1) for c in args.captures), args.identified, args.table, args.drift_start,
          args.drift_duration)

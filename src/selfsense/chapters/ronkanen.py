@@ -93,6 +93,14 @@ def by_kind(records: Mapping[str, Record], captures: Mapping[str, str | Path]) -
     return {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
 
 
+def add_run_arguments(cli) -> None:
+    """The command-line arguments of a script run alone on Section 7's runs: ``--captures`` as
+    <kind>_<control>=path (:func:`by_kind`) and the drift hold's start and duration."""
+    cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
+    cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
+    cli.add_argument("--drift-duration", dest="drift_duration", type=float, default=120.0, help="[s]")
+
+
 def load_identified(path: str | Path, key: str) -> float:
     """One of the identified constants :func:`identify` returns (e.g. R [Ω], a_cmd [m/C]), as written to CSV."""
     return float(pd.read_csv(path).set_index("key").loc[key, "value"])
