@@ -294,7 +294,8 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
     card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
     caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY))
               if e.cause and e.model == "stack" and e.cause.table == BUDGET_TABLE]
-    assert len(caused) == 47  # Table 5.4, the creep run's phases, Chapter 6's ε_OCL (P1's summary too) and its σ over P1's tests
+    # Table 5.4, the creep run's phases, P1's ε_OCL (Table 6.1, its σ over the tests, the summary); P2's quote rule loop_leak
+    assert len(caused) == 39
     left_out = card.loc[caused, "note"].str.startswith(LEFT_OUT)  # the smoke run's creep has no steady state
     assert list(card.loc[caused][left_out].index.get_level_values("quantity")) == ["HPO error in steady state"]
     assert card.loc[caused][~left_out]["note"].str.contains("Measured cause (twin/error_budget.csv", regex=False).all()

@@ -38,3 +38,7 @@ def test_smoke_study_measures_the_campaigns_capture_and_a_leak_free_one(smoke_ru
         assert abs(row["max |ε_OCL| [µm], as simulated"] - table) <= audit[run] + 1e-9 * table, run
         assert abs(row["C_e error mean [%], no drive leak"]) < abs(row["C_e error mean [%], as simulated"]), run
     assert not (smoke_run / "results/tokin_nb40/twin/loop_leak.csv").exists()
+    # Table 6.2's P2 ε_OCL rows, in µm and in % of stroke, quote the study
+    card = pd.read_csv(res / "scorecard.csv")
+    quoting = card[card["note"].str.contains("Measured (twin/loop_leak.csv", regex=False, na=False)]
+    assert sorted(quoting["quantity"]) == sorted(f"P2{p}, ε_OCL{unit}" for p in "abcd" for unit in ("", ", % of stroke"))
