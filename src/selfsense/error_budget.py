@@ -97,6 +97,14 @@ class Truth:
             raise ValueError(f"{source}: /truth has no decimation attribute")
         return cls(states, int(attrs["decimation"]), int(n_samples), source, tuple(names))
 
+    @classmethod
+    def from_capture(cls, capture, names: tuple[str, ...] = TRUTH_STATES) -> "Truth":
+        """The states ``names`` of an open simulated :class:`selfsense.capture.Capture` over its length
+        (the rest of its /truth is not kept)."""
+        attrs, states = capture.read_truth()
+        return cls.from_group(attrs, {k: states[k] for k in names if k in states}, capture.length(),
+                              str(capture.path), names)
+
     def at(self, index: np.ndarray) -> dict[str, np.ndarray]:
         """Each state at the global sample indices ``index``.
 
@@ -305,7 +313,7 @@ def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains
     protocol, in each segment's steady windows (Table 6.1, :func:`selfsense.chapters.ch6.segment_windows`)."""
     windows = segment_windows(p1_protocol, omega_c) if p1_protocol else ()
     with open_capture(path, require=CHANNELS) as cap:
-        truth = Truth.from_group(*cap.read_truth(), cap.length(), path)
+        truth = Truth.from_capture(cap)
         warmup, plan = float(cap.attribute("warmup_s")), plan_from_capture(cap, n_periods)
         if omega_c is None:
             phases = creep_phases(warmup, transient_s) if transient_s is not None else ()
@@ -347,7 +355,7 @@ def capture_charge_budget(series, capture, n_periods: int) -> dict[str, float]:
     """:func:`charge_position_budget` of one Chapter 5 sine: its ripple series (rule
     ``extract_ripple``, windows of ``n_periods`` folded periods) and the simulated capture it came from."""
     with open_capture(capture) as cap:
-        truth = Truth.from_group(*cap.read_truth(), cap.length(), str(capture), names=("x", "q"))
+        truth = Truth.from_capture(cap, names=("x", "q"))
         fs, block_len = cap.fs, plan_from_capture(cap, n_periods).block_len
     return charge_position_budget(read_series(series), truth, fs, block_len)
 

@@ -130,7 +130,7 @@ def capture_variants(capture, series: Mapping[str, np.ndarray], n_periods: int,
     """:func:`gamma_variants` of a simulated capture's ripple ``series`` or, given the middle
     thermometer's ``thermometer`` ({"time", "T_mid"}), :func:`gamma_t_variants` of its Γ_T samples."""
     with open_capture(capture) as cap:
-        truth = Truth.from_group(*cap.read_truth(), cap.length(), str(capture), names=("C_e", "x", "T"))
+        truth = Truth.from_capture(cap, names=("C_e", "x", "T"))
         fs, block_len, warmup = cap.fs, plan_from_capture(cap, n_periods).block_len, float(cap.attrs.get("warmup_s", 0.0))
     if thermometer is None:
         return gamma_variants(series, truth, fs, block_len, n_periods, warmup)

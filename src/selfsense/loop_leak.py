@@ -46,7 +46,7 @@ def capture_leak(path: str | Path, n_periods: int, omega_c: float) -> dict[str, 
     The bins are taken of the channels' first differences: a window's sums reject a constant but not
     the drive's slope, which differencing makes a constant; it scales both bins alike."""
     with open_capture(path, require=["Ur", "Ir", "u_cmd"]) as cap:
-        truth = Truth.from_group(*cap.read_truth(), cap.length(), str(path), names=("C_e",))
+        truth = Truth.from_capture(cap, names=("C_e",))
         plan = plan_from_capture(cap, n_periods)
         first = settled_after(float(cap.attribute("warmup_s")), omega_c) * cap.fs
         ce, drive = RippleExtractor(plan), RippleExtractor(plan)

@@ -27,9 +27,8 @@ def true_displacement(path: str | Path) -> np.ndarray:
     """The twin's displacement a·Q [m] at every sample of a simulated capture, from its stored truth
     (the 4-point cubic of :meth:`selfsense.error_budget.Truth.at`)."""
     with open_capture(path) as cap:
-        attrs, states = cap.read_truth()
-        n = cap.length()
-    return Truth.from_group(attrs, {"x": states["x"]}, n, str(path), names=("x",)).at(np.arange(n))["x"]
+        truth = Truth.from_capture(cap, names=("x",))
+    return truth.at(np.arange(truth.n_samples))["x"]
 
 
 def performance_truth(kind: Mapping[str, Mapping[str, Record]], true_x: Mapping[str, np.ndarray], a_cmd: float,
