@@ -60,14 +60,21 @@ def snakemake(repo, *args, config="tests/config/smoke.yaml"):
                           cwd=repo, capture_output=True, text=True, timeout=1800)
 
 
+#: module-scoped fixtures that run a DAG of their own: a worker builds its own instance of a module's
+#: fixture, so the tests sharing one go to one worker (split over two, the DAG ran twice)
+OWN_DAGS = ("bench", "lab_csv")
+
+
 @pytest.hookimpl(tryfirst=True)  # before xdist reads the groups off the markers
 def pytest_collection_modifyitems(items):
     """The suite runs on pytest-xdist workers (addopts): the tests that run Snakemake inside the
     shared smoke tree, edit it or copy it whole (``smoke_tree``) go to one worker, one after
-    another; the tests that only read its captures and tables run on any."""
+    another, and so do those that share a fixture of :data:`OWN_DAGS`; the tests that only read the
+    smoke tree's captures and tables run on any."""
     for item in items:
-        if "smoke_tree" in item.fixturenames:
-            item.add_marker(pytest.mark.xdist_group("smoke_tree"))
+        group = next((f for f in ("smoke_tree", *OWN_DAGS) if f in item.fixturenames), None)
+        if group:
+            item.add_marker(pytest.mark.xdist_group(group))
 
 
 @pytest.fixture(scope="session")
@@ -97,6 +104,15 @@ def _smoke_dag(folder: Path) -> Path:
     run = snakemake(repo)
     assert run.returncode == 0, run.stderr[-3000:]
     return repo
+
+
+@pytest.fixture(scope="session")
+def smoke_report(smoke_tree):
+    """`snakemake --report report.html` in the smoke tree, built once for the tests that read it:
+    (path of the page, the build's stderr)."""
+    run = snakemake(smoke_tree, "--report", "report.html")
+    assert run.returncode == 0, run.stderr[-3000:]
+    return smoke_tree / "report.html", run.stderr
 
 
 @pytest.fixture(scope="session")

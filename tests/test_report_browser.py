@@ -23,7 +23,6 @@ import subprocess
 
 import pytest
 
-from .conftest import snakemake
 
 pytestmark = pytest.mark.slow
 
@@ -86,12 +85,9 @@ def headless(chromium, profile, *args):
 
 
 @pytest.fixture(scope="module")
-def built_report(smoke_tree, tmp_path_factory):
-    """The smoke run's report, built into a scratch folder."""
-    out = tmp_path_factory.mktemp("browser") / "report.html"
-    run = snakemake(smoke_tree, "--report", str(out))
-    assert run.returncode == 0, run.stderr[-3000:]
-    return out
+def built_report(smoke_report):
+    """The smoke run's report (built once for this module and tests/test_report.py)."""
+    return smoke_report[0]
 
 
 def test_title_and_scorecard_summary_are_on_the_first_screen(chromium, built_report, tmp_path):
