@@ -1,5 +1,6 @@
 # Config and manifest validation in one place, and the lookups every rule file uses.
 import ast
+import threading
 from functools import cache
 from pathlib import Path
 
@@ -13,6 +14,23 @@ from selfsense.manifest import PROTOCOLS, SCHEMAS, expand_protocols, load_datase
 validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config",
                 dict(workflow.config_settings.config))  # --config alone (overwrite_config has the files too)
 validate(config, str(SCHEMAS / "config.schema.yaml"))
+
+
+def cancel_rescheduling_timers():
+    """Cancel the scheduler's pending re-scheduling timers (profiles/default/config.yaml): they are
+    not daemon threads, so the interpreter would wait for each before exiting."""
+    for thread in threading.enumerate():
+        if isinstance(thread, threading.Timer):
+            thread.cancel()
+
+
+onsuccess:
+    cancel_rescheduling_timers()
+
+
+onerror:
+    cancel_rescheduling_timers()
+
 
 #: where the selfsense package's source lives in the checkout: its files are the rules' `library`
 #: inputs (the README's install is editable, so this is also the code that runs)
