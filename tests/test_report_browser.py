@@ -84,13 +84,8 @@ def headless(chromium, profile, *args):
         capture_output=True, text=True, timeout=300)
 
 
-@pytest.fixture(scope="module")
-def built_report(smoke_report):
-    """The smoke run's report (built once for this module and tests/test_report.py)."""
-    return smoke_report[0]
-
-
-def test_title_and_scorecard_summary_are_on_the_first_screen(chromium, built_report, tmp_path):
+def test_title_and_scorecard_summary_are_on_the_first_screen(chromium, smoke_report, tmp_path):
+    built_report = smoke_report[0]  # the smoke run's report (tests/conftest.py)
     page = built_report.read_text(encoding="utf-8")
     probed = tmp_path / "probed.html"
     head, body_end, tail = page.rpartition("</body>")
