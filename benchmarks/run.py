@@ -10,8 +10,9 @@ Prints, in three parts that can be skipped one by one:
 - the DAG: `snakemake --cores 2` on the small and on the full configuration, each from scratch:
   in a scratch copy run by this interpreter (warm), or with --fresh in a new clone of HEAD with a
   new venv (the README's first command: no bytecode, no numba cache) and then again in that
-  clone with its caches (warm). Each run: its wall time and the peak memory of its whole process
-  tree, the rules' own figures from their `benchmark:` files (summed and per rule: seconds,
+  clone with its caches (warm). Each run: its wall time, CPU and the peak memory of its whole
+  process tree, the machine's speed just before and after it (a probe on work that is not ours),
+  the rules' own figures from their `benchmark:` files (summed and per rule: seconds,
   max_rss), the share of the time per cause (simulating, writing captures, analysis, per-job
   start-up, idle cores), and without --fresh a no-op `snakemake -n` on the up-to-date tree;
 - streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
@@ -27,6 +28,7 @@ import json
 import os
 import platform
 import re
+import resource
 import runpy
 import shutil
 import subprocess
@@ -75,6 +77,19 @@ def bench_kernel(seconds):
     K.run(U[:100], U[:100] * 0, U[:100] * 0 + 23, kc, K.initial_state(kc, 23.0))  # compile
     t = best_of(lambda: K.run(U, 0 * U, 0 * U + 23, kc, K.initial_state(kc, 23.0)))
     print(f"twin kernel (numba, 1 core):           {n / t / 1e6:8.2f} M samples/s")
+
+
+def speed_probe(when):
+    """This machine's speed just before and after a DAG run, on work that is not ours (so that it
+    stays comparable when our code changes): a pure-Python loop and numpy's sort, one core, best of
+    3. Its cores run the same code a fifth slower from one hour to the next (other tenants of its
+    host), and a run's wall time moves with them: runs on different days compare through these."""
+    n = 3_000_000
+    loop = best_of(lambda: sum(i * i for i in range(n)))
+    values = np.random.default_rng(0).standard_normal(n)
+    sort = best_of(lambda: np.sort(values))
+    print(f"  speed probe {when}: Python loop {n / loop / 1e6:.1f} M iterations/s, numpy sort "
+          f"{n / sort / 1e6:.1f} M values/s (one core)")
 
 
 def simulate(path, seconds, compression=TWIN_COMPRESSION):
@@ -178,7 +193,10 @@ def bench_streaming(seconds, tmp):
 
 
 def run_sampled(cmd, cwd, every=0.5):
-    """Run cmd; return (wall seconds, peak summed RSS [MB] of its process tree, sampled)."""
+    """Run cmd; return (wall seconds, peak summed RSS [MB] of its process tree, sampled, and the CPU
+    seconds of the whole tree: the kernel's own count of every process reaped, exact where the
+    benchmark files' cpu_time is sampled)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with open(Path(cwd) / "benchmark-run.log", "w+") as log:  # a file: a full pipe would stall the run
         t0 = time.perf_counter()
         proc = subprocess.Popen(cmd, cwd=cwd, stdout=log, stderr=subprocess.STDOUT)
@@ -196,7 +214,8 @@ def run_sampled(cmd, cwd, every=0.5):
         log.seek(0)
         if proc.returncode:
             sys.exit(f"{' '.join(cmd)} failed in {cwd}:\n{log.read()[-3000:]}")
-    return wall, peak / 2**20
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, peak / 2**20, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
 
 
 def rule_of(tsv, out):
@@ -232,12 +251,12 @@ def print_rss_by_capture_length(repo, out, rules=("simulate", "check_capture", "
 
 
 def job_rows(out):
-    """{rule: [(s, max_rss, cpu_time) per job]} from the DAG's benchmark files."""
+    """{rule: [(s, max_rss) per job]} from the DAG's benchmark files."""
     rules = defaultdict(list)
     for tsv in sorted(out.rglob("*.tsv")):
         with tsv.open() as f:
             row = next(csv.DictReader(f, delimiter="\t"))
-        rules[rule_of(tsv, out)].append((float(row["s"]), float(row["max_rss"]), float(row["cpu_time"])))
+        rules[rule_of(tsv, out)].append((float(row["s"]), float(row["max_rss"])))
     return rules
 
 
@@ -279,15 +298,16 @@ def print_shares(repo, python, rules, wall):
         print(f"    {cause:62s} {seconds:7.0f} s  {100 * seconds / (2 * wall):5.1f} %")
 
 
-def report_dag(label, repo, python, config, wall, peak):
+def report_dag(label, repo, python, config, wall, peak, cpu):
     out = repo / "benchmarks" / "out"
     rules = job_rows(out)
     jobs = [j for js in rules.values() for j in js]
-    job_s, cpu_s = sum(j[0] for j in jobs), sum(j[2] for j in jobs)
-    print(f"DAG ({config}, --cores 2, {label}): {len(jobs)} jobs, wall {wall:.0f} s, peak RSS of the process "
-          f"tree {peak:.0f} MB (sampled every 0.5 s)")
-    print(f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall), "
-          f"CPU {cpu_s:.0f} s; largest job max_rss {max(j[1] for j in jobs):.0f} MB")
+    job_s = sum(j[0] for j in jobs)
+    print(f"DAG ({config}, --cores 2, {label}): {len(jobs)} jobs, wall {wall:.0f} s, CPU {cpu:.0f} s (user + sys "
+          f"of Snakemake and every job), peak RSS of the process tree {peak:.0f} MB (sampled every 0.5 s)")
+    # Snakemake samples a job's cpu_time every 30 s after its first 15 s: a long job's is short by up to 30 s
+    print(f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall); "
+          f"largest job max_rss {max(j[1] for j in jobs):.0f} MB")
     print(f"  {'rule':24s} {'jobs':>4s} {'s (sum)':>8s} {'s (max)':>8s} {'max_rss MB':>10s}")
     for rule, js in sorted(rules.items(), key=lambda kv: -sum(j[0] for j in kv[1])):
         print(f"  {rule:24s} {len(js):4d} {sum(j[0] for j in js):8.1f} {max(j[0] for j in js):8.1f} "
@@ -315,8 +335,10 @@ def bench_dag(config):
     with tempfile.TemporaryDirectory() as tmp:
         repo = Path(tmp) / "repo"
         shutil.copytree(ROOT, repo, ignore=SCRATCH_IGNORE)
-        wall, peak = run_sampled(snakemake, repo)
-        report_dag("warm", repo, sys.executable, config, wall, peak)
+        speed_probe("before")
+        wall, peak, cpu = run_sampled(snakemake, repo)
+        speed_probe("after")
+        report_dag("warm", repo, sys.executable, config, wall, peak, cpu)
         noop_dry_run(snakemake, repo)
 
 
@@ -335,8 +357,10 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
                        check=True, capture_output=True)
         install = time.perf_counter() - t0
         snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
-        fresh, peak = run_sampled(snakemake, repo)
-        report_dag("fresh clone", repo, python, config, fresh, peak)
+        speed_probe("before")
+        fresh, peak, cpu = run_sampled(snakemake, repo)
+        speed_probe("after")
+        report_dag("fresh clone", repo, python, config, fresh, peak, cpu)
         if keep_results:
             shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
         if not warm:
@@ -345,8 +369,9 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
             return
         # outputs, captures and logs go; the venv, bytecode and numba's cache (src/**/__pycache__) stay
         subprocess.run(["git", "clean", "-fdxq", "-e", ".venv", "-e", "__pycache__"], cwd=repo, check=True)
-        warm, peak = run_sampled(snakemake, repo)
-        report_dag("the same clone again, warm", repo, python, config, warm, peak)
+        warm, peak, cpu = run_sampled(snakemake, repo)
+        speed_probe("after the warm run")
+        report_dag("the same clone again, warm", repo, python, config, warm, peak, cpu)
         print(f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
               f"(README's first command {install + fresh:.0f} s); warm {warm:.0f} s")
 
