@@ -503,7 +503,7 @@ class Capture:
         n = self.length(dim)
         rate = self.fs if dim == "time" else float(self._nc["time_slow"].sampling_rate)
         tvar = self._nc[dim]
-        tvar.set_auto_mask(False)  # half its read: a missing time fails the check as its fill value
+        tvar.set_auto_mask(False)  # no masked array per chunk: a missing time fails the check as its fill value
         progress = _Progress(f"{self.path} read", n)
         for start in range(0, n, chunk_len):
             stop = min(n, start + chunk_len)
