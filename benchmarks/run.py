@@ -193,9 +193,10 @@ def bench_streaming(seconds, tmp):
 
 
 def run_sampled(cmd, cwd, every=0.5):
-    """Run cmd; return (wall seconds, peak summed RSS [MB] of its process tree, sampled, and the CPU
-    seconds of the whole tree: the kernel's own count of every process reaped, exact where the
-    benchmark files' cpu_time is sampled)."""
+    """Run cmd between two speed probes; return (wall seconds, peak summed RSS [MB] of its process
+    tree, sampled, and the CPU seconds of the whole tree: the kernel's own count of every process
+    reaped, exact where the benchmark files' cpu_time is sampled)."""
+    speed_probe("before")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with open(Path(cwd) / "benchmark-run.log", "w+") as log:  # a file: a full pipe would stall the run
         t0 = time.perf_counter()
@@ -215,6 +216,7 @@ def run_sampled(cmd, cwd, every=0.5):
         if proc.returncode:
             sys.exit(f"{' '.join(cmd)} failed in {cwd}:\n{log.read()[-3000:]}")
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    speed_probe("after")
     return wall, peak / 2**20, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
 
 
@@ -335,9 +337,7 @@ def bench_dag(config):
     with tempfile.TemporaryDirectory() as tmp:
         repo = Path(tmp) / "repo"
         shutil.copytree(ROOT, repo, ignore=SCRATCH_IGNORE)
-        speed_probe("before")
         wall, peak, cpu = run_sampled(snakemake, repo)
-        speed_probe("after")
         report_dag("warm", repo, sys.executable, config, wall, peak, cpu)
         noop_dry_run(snakemake, repo)
 
@@ -357,9 +357,7 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
                        check=True, capture_output=True)
         install = time.perf_counter() - t0
         snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
-        speed_probe("before")
         fresh, peak, cpu = run_sampled(snakemake, repo)
-        speed_probe("after")
         report_dag("fresh clone", repo, python, config, fresh, peak, cpu)
         if keep_results:
             shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
@@ -370,7 +368,6 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
         # outputs, captures and logs go; the venv, bytecode and numba's cache (src/**/__pycache__) stay
         subprocess.run(["git", "clean", "-fdxq", "-e", ".venv", "-e", "__pycache__"], cwd=repo, check=True)
         warm, peak, cpu = run_sampled(snakemake, repo)
-        speed_probe("after the warm run")
         report_dag("the same clone again, warm", repo, python, config, warm, peak, cpu)
         print(f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
               f"(README's first command {install + fresh:.0f} s); warm {warm:.0f} s")
