@@ -96,3 +96,38 @@ def test_the_u_h_share_is_held_to_the_peak_of_the_twins_hysteresis_voltage_over_
     assert list(rows.index) == [1, 2]
     assert rows["truth"].tolist() == pytest.approx([10.0, 10.0], rel=1e-5)  # (8 + 2) V of a 100 V peak
     assert rows.loc[2, "error [%]"] == pytest.approx(-50.0, rel=1e-4)
+
+
+def test_the_model_on_truth_gives_the_built_values_where_eq_4_4_holds_and_reads_a_domain_share_as_slope():
+    """rule model_recovery's "model on truth": Case 2 on the twin's noiseless states over the
+    ripple's windows. With C_e = C_P0 + ΔCx·x it is the built set; a domain share d·u_H with u_H =
+    β·x + (a loop term orthogonal to x over whole cycles) is read as the slope ΔCx + d·β, and α
+    through k/α = 2a₂/ΔCx (Eq 4.18) as a₁ − C_P0·(k/α)·ΔCx/(ΔCx + d·β): the pseudo-true values."""
+    from selfsense.chapters.ch4 import identify_sets
+    from selfsense.error_budget import Truth
+    from selfsense.recovery import truth_series
+
+    fs, block, f = 48000.0, 12, 10.0
+    p = ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 0.0, 0.0)
+    t = np.arange(int(5 / f * fs)) / fs
+    w = 2 * np.pi * f
+    x = 16e-6 * (1 - np.cos(w * t))
+    q = p.charge(Kinematics(t, x, 16e-6 * w * np.sin(w * t), 16e-6 * w * w * np.cos(w * t)))
+    last = np.arange(block - 1, len(t), block)
+    noisy = np.random.default_rng(1).normal(size=len(last))  # what the ripple measured: replaced
+    series = {"time": (last - (block - 1) / 2) / fs, "C_e": 3e-6 + 1e-9 * noisy, "x_laser": 1e-6 * noisy,
+              "q": noisy, "I": noisy}
+    d, beta = -1.6e-9, 2e5  # [F/V], [V/m]
+    identified = {}
+    for share in (0.0, d):
+        C_e = p.capacitance(x) + share * (beta * x + 4.0 * np.sin(w * t))
+        truth = Truth({"C_e": C_e, "x": x, "q": q}, 1, len(t), names=("C_e", "x", "q"))
+        per_set, _ = identify_sets({"ch4_sine_10hz_s1": truth_series(series, truth, fs, block)}, 20e6, 0.0, GEOMETRY)
+        identified[share] = per_set[per_set["case"] == 2].iloc[0]
+    assert identified[0.0]["dC_x"] == pytest.approx(p.dC_x, rel=1e-4)
+    assert identified[0.0]["alpha"] == pytest.approx(p.alpha, rel=1e-3)
+    assert identified[0.0]["k"] == pytest.approx(p.k, rel=1e-3)
+    slope = p.dC_x + d * beta
+    assert identified[d]["dC_x"] == pytest.approx(slope, rel=1e-4)
+    a1 = p.C_P0 * p.k_over_alpha + p.alpha
+    assert identified[d]["alpha"] == pytest.approx(a1 - p.C_P0 * p.k_over_alpha * p.dC_x / slope, rel=1e-3)

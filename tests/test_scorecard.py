@@ -142,6 +142,24 @@ def test_twin_recovery_reads_the_truth_from_the_located_row():
     assert math.isnan(pending.published) and pending.verdict == NOT_YET
 
 
+def test_a_centre_moves_the_band_to_the_model_on_truth_and_the_deviation_stays_from_the_published():
+    # the located value 48 is 4 % off the published 50 but within 2 % of the model on truth, 48.5
+    centre = Locator("truth.csv", "model on truth", (("p", "a"),))
+    e = entry(published=50.0, kind="recovery", tolerance=Tolerance(rel=2),
+              locate=Locator("t.csv", "fs [kHz]", (("ns", 12),)), centre=centre)
+    truth = pd.DataFrame({"p": ["a", "b"], "model on truth": [48.5, 99.0]})
+    s = score(e, {"t.csv": TABLE, "truth.csv": truth})
+    assert s.band == pytest.approx((48.5 * 0.98, 48.5 * 1.02)) and s.verdict == WITHIN and s.published == 50.0
+    assert "48.5" in s.detail and "truth.csv" in s.detail
+    assert "truth.csv" in tables_read([e])
+    # a dataset the twin did not make has no truth: the band is the published value's
+    alone = score(e, {"t.csv": TABLE})
+    assert alone.band == pytest.approx((49.0, 51.0)) and alone.verdict == OUT and not alone.detail
+    # a centre that selects no row is a locator to fix
+    assert score(replace(e, centre=Locator("truth.csv", "model on truth", (("p", "z"),))),
+                 {"t.csv": TABLE, "truth.csv": truth}).verdict == MISSING
+
+
 # --- the table ------------------------------------------------------------------------------------
 
 def test_scorecard_keeps_every_applicable_entry_in_order_and_computes_deviations():
@@ -286,6 +304,9 @@ def test_a_cause_reads_the_spread_over_tests_or_quotes_another_tables_columns():
     (group(entries=[{"quantity": "a", "published": 1}, {"quantity": "a", "published": 2}]), "listed twice"),
     (group(entries=[{"quantity": "a", "published": {"truth": "truth"}}]), "twin recovery and a locate"),
     (group(section="twin recovery", entries=[{"quantity": "a", "published": {"truth": "truth"}}]), "and a locate"),
+    (group(entries=[{"quantity": "a", "published": 1, "centre": {"table": "t.csv", "column": "c"}}]),
+     "a centre is for a published recovery number"),
+    (group(kind="recovery", entries=[{"quantity": "a", "published": 1, "centre": {"table": "t.csv"}}]), "column"),
 ])
 def test_the_registry_schema_and_rules_reject_bad_entries_in_one_line(doc, message):
     with pytest.raises(ManifestError, match=message) as err:

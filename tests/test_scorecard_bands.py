@@ -87,7 +87,8 @@ def test_only_emergent_numbers_are_counted_as_reproductions(registry):
     """Numbers that hold by construction are labelled so: every closed-form band is of a closed
     form, the twin's inputs are recovery, and every number a calibration signature of the twin
     reads (workflow/twin_calibration.yaml) is calibration, with the strokes and k/α they set."""
-    assert {e.kind for e in registry if e.band.name == "twin input"} == {"recovery"}
+    assert {e.kind for e in registry if e.band.name in ("twin input", "model on truth")} == {"recovery"}
+    assert {e.band.name for e in registry if e.centre} == {"model on truth"}
     calibration = {e.locate for e in registry if e.kind == "calibration" and e.model == "stack"}
     signatures = {t.locate for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets}
     assert signatures <= calibration, signatures - calibration

@@ -207,6 +207,7 @@ class Entry:
     truth: str | None = None
     printed: str | None = None  # the published number as printed, where trailing zeros matter
     cause: Cause | None = None  # the measured table row that explains the number's error
+    centre: Locator | None = None  # the model on the twin's truth the band is centred on, if not the published
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -278,11 +279,15 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
             raise RegistryError(f"{where}: band {band.name!r} is on a log scale, which needs "
                                 f"{'a positive value' if band.tolerance.scale == 'log' else 'a value below 1'}")
     cause = _cause(group.get("cause", {}), item.get("cause", {}), where)
+    centre = _locator(item.get("centre", {}), where)
+    if centre is not None and (value["kind"] != "recovery" or truth is not None):
+        raise RegistryError(f"{where}: a centre is for a published recovery number (the twin's truth as "
+                            "the source's model reads it); a twin recovery row reads its truth with published: {truth: ...}")
     return Entry(section=section, kind=value["kind"], chapter=group["chapter"], source=group["source"],
                  model=group["model"], quantity=item["quantity"], unit=value["unit"],
                  published=None if truth else float(published), band=band, bound=bound,
                  note=value.get("note", ""), locate=locate, truth=truth, printed=item.get("printed"),
-                 cause=cause)
+                 cause=cause, centre=centre)
 
 
 def _cause(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Cause | None:
@@ -323,7 +328,8 @@ def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[En
 def tables_read(entries: Sequence[Entry]) -> list[str]:
     """Tables (relative to results/<dataset>/) the entries read, in registry order."""
     return list(dict.fromkeys([e.locate.table for e in entries if e.locate]
-                              + [e.cause.table for e in entries if e.cause]))
+                              + [e.cause.table for e in entries if e.cause]
+                              + [e.centre.table for e in entries if e.centre]))
 
 
 # --- scoring ------------------------------------------------------------------------------------
@@ -395,22 +401,25 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
         return Score(entry, published, band(published, entry),
                      detail=f"{entry.locate.table} is not made for this dataset")
     table = tables[entry.locate.table]
+    centre = entry.centre if entry.centre is not None and entry.centre.table in tables else None
     try:
         if entry.truth is not None:
             published = lookup(entry.locate, table, entry.truth)
         reproduced = lookup(entry.locate, table)
+        middle = published if centre is None else lookup(centre, tables[centre.table])
     except NotComputed as err:  # the stage's own statement that it has no value (say, a short campaign)
         return Score(entry, published, band(published, entry), detail=f"{LEFT_OUT}{err}")
     except LookupError as err:  # the table no longer has the row or column: a locator to fix
         return Score(entry, published, band(published, entry), verdict=MISSING, detail=str(err))
-    limits = band(published, entry)
+    detail = "" if centre is None else f"band centred on the model on the twin's truth, {middle:.4g} ({centre.describe()})"
+    limits = band(middle, entry)
     verdict = INFORMATION if entry.tolerance is None else judge(reproduced, *limits)
     cause, measured = "", entry.cause
     if measured and measured.located:
         measured = measured.at(_one_row(table, entry.locate.where, entry.locate.table), entry.locate.table)
     if measured and measured.table in tables:
         cause = measured.note(tables[measured.table])
-    return Score(entry, published, limits, reproduced, verdict, cause=cause)
+    return Score(entry, published, limits, reproduced, verdict, detail, cause)
 
 
 def scorecard(entries: Sequence[Entry], tables: Mapping[str, pd.DataFrame], manifest: Mapping[str, Any]) -> pd.DataFrame:

@@ -7,6 +7,12 @@ CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage
 #: the Chapter 4 sine sets of each dataset
 CH4_SETS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch4_sine_")] for d in DATASETS}
 
+
+def ch4_series(wildcards):
+    """The ripple series of the dataset's Chapter 4 sets, in CH4_SETS's order."""
+    return [f"results/{wildcards.dataset}/ripple/{e}.nc" for e in CH4_SETS[wildcards.dataset]]
+
+
 #: the capture whose truth the identified model is held to (Fig 4.8's U_H at its frequency too)
 RECOVERY_SINE = "ch4_sine_10hz_s1"
 
@@ -40,7 +46,7 @@ rule static_stiffness:
 rule identify:
     """Case 1 and Case 2 for every set (Eq 4.15–4.25); Tables 4.1–4.3 and the model for later stages."""
     input:
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CH4_SETS[w.dataset]],
+        series=ch4_series,
         static="results/{dataset}/ch4/static_stiffness.csv",
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("identify"),
@@ -64,7 +70,7 @@ rule ch4_figures:
     """Figures 4.2–4.8."""
     input:
         unpack(lambda w: captures(w.dataset, force="ch4_sine_50hz_s1", drive="ch4_sine_10hz_s1")),
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CH4_SETS[w.dataset]],
+        series=ch4_series,
         per_set="results/{dataset}/ch4/sets.csv",
         library=library_sources("ch4_figures"),
     output:
@@ -82,17 +88,22 @@ rule ch4_figures:
 
 
 rule model_recovery:
-    """Identified parameters against the twin's truth (parameter recovery)."""
+    """Identified parameters against the twin's built values and against the same identification on
+    its noiseless states (parameter recovery)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=RECOVERY_SINE)),
+        unpack(lambda w: captures(w.dataset, capture=RECOVERY_SINE, sets=CH4_SETS[w.dataset])),
+        series=ch4_series,
         per_set="results/{dataset}/ch4/sets.csv",
         hysteresis="results/{dataset}/ch4/hysteresis_voltage.csv",
+        static="results/{dataset}/ch4/static_stiffness.csv",
+        manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("model_recovery"),
     output:
         table=report("results/{dataset}/twin/model_recovery.csv", caption="../report/model_recovery.rst",
                      category="{dataset}", subcategory="Twin validation"),
     params:
         frequency=lambda w: EXPERIMENTS[w.dataset][RECOVERY_SINE].protocol["segments"][0]["frequency"],
+        n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/model_recovery.log",
     benchmark:

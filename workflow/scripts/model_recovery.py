@@ -1,8 +1,11 @@
-"""Rule `model_recovery`: identified Case 1 / Case 2 parameters, and Fig 4.8's U_H share at the
-capture's frequency, against the twin's truth.
+"""Rule `model_recovery`: identified Case 1 / Case 2 parameters against the twin's built values and
+against the same identification on its noiseless states, and Fig 4.8's U_H share at the
+capture's frequency against the twin's own.
 
 Alone: python workflow/scripts/model_recovery.py results/pi_p885/ch4/sets.csv \
-    results/pi_p885/ch4/hysteresis_voltage.csv raw/pi_p885/ch4_sine_10hz_s1.nc out.csv --frequency 10
+    results/pi_p885/ch4/hysteresis_voltage.csv raw/pi_p885/ch4_sine_10hz_s1.nc \
+    results/pi_p885/ch4/static_stiffness.csv raw/pi_p885/dataset.yaml out.csv --frequency 10 --n-periods 4 \
+    --sets raw/pi_p885/ch4_sine_*.nc --series results/pi_p885/ripple/ch4_sine_*.nc
 """
 
 import argparse
@@ -10,27 +13,38 @@ import argparse
 import pandas as pd
 
 from selfsense.capture import open_capture
+from selfsense.electromech import geometry_from_actuator
+from selfsense.manifest import load_manifest
 from selfsense.provenance import script_logging, write_table
-from selfsense.recovery import hysteresis_share_recovery, model_recovery
+from selfsense.recovery import hysteresis_share_recovery, identified_on_truth, model_recovery
 
 
-def main(per_set, hysteresis, capture, table, frequency, log=None):
-    """frequency: the capture's [Hz]."""
+def main(per_set, hysteresis, capture, static, manifest, table, frequency, n_periods, sets, series, log=None):
+    """frequency: the capture's [Hz]; sets, series: every Chapter 4 set's capture and ripple series, in one order."""
     logger = script_logging(log)
+    actuator = load_manifest(manifest)["actuator"]
+    k_static = float(pd.read_csv(static)["k [N/µm]"].iloc[0]) * 1e6
+    on_truth = identified_on_truth(series, sets, n_periods, k_static, float(actuator["moving_mass_kg"]),
+                                   geometry_from_actuator(actuator, f"{manifest}: actuator"))
     with open_capture(capture) as cap:
         truth, states = cap.read_truth()
-    result = pd.concat([model_recovery(pd.read_csv(per_set), truth),
+    result = pd.concat([model_recovery(pd.read_csv(per_set), truth, on_truth),
                         hysteresis_share_recovery(pd.read_csv(hysteresis), states, frequency)], ignore_index=True)
-    write_table(result, table, inputs=[per_set, hysteresis, capture], config={"frequency": frequency})
+    write_table(result, table, inputs=[per_set, hysteresis, capture, static, manifest, *sets, *series],
+                config={"frequency": frequency, "n_periods": n_periods})
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(i.per_set, i.hysteresis, i.capture, snakemake.output.table, snakemake.params.frequency, snakemake.log[0])
+    main(i.per_set, i.hysteresis, i.capture, i.static, i.manifest, snakemake.output.table, snakemake.params.frequency,
+         snakemake.params.n_periods, list(i.sets), list(i.series), snakemake.log[0])
 elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("per_set", "hysteresis", "capture", "table"):
+    cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    for name in ("per_set", "hysteresis", "capture", "static", "manifest", "table"):
         cli.add_argument(name)
     cli.add_argument("--frequency", type=float, required=True, help="the capture's frequency [Hz]")
+    cli.add_argument("--n-periods", type=int, required=True, help="the ripple's np (config ripple.n_periods)")
+    cli.add_argument("--sets", nargs="+", required=True, help="every Chapter 4 set's capture")
+    cli.add_argument("--series", nargs="+", required=True, help="their ripple series, in the same order")
     main(**vars(cli.parse_args()))
