@@ -49,13 +49,12 @@ MODEL_TRUTH = {"k": "stack_k", "alpha": "stack_alpha", "C_P0": "stack_C_P0", "dC
 ON_TRUTH = "model on truth"
 
 
-def truth_series(series: Mapping[str, np.ndarray], truth, fs: float, block_len: int) -> dict[str, np.ndarray]:
+def truth_series(series: Mapping[str, np.ndarray], truth: Truth, fs: float, block_len: int) -> dict[str, np.ndarray]:
     """A Chapter 4 set's ripple ``series`` with what the identification reads of it (Eq 4.15–4.19)
     replaced by the twin's noiseless states over the same windows: the small-signal C_e for the
     ripple's, x for the laser's, the stack's charge q for the integrated current (whose offset and
-    drift the charge fit absorbs either way) and I = dq/dt. ``truth``: a
-    :class:`Truth` with C_e, x and q; windows the ripple stage rejected stay
-    rejected."""
+    drift the charge fit absorbs either way) and I = dq/dt. ``truth`` holds C_e, x and q; windows
+    the ripple stage rejected stay rejected."""
     true = window_truth(truth, series["time"], fs, block_len, ("C_e", "x", "q"))
     return dict(series) | {"C_e": np.where(np.isfinite(series["C_e"]), true["C_e"], np.nan), "x_laser": true["x"],
                            "q": true["q"], "I": np.gradient(true["q"], series["time"])}
