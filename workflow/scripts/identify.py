@@ -7,8 +7,6 @@ import argparse
 import json
 from pathlib import Path
 
-import pandas as pd
-
 from selfsense.capture import read_series
 from selfsense.chapters import ch4
 from selfsense.electromech import geometry_from_actuator, model_record
@@ -22,7 +20,7 @@ def main(series, static, manifest, out, log=None):
     meta = load_manifest(manifest)
     actuator = meta["actuator"]
     geometry = geometry_from_actuator(actuator, f"{manifest}: actuator")
-    k_static = float(pd.read_csv(static)["k [N/µm]"].iloc[0]) * 1e6
+    k_static = ch4.load_static_stiffness(static)
     sets = {Path(p).stem: read_series(p) for p in series}
     per_set, fits = ch4.identify_sets(sets, k_static, float(actuator["moving_mass_kg"]), geometry)
     inputs = [*series, static, manifest]

@@ -1,6 +1,5 @@
-"""Rule `model_recovery`: identified Case 1 / Case 2 parameters against the twin's built values and
-against the same identification on its noiseless states, and Fig 4.8's U_H share at the
-capture's frequency against the twin's own.
+"""Rule `model_recovery`: identified Case 1 / Case 2 parameters against the twin's built values and the
+same identification on its noiseless states, and Fig 4.8's U_H share at the capture's frequency.
 
 Alone: python workflow/scripts/model_recovery.py results/pi_p885/ch4/sets.csv \
     results/pi_p885/ch4/hysteresis_voltage.csv raw/pi_p885/ch4_sine_10hz_s1.nc \
@@ -13,6 +12,7 @@ import argparse
 import pandas as pd
 
 from selfsense.capture import open_capture
+from selfsense.chapters.ch4 import load_static_stiffness
 from selfsense.electromech import geometry_from_actuator
 from selfsense.manifest import load_manifest
 from selfsense.provenance import script_logging, write_table
@@ -23,7 +23,7 @@ def main(per_set, hysteresis, capture, static, manifest, table, frequency, n_per
     """frequency: the capture's [Hz]; sets, series: every Chapter 4 set's capture and ripple series, in one order."""
     logger = script_logging(log)
     actuator = load_manifest(manifest)["actuator"]
-    k_static = float(pd.read_csv(static)["k [N/µm]"].iloc[0]) * 1e6
+    k_static = load_static_stiffness(static)
     on_truth = identified_on_truth(series, sets, n_periods, k_static, float(actuator["moving_mass_kg"]),
                                    geometry_from_actuator(actuator, f"{manifest}: actuator"))
     with open_capture(capture) as cap:

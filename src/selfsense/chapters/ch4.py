@@ -39,6 +39,15 @@ THESIS_TABLE_4_3 = {
     "k33": (0.72, 0.66, 0.77, 0.73), "U_P_max": (86, 86, 72, 72)}
 
 
+#: the column of rule static_stiffness's table that holds k (Eq 4.16) [N/µm]
+STATIC_K = "k [N/µm]"
+
+
+def load_static_stiffness(path) -> float:
+    """k [N/m] from rule static_stiffness's table (Eq 4.16): the k Case 1 is identified with."""
+    return float(pd.read_csv(path)[STATIC_K].iloc[0]) * 1e6
+
+
 def set_frame(series: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """One set's series with the position zeroed at its start, as the thesis recorded it."""
     return dict(series) | {"x_laser": series["x_laser"] - series["x_laser"][0]}
