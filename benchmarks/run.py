@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-from selfsense.capture import TWIN_COMPRESSION
+from selfsense.io.capture import TWIN_COMPRESSION
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = 48000.0
@@ -60,8 +60,9 @@ def best_of(fn, repeats=3):
 
 
 def params():
-    from selfsense.manifest import load_dataset
-    from selfsense.twin import TwinParams, daq_plan
+    from selfsense.io.manifest import load_dataset
+    from selfsense.twin.params import TwinParams
+    from selfsense.twin.experiment import daq_plan
 
     manifest = load_dataset(ROOT / "raw", "pi_p885")
     return TwinParams.from_manifest(manifest["twin"]), daq_plan(manifest)
@@ -94,8 +95,9 @@ def speed_probe(when):
 
 def simulate(path, seconds, compression=TWIN_COMPRESSION):
     """A capture of ``seconds`` of 50 Hz drive on the twin, with (compression, complevel)."""
-    from selfsense.twin import Drive, simulate_capture
-    from selfsense.twin.drive import Segment
+    from selfsense.methods.drive import Drive
+    from selfsense.twin.bench import simulate_capture
+    from selfsense.methods.drive import Segment
 
     p, daq = params()
     drive = Drive("voltage", (Segment(seconds, 50.0, 0.0, 100.0),))
@@ -104,7 +106,7 @@ def simulate(path, seconds, compression=TWIN_COMPRESSION):
 
 
 def bench_capture(seconds, tmp):
-    from selfsense.capture import open_capture
+    from selfsense.io.capture import open_capture
 
     n = int(seconds * FS)
     for compression in (("zlib", 1), TWIN_COMPRESSION, (None, 0)):
@@ -124,9 +126,9 @@ def bench_capture(seconds, tmp):
 
 
 def bench_ripple_and_hpo(path):
-    from selfsense.capture import open_capture
-    from selfsense.observer import HPOGains, HybridPositionObserver
-    from selfsense.ripple import RippleExtractor, SamplingPlan
+    from selfsense.io.capture import open_capture
+    from selfsense.methods.observer import HPOGains, HybridPositionObserver
+    from selfsense.methods.ripple import RippleExtractor, SamplingPlan
 
     def read(names):
         with open_capture(path) as cap:

@@ -2,7 +2,7 @@
 
 The signatures, their bands and the free parameters with their search ranges are
 workflow/twin_calibration.yaml (docs/twin.md, "Calibration"); nothing else is fitted to. For each
-trial the twin runs the short experiments of selfsense.twin.signatures (a campaign's own protocols
+trial the twin runs the short experiments of selfsense.verify.signatures (a campaign's own protocols
 for the Chapter 3–6 runs; the steady temperature and τ by the thermal model's closed forms, not a
 600 s run), the pipeline's analysis functions measure them, and the targets judge them as rule
 twin_calibration judges a campaign. scipy.optimize.least_squares minimises each signature's
@@ -45,11 +45,12 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from selfsense.calibration import calibration_table, load_targets
-from selfsense.electromech import geometry_from_actuator
-from selfsense.manifest import ManifestError, expand_protocols, load_config, load_dataset
-from selfsense.twin import TwinParams, daq_plan
-from selfsense.twin.signatures import TABLES, ShortRuns
+from selfsense.scorecard.calibration import calibration_table, load_targets
+from selfsense.methods.electromech import geometry_from_actuator
+from selfsense.io.manifest import ManifestError, expand_protocols, load_config, load_dataset
+from selfsense.twin.params import TwinParams
+from selfsense.twin.experiment import daq_plan
+from selfsense.verify.signatures import TABLES, ShortRuns
 
 #: a trial whose signature is not a number (an identification that fails at the edge of a
 #: range) counts as this many band widths out

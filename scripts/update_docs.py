@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.scorecard import counts_markdown, deviations_markdown, replace_block
+from selfsense.scorecard.render import counts_markdown, deviations_markdown, replace_block
 
 SNAPSHOT = Path("docs/snapshot")
 PAGES = {"counts": Path("README.md"), "deviations": Path("docs/deviations.md")}

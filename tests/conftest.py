@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from selfsense.manifest import load_dataset
-from selfsense.twin import TwinParams, daq_plan
+from selfsense.io.manifest import load_dataset
+from selfsense.twin.params import TwinParams
+from selfsense.twin.experiment import daq_plan
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -6,14 +6,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from selfsense import powerloss as pl
-from selfsense.capture import open_capture
+from selfsense.methods import powerloss as pl
+from selfsense.io.capture import open_capture
 from selfsense.chapters import ronkanen
-from selfsense.manifest import ManifestError, expand_protocols, load_config, load_dataset, validate_document
+from selfsense.io.manifest import ManifestError, expand_protocols, load_config, load_dataset, validate_document
 from selfsense.twin import bender as B
-from selfsense.twin import daq_plan, simulate_experiment
+from selfsense.twin.experiment import daq_plan, simulate_experiment
 from selfsense.twin.bench import experiment_seed
-from selfsense.twin.drive import Drive, Segment, drive_from_protocol
+from selfsense.methods.drive import Drive, Segment, drive_from_protocol
 
 from .conftest import ROOT
 

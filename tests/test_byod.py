@@ -11,13 +11,14 @@ import pytest
 import yaml
 from scipy.io import savemat
 
-from selfsense import characterise as ch
-from selfsense.capture import INT16_FULL, CaptureError, open_capture
+from selfsense.methods import characterise as ch
+from selfsense.io.capture import INT16_FULL, CaptureError, open_capture
 from selfsense.cli import main as cli
-from selfsense.figure_names import loop_pages
-from selfsense.manifest import ManifestError, load_dataset, load_yaml
-from selfsense.reference_values import KIND, reference_rows
-from selfsense.scorecard import PUBLISHED, WITHIN, applicable, parse_registry, scorecard
+from selfsense.chapters.figure_names import loop_pages
+from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
+from selfsense.scorecard.reference_values import KIND, reference_rows
+from selfsense.scorecard.registry import PUBLISHED, WITHIN, applicable, parse_registry
+from selfsense.scorecard.scoring import scorecard
 
 from .conftest import ROOT, measured_copy_remakes
 from .test_reliability import bench_manifest, leftovers, one_line, script, set_codes, synthetic

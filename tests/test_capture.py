@@ -6,8 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.capture import (FILL, CaptureError, CaptureWriter, channel_spec, compression_of, folded_fs,
-                               open_capture, scan_capture)
+from selfsense.io.capture import FILL, CaptureError, CaptureWriter, channel_spec, compression_of, folded_fs, open_capture, scan_capture
 
 FS = 48000.0
 

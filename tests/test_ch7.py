@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from selfsense.chapters import ch7
-from selfsense.gamma import GammaPolynomial
-from selfsense.ripple import SamplingPlan
-from selfsense.thermal import ThermalModel, ThermalProperties, predict_temperature
+from selfsense.methods.gamma import GammaPolynomial
+from selfsense.methods.ripple import SamplingPlan
+from selfsense.methods.thermal import ThermalModel, ThermalProperties, predict_temperature
 
 from .tolerances import sums
 
@@ -124,8 +124,8 @@ def test_frequency_effect_is_zero_on_gamma_and_gives_a_shift_or_a_loop_back():
 
 
 def test_figure_7_9_shows_the_identified_values_or_says_why_not():
-    from selfsense.observer import HPOGains
-    from selfsense.ripple import plan_from_fs
+    from selfsense.methods.observer import HPOGains
+    from selfsense.methods.ripple import plan_from_fs
 
     def texts(fig):
         return " ".join(t.get_text() for ax in fig.axes for t in ax.texts)

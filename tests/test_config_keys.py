@@ -8,7 +8,7 @@ import re
 import pytest
 import yaml
 
-from selfsense.manifest import load_config
+from selfsense.io.manifest import load_config
 
 from .conftest import ROOT, snakemake
 

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from selfsense.chapters.ch6 import errors, segment_maxima, segment_windows, table_6_1
-from selfsense.control import HPOIntegralController, IntegralController, tracking_prediction
+from selfsense.twin.closed_loop import HPOIntegralController
+from selfsense.methods.control import IntegralController, tracking_prediction
 
 from .tolerances import CLOSED_FORM
 

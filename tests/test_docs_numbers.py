@@ -5,7 +5,7 @@ import importlib.util
 
 import pandas as pd
 
-from selfsense.scorecard import BEGIN, END, summary
+from selfsense.scorecard.render import BEGIN, END, summary
 
 from .conftest import ROOT
 

@@ -4,9 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from selfsense.electromech import (Geometry, Kinematics, ModelParameters, alpha_from_slope, capacitance_line,
-                                   fit_charge_position, identify_set, material_properties, sensitivity,
-                                   slope_is_consistent)
+from selfsense.methods.electromech import Geometry, Kinematics, ModelParameters, alpha_from_slope, capacitance_line, fit_charge_position, identify_set, material_properties, sensitivity, slope_is_consistent
 
 FS = 4000.0
 TRUE = ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 160.0, 0.1017)
@@ -86,7 +84,7 @@ def test_sensitivity_follows_eq_4_18():
 def test_the_u_h_share_is_held_to_the_peak_of_the_twins_hysteresis_voltage_over_the_peak_drive():
     import pandas as pd
 
-    from selfsense.recovery import hysteresis_share_recovery
+    from selfsense.verify.recovery import hysteresis_share_recovery
 
     t = np.linspace(0, 1, 4001)
     states = {"U_drive": 50 - 50 * np.cos(2 * np.pi * 10 * t), "U_H": 8 * np.sin(2 * np.pi * 10 * t - 0.3) + 2}
@@ -104,8 +102,8 @@ def test_the_model_on_truth_gives_the_built_values_where_eq_4_4_holds_and_reads_
     β·x + (a loop term orthogonal to x over whole cycles) is read as the slope ΔCx + d·β, and α
     through k/α = 2a₂/ΔCx (Eq 4.18) as a₁ − C_P0·(k/α)·ΔCx/(ΔCx + d·β): the pseudo-true values."""
     from selfsense.chapters.ch4 import identify_sets
-    from selfsense.error_budget import Truth
-    from selfsense.recovery import truth_series
+    from selfsense.verify.truth import Truth
+    from selfsense.verify.recovery import truth_series
 
     fs, block, f = 48000.0, 12, 10.0
     p = ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 0.0, 0.0)

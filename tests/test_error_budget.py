@@ -10,12 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.error_budget import (CHARGE_SOURCES, SOURCES, TRUTH_STATES, BudgetStats, SpanBudgets, Superposition,
-                                   Truth, charge_position_budget)
-from selfsense.budget_columns import AT_MAX_SPREAD
-from selfsense.manifest import load_yaml
-from selfsense.observer import HPOGains, HybridPositionObserver
-from selfsense.scorecard import BUDGET_TABLE, LEFT_OUT, parse_registry
+from selfsense.verify.error_budget import CHARGE_SOURCES, SOURCES, BudgetStats, SpanBudgets, Superposition, charge_position_budget
+from selfsense.verify.truth import TRUTH_STATES, Truth
+from selfsense.verify.error_budget import AT_MAX_SPREAD
+from selfsense.io.manifest import load_yaml
+from selfsense.methods.observer import HPOGains, HybridPositionObserver
+from selfsense.scorecard.registry import BUDGET_TABLE, LEFT_OUT, parse_registry
 
 from .conftest import ROOT
 from .tolerances import CLOSED_FORM, rtol

@@ -6,23 +6,20 @@ or is shown not to damage anything.
 """
 
 import logging
-import math
 import subprocess
 import sys
-import threading
-import time
 
 import netCDF4
 import numpy as np
 import pytest
 import yaml
 
-from selfsense.capture import FILL, CaptureError, CaptureWriter, channel_spec, open_capture, scan_capture
-from selfsense.manifest import ManifestError, load_dataset, load_yaml, validate_config
-from selfsense.provenance import script_logging
+from selfsense.io.capture import FILL, CaptureError, CaptureWriter, channel_spec, open_capture, scan_capture
+from selfsense.io.manifest import ManifestError, load_dataset, load_yaml, validate_config
+from selfsense.io.provenance import script_logging
 
 from .conftest import ROOT, copy_repo
-from .test_reliability import (CH3, RANGES, add_measured, assert_same_capture, bench_manifest, error_line, leftovers,
+from .test_reliability import (CH3, assert_same_capture, bench_manifest, error_line, leftovers,
                                manifest, one_line, run_snakemake, script, synthetic, write_config)
 
 
@@ -158,7 +155,7 @@ def test_a_config_fault_set_with_dash_dash_config_is_blamed_on_it():
 
 DEEP = """
 import sys
-from selfsense.manifest import ManifestError, load_yaml
+from selfsense.io.manifest import ManifestError, load_yaml
 try:
     load_yaml(sys.argv[1])
 except ManifestError as err:
@@ -179,8 +176,8 @@ def test_deeply_nested_yaml_is_refused_with_one_line_not_a_crash(tmp_path, depth
 
 FAIL_IN_SCRIPT = """
 import sys
-from selfsense.capture import open_capture
-from selfsense.provenance import script_logging
+from selfsense.io.capture import open_capture
+from selfsense.io.provenance import script_logging
 script_logging(sys.argv[2])
 open_capture(sys.argv[1])
 """

@@ -9,11 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense import frequency_response as fr
-from selfsense.capture import open_capture
-from selfsense.manifest import expand_protocols
-from selfsense.twin import simulate_capture
-from selfsense.twin.drive import Segment, drive_from_protocol
+from selfsense.methods import frequency_response as fr
+from selfsense.io.capture import open_capture
+from selfsense.io.manifest import expand_protocols
+from selfsense.twin.bench import simulate_capture
+from selfsense.methods.drive import Segment, drive_from_protocol
 
 from .tolerances import CLOSED_FORM, root_condition, rtol
 

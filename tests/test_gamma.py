@@ -1,4 +1,4 @@
-"""Tests for selfsense.gamma (thesis Eq 5.4 / 7.13, Tables 5.1, 5.2, 7.2, 7.3)."""
+"""Tests for selfsense.methods.gamma (thesis Eq 5.4 / 7.13, Tables 5.1, 5.2, 7.2, 7.3)."""
 
 import numpy as np
 import pandas as pd
@@ -9,14 +9,7 @@ from hypothesis import strategies as st
 from numpy.polynomial import polynomial as P
 from scipy import stats
 
-from selfsense.gamma import (
-    anova_table,
-    coefficient_table,
-    fit_gamma,
-    fit_log_gamma,
-    gamma_t_table,
-    model_selection_table,
-)
+from selfsense.methods.gamma import anova_table, coefficient_table, fit_gamma, fit_log_gamma, gamma_t_table, model_selection_table
 
 from .tolerances import CLOSED_FORM, rtol, sums
 

@@ -1,15 +1,14 @@
-"""Γ and Γ_T refitted on the twin's truth (selfsense.gamma_truth): every combination of true and
+"""Γ and Γ_T refitted on the twin's truth (selfsense.verify.gamma_truth): every combination of true and
 measured inputs, and a fit on noiseless data that gives the generating relation back."""
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.gamma import fit_gamma
-from selfsense.gamma_truth import (ALL_TRUE, DISTANCE, INTERACTION, MEASURED, RESIDUAL, SLOPE_T_T, curve_rows,
-                                  variants)
-from selfsense.manifest import load_yaml
-from selfsense.scorecard import parse_registry, printed_gamma
+from selfsense.methods.gamma import fit_gamma
+from selfsense.verify.gamma_truth import ALL_TRUE, DISTANCE, INTERACTION, MEASURED, RESIDUAL, SLOPE_T_T, curve_rows, variants
+from selfsense.io.manifest import load_yaml
+from selfsense.scorecard.registry import parse_registry, printed_gamma
 
 from .conftest import ROOT
 from .tolerances import rtol
@@ -28,7 +27,7 @@ def test_variants_replace_every_subset_of_the_inputs_by_the_truth():
 
 def _stroke_of(printed, stroke, n, rng):
     """C [F] and x [m] along the printed curve's own C range (Table 5.2's fit), dense at the ends."""
-    from selfsense.gamma import printed_range
+    from selfsense.methods.gamma import printed_range
 
     lo, hi = printed_range(printed, stroke)
     return (lo + (hi - lo) * 0.5 * (1 - np.cos(rng.uniform(0, 2 * np.pi, n)))) * 1e-6

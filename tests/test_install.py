@@ -9,7 +9,7 @@ import pytest
 
 from .conftest import copy_repo
 
-WHERE = "import selfsense, selfsense.manifest as m; print(selfsense.__file__); print(m.SCHEMAS)"
+WHERE = "import selfsense, selfsense.io.manifest as m; print(selfsense.__file__); print(m.SCHEMAS)"
 
 
 @pytest.mark.slow

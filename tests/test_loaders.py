@@ -4,13 +4,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.capture import CaptureWriter, channel_spec, open_capture
+from selfsense.io.capture import CaptureWriter, channel_spec, open_capture
 from selfsense.chapters import ronkanen
-from selfsense.electromech import MODEL_KEYS, load_k_over_alpha, model_record
-from selfsense.gamma import GammaPolynomial, fit_gamma, load_gamma
-from selfsense.observer import HPOGains, load_gains
-from selfsense.provenance import provenance, write_json, write_table
-from selfsense.ripple import SamplingPlan, plan_from_capture
+from selfsense.methods.electromech import MODEL_KEYS, load_k_over_alpha, model_record
+from selfsense.methods.gamma import GammaPolynomial, fit_gamma, load_gamma
+from selfsense.methods.observer import HPOGains, load_gains
+from selfsense.io.provenance import provenance, write_json, write_table
+from selfsense.methods.ripple import SamplingPlan, plan_from_capture
 
 
 @pytest.mark.parametrize("with_t", [False, True])

@@ -1,4 +1,4 @@
-"""The closed loop's drive in the ripple channels (selfsense.loop_leak): the twin's what-if keeps the
+"""The closed loop's drive in the ripple channels (selfsense.verify.loop_leak): the twin's what-if keeps the
 drive out of the ripple channels and touches nothing else, and on the smoke run the study's
 as-simulated ε_OCL is Table 6.2's while the leak-free run's C_e is the less biased."""
 

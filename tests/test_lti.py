@@ -1,4 +1,4 @@
-"""selfsense.lti against the scipy.signal functions it stands in for: the same operations in the same
+"""selfsense.methods.lti against the scipy.signal functions it stands in for: the same operations in the same
 order, so the twin's captures and the observer's estimates do not change; equal bit for bit here,
 and within the rounding of their few operations on any other BLAS or CPU."""
 
@@ -8,8 +8,8 @@ import scipy.signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.lti import bilinear, butterworth_highpass2, filter_run, tustin
-from selfsense.observer import HPOGains, _state_matrices
+from selfsense.methods.lti import bilinear, butterworth_highpass2, filter_run, tustin
+from selfsense.methods.observer import HPOGains, _state_matrices
 
 from .tolerances import CLOSED_FORM, assert_close, sums
 
@@ -57,7 +57,7 @@ def test_two_processes_compiling_at_once_leave_a_cache_both_later_load(tmp_path)
     import subprocess
     import sys
 
-    code = ("import numpy as np; from selfsense.lti import filter_run; y = np.empty(4); "
+    code = ("import numpy as np; from selfsense.methods.lti import filter_run; y = np.empty(4); "
             "filter_run(np.array([1.0, -1.0]), np.array([1.0, -0.5]), np.ones(4), np.zeros(1), y); "
             "print(list(y), len(filter_run.stats.cache_hits), len(filter_run.stats.cache_misses))")
     env = os.environ | {"NUMBA_CACHE_DIR": str(tmp_path)}

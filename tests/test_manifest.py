@@ -5,7 +5,7 @@ import shutil
 import pytest
 import yaml
 
-from selfsense.manifest import ManifestError, expand_protocols, load_config, load_dataset
+from selfsense.io.manifest import ManifestError, expand_protocols, load_config, load_dataset
 
 from .conftest import ROOT
 

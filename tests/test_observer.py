@@ -1,4 +1,4 @@
-"""Tests for selfsense.observer – the hybrid position observer (Islam 2013, Eq 5.5–5.9)."""
+"""Tests for selfsense.methods.observer – the hybrid position observer (Islam 2013, Eq 5.5–5.9)."""
 
 from __future__ import annotations
 
@@ -11,22 +11,7 @@ from hypothesis import strategies as st
 
 from .tolerances import CLOSED_FORM, assert_close, rational_condition, resolvent_condition, rtol
 
-from selfsense.observer import (
-    THESIS_A0,
-    THESIS_OMEGA_S,
-    HPOGains,
-    HybridPositionObserver,
-    continuous_state_space,
-    discretize,
-    equilibrium_state,
-    hpo_run,
-    hpo_update,
-    magnitude_response,
-    peak_offset_gain,
-    reference_simulate,
-    sample_and_hold,
-    transfer_functions,
-)
+from selfsense.methods.observer import THESIS_A0, THESIS_OMEGA_S, HPOGains, HybridPositionObserver, continuous_state_space, discretize, equilibrium_state, hpo_run, hpo_update, magnitude_response, peak_offset_gain, reference_simulate, sample_and_hold, transfer_functions
 
 FS = 48_000.0  # stack DAQ rate (docs/sources.md, Table 3.2)
 XCP_EVERY = 12  # one new capacitance-PSS value per 12 samples

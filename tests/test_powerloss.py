@@ -1,4 +1,4 @@
-"""Tests for selfsense.powerloss (Ronkanen, Kallio & Koivo, IROS 2002)."""
+"""Tests for selfsense.methods.powerloss (Ronkanen, Kallio & Koivo, IROS 2002)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense import powerloss as pl
+from selfsense.methods import powerloss as pl
 
 from .tolerances import CLOSED_FORM, rtol
 

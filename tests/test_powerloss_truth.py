@@ -1,4 +1,4 @@
-"""Ronkanen's Section 7 results on the twin's truth (selfsense.powerloss_truth): a perfect sensor has no
+"""Ronkanen's Section 7 results on the twin's truth (selfsense.verify.powerloss_truth): a perfect sensor has no
 share, a sensor offset drifting by a known amount has exactly that share, and the smoke run's
 measured column is the performance table's."""
 
@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.powerloss_truth import SENSOR, performance_truth
+from selfsense.verify.powerloss_truth import SENSOR, performance_truth
 from selfsense.chapters.ronkanen import CONTROLS, Record, performance
 
 FS, A_CMD = 100.0, 1.0e3

@@ -29,9 +29,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from selfsense.capture import (FILL, INT16_FULL, CaptureError, CaptureWriter, channel_spec, open_capture,
-                               read_series, scan_capture)
-from selfsense.manifest import ManifestError, load_dataset, load_yaml
+from selfsense.io.capture import FILL, INT16_FULL, CaptureError, CaptureWriter, channel_spec, open_capture, read_series, scan_capture
+from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
 
 from .conftest import ROOT, copy_repo
 
@@ -276,8 +275,8 @@ def test_short_nan_burst_and_clipping_are_counted_and_the_ripple_is_masked(tmp_p
 KILL_MID_WRITE = """
 import os, signal, sys
 import numpy as np
-from selfsense.capture import CaptureWriter, SeriesWriter, channel_spec
-from selfsense.provenance import atomic_path
+from selfsense.io.capture import CaptureWriter, SeriesWriter, channel_spec
+from selfsense.io.provenance import atomic_path
 kind, out = sys.argv[1], sys.argv[2]
 if kind == "capture":
     with CaptureWriter(out, {"fs": 48000.0}, [channel_spec("U", -200, 200)], 4800) as w:

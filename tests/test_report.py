@@ -17,10 +17,10 @@ import pandas as pd
 import pytest
 import yaml
 
-from selfsense.capture import open_capture
-from selfsense.manifest import load_dataset, load_yaml
-from selfsense.provenance import sha256
-from selfsense.scorecard import INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, WITHIN, applicable, parse_registry
+from selfsense.io.capture import open_capture
+from selfsense.io.manifest import load_dataset, load_yaml
+from selfsense.io.provenance import sha256
+from selfsense.scorecard.registry import INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, WITHIN, applicable, parse_registry
 
 from .conftest import measured_copy_remakes, snakemake
 

@@ -1,4 +1,4 @@
-"""Tests for selfsense.ripple (thesis Chapter 3, Eq 3.3-3.13, Tables 3.1-3.2)."""
+"""Tests for selfsense.methods.ripple (thesis Chapter 3, Eq 3.3-3.13, Tables 3.1-3.2)."""
 
 import math
 import pickle
@@ -8,16 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.ripple import (
-    RippleBlocks,
-    RippleExtractor,
-    SamplingPlan,
-    extract_impedance,
-    impedance_from_coefficients,
-    plan_from_fs,
-    table_3_1,
-    table_3_2,
-)
+from selfsense.methods.ripple import RippleBlocks, RippleExtractor, SamplingPlan, extract_impedance, impedance_from_coefficients, plan_from_fs, table_3_1, table_3_2
 
 from .tolerances import CLOSED_FORM, rtol
 

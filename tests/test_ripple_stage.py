@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from selfsense.metrics import direction, hysteresis_percent
-from selfsense.ripple import SamplingPlan, WindowMeans, extract_impedance, impedance_series
+from selfsense.methods.metrics import direction, hysteresis_percent
+from selfsense.methods.ripple import SamplingPlan, WindowMeans, extract_impedance, impedance_series
 
 from .tolerances import sums
 

@@ -5,7 +5,7 @@ import json
 import pandas as pd
 import pytest
 
-from selfsense import powerloss as pl
+from selfsense.methods import powerloss as pl
 
 pytestmark = pytest.mark.slow
 

@@ -8,11 +8,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.manifest import ManifestError, load_yaml
-from selfsense.scorecard import (INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Band, Entry, Locator,
-                                 Tolerance, applicable, band, judge, last_digit, lookup, parse_registry, score, scorecard,
-                                 scorecard_html, landing_rst, out_of_band_rst, pending_rst, summary, tables_read,
-                                 BUDGET_TABLE, Cause, RegistryError)
+from selfsense.io.manifest import ManifestError, load_yaml
+from selfsense.scorecard.registry import INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, RECOVERY, WITHIN, Band, Entry, Locator, Tolerance, applicable, last_digit, parse_registry, tables_read, BUDGET_TABLE, Cause, RegistryError
+from selfsense.scorecard.scoring import band, judge, lookup, score, scorecard
+from selfsense.scorecard.render import scorecard_html, landing_rst, out_of_band_rst, pending_rst
 
 from .conftest import ROOT
 

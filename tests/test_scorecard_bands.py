@@ -6,9 +6,10 @@ import re
 
 import pytest
 
-from selfsense.calibration import load_targets
-from selfsense.manifest import load_yaml
-from selfsense.scorecard import band, last_digit, parse_registry
+from selfsense.scorecard.calibration import load_targets
+from selfsense.io.manifest import load_yaml
+from selfsense.scorecard.scoring import band
+from selfsense.scorecard.registry import last_digit, parse_registry
 
 from .conftest import ROOT
 

@@ -5,10 +5,10 @@ import pandas as pd
 import pytest
 
 from selfsense.chapters.ch5 import charge_estimate_figure, choose_order, creep_errors, creep_phases, run_observer, table_5_3
-from selfsense.gamma import GammaPolynomial, fit_gamma
-from selfsense.observer import HPOGains
-from selfsense.ripple import SamplingPlan, extract_impedance
-from selfsense.selfsensing import SelfSensingChain
+from selfsense.methods.gamma import GammaPolynomial, fit_gamma
+from selfsense.methods.observer import HPOGains
+from selfsense.methods.ripple import SamplingPlan, extract_impedance
+from selfsense.methods.selfsensing import SelfSensingChain
 from selfsense.twin.bench import Bench, experiment_seed
 
 PLAN = SamplingPlan(1e5, 12, 4, 4)

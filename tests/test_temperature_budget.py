@@ -7,12 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.capture import CaptureWriter, channel_spec
+from selfsense.io.capture import CaptureWriter, channel_spec
 from selfsense.chapters.ch7 import against_measured
-from selfsense.error_budget import Truth
-from selfsense.temperature_budget import (ESTIMATORS, HEAT_STATES, SOURCES, TRUTH_STATES, budget_row,
-                                          capture_temperature_budget, split, temperature_budget, true_heat)
-from selfsense.thermal import ThermalModel
+from selfsense.verify.truth import Truth
+from selfsense.verify.temperature_budget import ESTIMATORS, HEAT_STATES, SOURCES, TRUTH_STATES, budget_row, capture_temperature_budget, split, temperature_budget, true_heat
+from selfsense.methods.thermal import ThermalModel
 
 from .tolerances import CLOSED_FORM, rtol, sums
 

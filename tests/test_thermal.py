@@ -1,4 +1,4 @@
-"""Tests for selfsense.thermal (thesis Chapter 7, self-heating)."""
+"""Tests for selfsense.methods.thermal (thesis Chapter 7, self-heating)."""
 
 from __future__ import annotations
 
@@ -9,26 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
-from selfsense.thermal import (
-    K_T_TABLE_7_1,
-    P885_PROPERTIES,
-    TABLE_7_1,
-    PowerAverager,
-    SelfHeatingEstimator,
-    ThermalModel,
-    ThermalProperties,
-    average_power,
-    identify_series,
-    identify_step,
-    k_over_alpha_from_stroke,
-    k_T_from_gamma,
-    k_T_from_tau,
-    linear_fit,
-    power_loss,
-    predict_temperature,
-    steady_state_rise,
-    zoh_coefficients,
-)
+from selfsense.methods.thermal import K_T_TABLE_7_1, P885_PROPERTIES, TABLE_7_1, PowerAverager, SelfHeatingEstimator, ThermalModel, ThermalProperties, average_power, identify_series, identify_step, k_over_alpha_from_stroke, k_T_from_gamma, k_T_from_tau, linear_fit, power_loss, predict_temperature, steady_state_rise, zoh_coefficients
 
 from .tolerances import CLOSED_FORM, rtol, sums
 

@@ -7,10 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.manifest import load_yaml
-from selfsense.scorecard import parse_registry
-from selfsense.tracking_budget import (CLOSED_SOURCES, CONTROLLER_SOURCES, OPEN_SOURCES, TRUTH_STATES,
-                                      controller_split, loop_sensitivity, split)
+from selfsense.io.manifest import load_yaml
+from selfsense.scorecard.registry import parse_registry
+from selfsense.verify.tracking_budget import CLOSED_SOURCES, CONTROLLER_SOURCES, OPEN_SOURCES, controller_split, loop_sensitivity, split
 
 from .conftest import ROOT
 from .tolerances import CLOSED_FORM

@@ -11,13 +11,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.calibration import load_targets
-from selfsense.capture import open_capture
-from selfsense.ripple import SamplingPlan, extract_impedance
-from selfsense.twin import Drive, simulate_capture
+from selfsense.scorecard.calibration import load_targets
+from selfsense.io.capture import open_capture
+from selfsense.methods.ripple import SamplingPlan, extract_impedance
+from selfsense.methods.drive import Drive
+from selfsense.twin.bench import simulate_capture
 from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed
-from selfsense.twin.drive import Segment
+from selfsense.methods.drive import Segment
 from selfsense.twin.instruments import SlowProcess
 
 from .conftest import ROOT, raised_sine
@@ -308,10 +309,11 @@ def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_param
     A rounding-level difference can move an ADC value across one rounding boundary: the measured
     channels agree to one ADC step. The logged estimate agrees to the rounding of the window sums
     (n_periods·ns terms) amplified by C_e's cancellation (Eq 3.12), κ computed from the windows."""
-    from selfsense.control import IntegralController, realtime_controller
-    from selfsense.gamma import GammaPolynomial
-    from selfsense.observer import HPOGains
-    from selfsense.ripple import plan_from_capture
+    from selfsense.methods.control import IntegralController
+    from selfsense.twin.closed_loop import realtime_controller
+    from selfsense.methods.gamma import GammaPolynomial
+    from selfsense.methods.observer import HPOGains
+    from selfsense.methods.ripple import plan_from_capture
 
     s = stack_params.stack
     gamma = GammaPolynomial((-1e6 * s.C_P0 / s.dC_x, 1.0 / s.dC_x))  # C_P0 + dC_x·x, inverted
@@ -343,9 +345,9 @@ def test_a_capture_blosc_cannot_store_is_written_again_with_zlib(tmp_path, monke
     twin, being deterministic, writes the capture again with zlib level 1."""
     import netCDF4
 
-    import selfsense.twin as twin
-    from selfsense.capture import UnshrinkableChunk, compression_of
-    from selfsense.manifest import load_config
+    import selfsense.twin.experiment as twin
+    from selfsense.io.capture import UnshrinkableChunk, compression_of
+    from selfsense.io.manifest import load_config
 
     from .conftest import ROOT
 

@@ -10,12 +10,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.calibration import Target, calibration_table, load_targets, parse_targets
-from selfsense.electromech import geometry_from_actuator
-from selfsense.manifest import ManifestError, expand_protocols, load_config, load_dataset, load_yaml
-from selfsense.scorecard import Locator, applicable, band, parse_registry
-from selfsense.twin import TwinParams, daq_plan
-from selfsense.twin.signatures import ShortRuns
+from selfsense.scorecard.calibration import Target, calibration_table, load_targets, parse_targets
+from selfsense.methods.electromech import geometry_from_actuator
+from selfsense.io.manifest import ManifestError, expand_protocols, load_config, load_dataset, load_yaml
+from selfsense.scorecard.registry import Locator, applicable, parse_registry
+from selfsense.scorecard.scoring import band
+from selfsense.twin.params import TwinParams
+from selfsense.twin.experiment import daq_plan
+from selfsense.verify.signatures import ShortRuns
 
 from .conftest import ROOT
 

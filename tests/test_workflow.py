@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 
 from .conftest import copy_repo, snakemake
 

@@ -8,9 +8,9 @@ import logging
 import sys
 from pathlib import Path
 
-from .capture import CaptureError
-from .importer import ImportProblem, Request, parse_attr, parse_column, parse_range, run_import
-from .manifest import ManifestError
+from selfsense.io.capture import CaptureError
+from selfsense.io.importer import ImportProblem, Request, parse_attr, parse_column, parse_range, run_import
+from selfsense.io.manifest import ManifestError
 
 EXAMPLE = """\
 worked example (a 1 Hz, ±150 V sine at 5 kHz: columns t [s], U [V], x [µm]):

@@ -3,10 +3,10 @@
 # gains, the x–U loop's width and nonlinearity, creep after a held step, and with the current the
 # charge–position slope and the q–U loop; a loop figure six captures a page and a table per dataset.
 
-# from the capture contract, not selfsense.characterise: that imports matplotlib, ≈ 0.5 s of every
+# from the capture contract, not selfsense.methods.characterise: that imports matplotlib, ≈ 0.5 s of every
 # Snakemake start (each dry run, each cluster job)
-from selfsense.capture import DISPLACEMENT
-from selfsense.figure_names import loop_pages
+from selfsense.io.capture import DISPLACEMENT
+from selfsense.chapters.figure_names import loop_pages
 
 #: datasets whose DAQ records a drive voltage and a displacement
 CHARACTERISE_DATASETS = [d for d in DATASETS

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from snakemake.utils import validate
 
-from selfsense.manifest import PROTOCOLS, SCHEMAS, expand_protocols, load_dataset, protocol_duration, validate_config
+from selfsense.io.manifest import PROTOCOLS, SCHEMAS, expand_protocols, load_dataset, protocol_duration, validate_config
 
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
 # defaults. --configfile files override config.yaml; Snakemake lists them before it in

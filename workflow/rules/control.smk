@@ -3,7 +3,7 @@
 
 CH6_TABLES = ["table_6_1", "p1_summary", "table_6_2", "p3", "tracking"]
 
-from selfsense.figure_names import CH6 as CH6_FIGURES
+from selfsense.chapters.figure_names import CH6 as CH6_FIGURES
 
 #: the closed-loop experiments of each dataset (audited against the estimate their loop logged)
 CLOSED_LOOP = {d: [e for e, x in EXPERIMENTS[d].items() if x is not None and x.control == "closed_loop"]

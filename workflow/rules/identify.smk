@@ -1,6 +1,6 @@
 # Stage "identify" (thesis Chapter 4): Case 1 / Case 2 model identification, Tables 4.1–4.3.
 
-from selfsense.figure_names import CH4 as CH4_FIGURES
+from selfsense.chapters.figure_names import CH4 as CH4_FIGURES
 
 CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
 

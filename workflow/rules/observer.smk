@@ -1,8 +1,8 @@
 # Stage "observer" (thesis Chapter 5): charge self-sensing a0, the hybrid position observer,
 # Tables 5.3–5.4, Figures 5.1–5.14, and the frequency response x/q of Fig 5.3.
 
-from selfsense.figure_names import CH5 as CH5_FIGURES, CH5_BUDGET as ERROR_BUDGET_FIGURE, CH5_STUDY as OBSERVER_STUDY_FIGURE
-from selfsense.figure_names import CH5_SWEEP as FREQUENCY_RESPONSE_FIGURE
+from selfsense.chapters.figure_names import CH5 as CH5_FIGURES, CH5_BUDGET as ERROR_BUDGET_FIGURE, CH5_STUDY as OBSERVER_STUDY_FIGURE
+from selfsense.chapters.figure_names import CH5_SWEEP as FREQUENCY_RESPONSE_FIGURE
 
 TABLE_5_4_HZ = (0.01, 0.1, 1.0, 10.0, 50.0, 100.0)
 

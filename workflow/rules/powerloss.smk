@@ -3,7 +3,7 @@
 # voltage control (Section 7, Figures 2–11). Datasets take part when their DAQ records the
 # current drive and they run the Ronkanen catalogue; the others skip the stage.
 
-from selfsense.figure_names import RONKANEN as RONKANEN_FIGURES
+from selfsense.chapters.figure_names import RONKANEN as RONKANEN_FIGURES
 
 POWERLOSS = "results/{dataset}/powerloss"
 

@@ -1,8 +1,8 @@
 # Stage "report": the scorecard (every published number beside its reproduction, with a band and a
 # verdict) per dataset, and the summary that opens `snakemake --report` (workflow/report/workflow.rst).
 
-from selfsense.manifest import load_yaml
-from selfsense.reference_values import tables_read as reference_tables
+from selfsense.io.manifest import load_yaml
+from selfsense.scorecard.reference_values import tables_read as reference_tables
 from selfsense.scorecard import applicable, parse_registry, tables_read
 
 SCORECARD_REGISTRY = "workflow/scorecard.yaml"

@@ -1,6 +1,6 @@
 # Stage "ripple" (thesis Chapter 3): folded-sampling plan, C_e and R_e from the ripple channels.
 
-from selfsense.figure_names import CH3 as CH3_FIGURES, CH3_MODEL as CH3_MODEL_FIGURE
+from selfsense.chapters.figure_names import CH3 as CH3_FIGURES, CH3_MODEL as CH3_MODEL_FIGURE
 
 #: the Chapter 3 runs by drive frequency (Figures 3.9–3.14, hysteresis, C_e recovery)
 CH3_SERIES = {"10 Hz": "ch3_sine_10hz", "1 Hz": "ch3_sine_1hz", "0.1 Hz": "ch3_sine_0p1hz"}

@@ -3,7 +3,7 @@
 # reason, it does not crash). A stage that runs checks here, before any job, that the manifest
 # has the keys it computes with (one line naming the file and the key, not a KeyError mid-run).
 
-from selfsense.manifest import require_keys
+from selfsense.io.manifest import require_keys
 
 
 def _channels(d, *channels):

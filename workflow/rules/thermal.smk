@@ -1,7 +1,7 @@
 # Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
 # 7.3), the frequency effect on C_e–x, the coupled observer/thermal estimation, Figures 7.1–7.12.
 
-from selfsense.figure_names import (CH7_COUPLED as COUPLED_FIGURES, CH7_DIAGRAM as DIAGRAM_FIGURE,
+from selfsense.chapters.figure_names import (CH7_COUPLED as COUPLED_FIGURES, CH7_DIAGRAM as DIAGRAM_FIGURE,
                                    CH7_FREQUENCY as FREQUENCY_FIGURE, CH7_GAMMA_T as GAMMA_T_FIGURE,
                                    CH7_THERMAL as THERMAL_FIGURES)
 

@@ -3,7 +3,7 @@
 # pipeline's own tables beside the thesis's values and their bands (workflow/twin_calibration.yaml).
 # Included after report.smk: it reads the stages' tables that STAGE_OUTPUTS lists.
 
-from selfsense.calibration import load_targets
+from selfsense.scorecard.calibration import load_targets
 
 TWIN_CALIBRATION_TARGETS = "workflow/twin_calibration.yaml"
 

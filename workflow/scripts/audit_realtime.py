@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.gamma import load_gamma
-from selfsense.observer import load_gains
-from selfsense.provenance import script_logging, write_table
-from selfsense.selfsensing import audit_realtime
+from selfsense.methods.gamma import load_gamma
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.methods.selfsensing import audit_realtime
 
 
 def main(captures, gamma, observer, table, n_periods, log=None):

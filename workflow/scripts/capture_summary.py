@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 
 def summary(reports):

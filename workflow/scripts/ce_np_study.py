@@ -5,11 +5,12 @@ Alone: python workflow/scripts/ce_np_study.py raw/pi_p885/dataset.yaml out.csv o
 
 import argparse
 
-from selfsense import figures
-from selfsense.manifest import load_manifest
-from selfsense.provenance import save_figure, script_logging, write_table
-from selfsense.twin import TwinParams, daq_plan
-from selfsense.twin.studies import ce_error_vs_np_and_wander
+from selfsense.io import figures
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.twin.params import TwinParams
+from selfsense.twin.experiment import daq_plan
+from selfsense.verify.studies import ce_error_vs_np_and_wander
 
 
 def main(manifest, table, figure, nps=(1, 2, 4, 8, 12, 16), wanders=(0, 30, 100, 300), drive_hz=100.0,

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.capture import open_capture, read_series
-from selfsense.provenance import script_logging, write_table
-from selfsense.recovery import ce_tracking
+from selfsense.io.capture import open_capture, read_series
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.verify.recovery import ce_tracking
 
 
 def main(pairs, table, n_periods, log=None):

@@ -6,10 +6,10 @@ Alone: python workflow/scripts/ch3_figures.py --help
 import argparse
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 from selfsense.chapters import ch3
-from selfsense.manifest import load_manifest
-from selfsense.provenance import save_figure, script_logging
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import save_figure, script_logging
 
 
 def main(capture_10hz, series, manifest, out, skip_s=0.1, log=None):

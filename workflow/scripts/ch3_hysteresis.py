@@ -6,9 +6,9 @@ Alone: python workflow/scripts/ch3_hysteresis.py results/pi_p885/ripple/ch3_sine
 
 import argparse
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 from selfsense.chapters.ch3 import hysteresis_table, phase_table, steady
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(series, table, phases, skip_s=0.1, frequency=10.0, log=None):

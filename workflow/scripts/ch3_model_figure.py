@@ -6,8 +6,8 @@ Alone: python workflow/scripts/ch3_model_figure.py raw/pi_p885/dataset.yaml fig_
 import argparse
 
 from selfsense.chapters.ch3 import figure_3_2
-from selfsense.manifest import load_manifest
-from selfsense.provenance import save_figure, script_logging
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import save_figure, script_logging
 
 
 def main(manifest, figure, log=None):

@@ -5,8 +5,8 @@ Alone: python workflow/scripts/ch3_tables.py 100000 12 48000 t31.csv t32.csv
 
 import argparse
 
-from selfsense.provenance import script_logging, write_table
-from selfsense.ripple import table_3_1, table_3_2
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.methods.ripple import table_3_1, table_3_2
 
 
 def main(fr, ns, fs, table_31, table_32, log=None):

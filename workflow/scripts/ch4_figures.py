@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from selfsense.capture import open_capture, read_series
+from selfsense.io.capture import open_capture, read_series
 from selfsense.chapters import ch4
-from selfsense.provenance import save_figure, script_logging
+from selfsense.io.provenance import save_figure, script_logging
 
 
 def channel(capture, name):

@@ -3,10 +3,10 @@
 Alone: run through Snakemake (`snakemake figures/pi_p885/fig_5_1.png`); the inputs are many.
 """
 
-from selfsense.capture import open_capture, read_series
+from selfsense.io.capture import open_capture, read_series
 from selfsense.chapters.ch5 import figures_ch5
-from selfsense.observer import load_gains
-from selfsense.provenance import save_figure, script_logging
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import save_figure, script_logging
 
 
 def main(series, gamma_capture, gamma_series, traces, creep, observer, out, n_periods, orders, log=None):

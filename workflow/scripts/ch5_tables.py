@@ -7,9 +7,9 @@ import argparse
 import json
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 from selfsense.chapters.ch5 import creep_errors, table_5_4
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(stats, creep_stats, creep_traces, table, creep_table, log=None):

@@ -7,8 +7,8 @@ rate). Alone: run through Snakemake (`snakemake results/pi_p885/ch6/table_6_1.cs
 from pathlib import Path
 
 from selfsense.chapters import ch6
-from selfsense.electromech import load_k_over_alpha
-from selfsense.provenance import save_figure, script_logging, write_table
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.io.provenance import save_figure, script_logging, write_table
 
 
 def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):

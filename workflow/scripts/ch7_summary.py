@@ -7,9 +7,9 @@ Alone: run through Snakemake (`snakemake results/pi_p885/ch7/coupled.csv`).
 import json
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 from selfsense.chapters import ch7
-from selfsense.provenance import save_figure, script_logging, write_table
+from selfsense.io.provenance import save_figure, script_logging, write_table
 
 
 def main(stats, traces, out, log=None):

@@ -10,9 +10,9 @@ import argparse
 
 import pandas as pd
 
-from selfsense.characterise import TABLE_COLUMNS, instruments
-from selfsense.manifest import load_manifest
-from selfsense.provenance import read_records, script_logging, write_table
+from selfsense.methods.characterise import TABLE_COLUMNS, instruments
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import read_records, script_logging, write_table
 
 
 def main(manifest, pages, table, instruments_table, log=None):

@@ -10,8 +10,8 @@ import argparse
 
 import pandas as pd
 
-from selfsense.error_budget import capture_charge_budget
-from selfsense.provenance import script_logging, write_table
+from selfsense.verify.error_budget import capture_charge_budget
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(runs, table, n_periods, log=None):

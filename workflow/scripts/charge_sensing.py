@@ -6,10 +6,10 @@ Alone: python workflow/scripts/charge_sensing.py out_dir --series 10=results/pi_
 import argparse
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 from selfsense.chapters.ch5 import charge_sensing, table_5_3
-from selfsense.observer import HPOGains
-from selfsense.provenance import provenance, script_logging, write_json, write_table
+from selfsense.methods.observer import HPOGains
+from selfsense.io.provenance import provenance, script_logging, write_json, write_table
 
 
 def main(series, out, omega_s, zeta_s, log=None):

@@ -6,10 +6,10 @@ Alone: python workflow/scripts/check_capture.py raw/pi_p885/ch3_sine_10hz.nc raw
 
 import argparse
 
-from selfsense.capture import read_header, scan_capture, write_scan_report
-from selfsense.contract import check_agreement, check_attributes, check_clipping
-from selfsense.manifest import load_manifest
-from selfsense.provenance import script_logging
+from selfsense.io.capture import read_header, scan_capture, write_scan_report
+from selfsense.io.contract import check_agreement, check_attributes, check_clipping
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import script_logging
 
 
 def main(capture, manifest, report, log=None):

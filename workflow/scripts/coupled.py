@@ -7,14 +7,14 @@ Alone: run through Snakemake (`snakemake results/pi_p885/ch7/coupled/ch7_mixed_a
 import json
 from pathlib import Path
 
-from selfsense.capture import SeriesWriter, open_capture, read_series
+from selfsense.io.capture import SeriesWriter, open_capture, read_series
 from selfsense.chapters.ch7 import against_measured, coupled_estimation
-from selfsense.electromech import load_k_over_alpha
-from selfsense.gamma import load_gamma
-from selfsense.observer import load_gains
-from selfsense.provenance import provenance, script_logging, write_json
-from selfsense.ripple import plan_from_capture
-from selfsense.thermal import ThermalModel
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.methods.gamma import load_gamma
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import provenance, script_logging, write_json
+from selfsense.methods.ripple import plan_from_capture
+from selfsense.methods.thermal import ThermalModel
 
 CHANNELS = ("U", "I", "x_laser", "Ur", "Ir")
 UNITS = {"time": "s", "T_SH_HPO": "degC", "T_SH_PS": "degC", "T_mid": "degC"}

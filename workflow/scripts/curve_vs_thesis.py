@@ -7,10 +7,10 @@ Alone: python workflow/scripts/curve_vs_thesis.py workflow/scorecard.yaml out.cs
 
 import argparse
 
-from selfsense.gamma import curve_table, load_gamma
-from selfsense.manifest import load_yaml
-from selfsense.provenance import script_logging, write_table
-from selfsense.scorecard import parse_registry, printed_gamma
+from selfsense.methods.gamma import curve_table, load_gamma
+from selfsense.io.manifest import load_yaml
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.scorecard.registry import parse_registry, printed_gamma
 
 
 def main(registry, fits, table, source, coefficients, g=None, temperatures=(0.0,), log=None):

@@ -8,11 +8,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense import figures
-from selfsense.error_budget import SOURCES, capture_budget
-from selfsense.gamma import load_gamma
-from selfsense.observer import load_gains
-from selfsense.provenance import save_figure, script_logging, write_table
+from selfsense.io import figures
+from selfsense.verify.error_budget import SOURCES, capture_budget
+from selfsense.methods.gamma import load_gamma
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import save_figure, script_logging, write_table
 
 
 def main(runs, gamma, observer, table, figure, n_periods, log=None):

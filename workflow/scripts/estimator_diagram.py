@@ -9,11 +9,11 @@ import json
 from pathlib import Path
 
 from selfsense.chapters import ch7
-from selfsense.electromech import load_k_over_alpha
-from selfsense.gamma import load_gamma
-from selfsense.observer import load_gains
-from selfsense.provenance import save_figure, script_logging
-from selfsense.ripple import plan_from_fs
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.methods.gamma import load_gamma
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import save_figure, script_logging
+from selfsense.methods.ripple import plan_from_fs
 
 
 def main(gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods, log=None):

@@ -5,9 +5,9 @@ Alone: python workflow/scripts/extract_ripple.py raw/pi_p885/ch3_sine_10hz.nc ou
 
 import argparse
 
-from selfsense.capture import CaptureError, SeriesWriter, open_capture
-from selfsense.provenance import script_logging
-from selfsense.ripple import SERIES_UNITS, impedance_series, plan_from_capture
+from selfsense.io.capture import CaptureError, SeriesWriter, open_capture
+from selfsense.io.provenance import script_logging
+from selfsense.methods.ripple import SERIES_UNITS, impedance_series, plan_from_capture
 
 COMPANIONS = ("U", "x_laser", "I")
 

@@ -9,8 +9,8 @@ import argparse
 from pathlib import Path
 
 from selfsense.chapters import ch7
-from selfsense.gamma import load_gamma
-from selfsense.provenance import save_figure, script_logging, write_table
+from selfsense.methods.gamma import load_gamma
+from selfsense.io.provenance import save_figure, script_logging, write_table
 
 
 def main(series, captures, frequencies, gamma, gamma_t, reference, table, figure, bins=20, min_windows=10, log=None):

@@ -8,11 +8,11 @@ import argparse
 import json
 from pathlib import Path
 
-from selfsense import frequency_response as fr
-from selfsense.capture import open_capture
-from selfsense.manifest import expand_protocols
-from selfsense.provenance import save_figure, script_logging, write_table
-from selfsense.twin.drive import drive_from_protocol
+from selfsense.methods import frequency_response as fr
+from selfsense.io.capture import open_capture
+from selfsense.io.manifest import expand_protocols
+from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.methods.drive import drive_from_protocol
 
 def main(capture, model, protocol, settle_s, out, log=None):
     """protocol: the sweep's catalogue entry (segments, warmup); out: {table, peaks, figure}."""

@@ -7,9 +7,9 @@ Alone: python workflow/scripts/gamma_fit.py raw/pi_p885/ch5_sine_0p1hz.nc result
 import argparse
 from pathlib import Path
 
-from selfsense.capture import open_capture, read_series
+from selfsense.io.capture import open_capture, read_series
 from selfsense.chapters.ch5 import gamma_data, gamma_tables
-from selfsense.provenance import provenance, script_logging, write_json, write_table
+from selfsense.io.provenance import provenance, script_logging, write_json, write_table
 
 NAMES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv", "coefficients": "table_5_2_coefficients.csv",
          "anova_j5": "table_5_2_anova_j5.csv", "coefficients_j5": "table_5_2_coefficients_j5.csv",

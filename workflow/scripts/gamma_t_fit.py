@@ -7,10 +7,10 @@ Alone: python workflow/scripts/gamma_t_fit.py samples.nc power.nc val_samples.nc
 import argparse
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 from selfsense.chapters.ch7 import GAMMA_T_FIGURE, figure_7_7, gamma_t, gamma_t_data
-from selfsense.gamma import GammaPolynomial
-from selfsense.provenance import provenance, save_figure, script_logging, write_json, write_table
+from selfsense.methods.gamma import GammaPolynomial
+from selfsense.io.provenance import provenance, save_figure, script_logging, write_json, write_table
 
 NAMES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv", "coefficients": "table_7_3_coefficients.csv",
          "order": "gamma_t_order.csv", "gamma_t": "gamma_t.json", "gamma_t_n5": "gamma_t_n5.json"}

@@ -1,5 +1,5 @@
 """Rule `gamma_truth`: Γ (Table 5.2) or Γ_T (Tables 7.2–7.3, given the thermometers' --power series) refitted
-with the measured C_e, x (and T) replaced by the twin's truth, one at a time and all at once (selfsense.gamma_truth).
+with the measured C_e, x (and T) replaced by the twin's truth, one at a time and all at once (selfsense.verify.gamma_truth).
 
 Alone: python workflow/scripts/gamma_truth.py workflow/scorecard.yaml out.csv "Table 5.2" raw/pi_p885/ch5_sine_0p1hz.nc \
     results/pi_p885/ripple/ch5_sine_0p1hz.nc --fit "thesis order=results/pi_p885/ch5/gamma_j5.json" --fit "our order=…"
@@ -7,12 +7,12 @@ Alone: python workflow/scripts/gamma_truth.py workflow/scorecard.yaml out.csv "T
 
 import argparse
 
-from selfsense.capture import read_series
-from selfsense.gamma import load_gamma
-from selfsense.gamma_truth import capture_variants, curve_rows
-from selfsense.manifest import load_yaml
-from selfsense.provenance import script_logging, write_table
-from selfsense.scorecard import parse_registry, printed_gamma
+from selfsense.io.capture import read_series
+from selfsense.methods.gamma import load_gamma
+from selfsense.verify.gamma_truth import capture_variants, curve_rows
+from selfsense.io.manifest import load_yaml
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.scorecard.registry import parse_registry, printed_gamma
 
 
 def main(registry, capture, series, fits, table, source, coefficients, g=None, temperatures=(0.0,), power=None,

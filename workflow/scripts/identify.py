@@ -7,11 +7,11 @@ import argparse
 import json
 from pathlib import Path
 
-from selfsense.capture import read_series
+from selfsense.io.capture import read_series
 from selfsense.chapters import ch4
-from selfsense.electromech import geometry_from_actuator, model_record
-from selfsense.manifest import load_manifest
-from selfsense.provenance import script_logging, write_json, write_table, provenance
+from selfsense.methods.electromech import geometry_from_actuator, model_record
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import script_logging, write_json, write_table, provenance
 
 
 def main(series, static, manifest, out, log=None):

@@ -9,13 +9,14 @@ import argparse
 
 import pandas as pd
 
-from selfsense.control import IntegralController, controller_factory
-from selfsense.electromech import load_k_over_alpha
-from selfsense.gamma import load_gamma
-from selfsense.loop_leak import leak_study
-from selfsense.manifest import load_config
-from selfsense.observer import load_gains
-from selfsense.provenance import script_logging, write_table
+from selfsense.methods.control import IntegralController
+from selfsense.twin.closed_loop import controller_factory
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.methods.gamma import load_gamma
+from selfsense.verify.loop_leak import leak_study
+from selfsense.io.manifest import load_config
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(captures, gamma, observer, model, table, campaign, capture, omega_c, n_periods, log=None):

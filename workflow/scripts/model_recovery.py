@@ -11,12 +11,12 @@ import argparse
 
 import pandas as pd
 
-from selfsense.capture import open_capture
+from selfsense.io.capture import open_capture
 from selfsense.chapters.ch4 import load_static_stiffness
-from selfsense.electromech import geometry_from_actuator
-from selfsense.manifest import load_manifest
-from selfsense.provenance import script_logging, write_table
-from selfsense.recovery import hysteresis_share_recovery, identified_on_truth, model_recovery
+from selfsense.methods.electromech import geometry_from_actuator
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.verify.recovery import hysteresis_share_recovery, identified_on_truth, model_recovery
 
 
 def main(per_set, hysteresis, capture, static, manifest, table, frequency, n_periods, sets, series, log=None):

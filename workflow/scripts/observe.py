@@ -6,12 +6,12 @@ Alone: python workflow/scripts/observe.py raw/pi_p885/ch5_sine_1hz.nc results/pi
 
 import argparse
 
-from selfsense.capture import SeriesWriter, open_capture
+from selfsense.io.capture import SeriesWriter, open_capture
 from selfsense.chapters.ch5 import creep_phases, run_observer
-from selfsense.gamma import load_gamma
-from selfsense.observer import load_gains
-from selfsense.provenance import provenance, script_logging, write_json
-from selfsense.ripple import plan_from_capture
+from selfsense.methods.gamma import load_gamma
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import provenance, script_logging, write_json
+from selfsense.methods.ripple import plan_from_capture
 
 UNITS = {"time": "s", "x_laser": "m", "x_hat": "m", "x_cp": "m", "i0_hat": "A"}
 

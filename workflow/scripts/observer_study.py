@@ -5,13 +5,13 @@ Alone: python workflow/scripts/observer_study.py raw/pi_p885/ch5_sine_1hz.nc gam
 
 import argparse
 
-from selfsense import figures
-from selfsense.capture import open_capture
+from selfsense.io import figures
+from selfsense.io.capture import open_capture
 from selfsense.chapters.ch5 import observer_study
-from selfsense.gamma import load_gamma
-from selfsense.observer import load_gains
-from selfsense.provenance import save_figure, script_logging, write_table
-from selfsense.ripple import plan_from_capture
+from selfsense.methods.gamma import load_gamma
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.methods.ripple import plan_from_capture
 
 CHANNELS = ("Ur", "Ir", "I", "x_laser")
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pandas as pd
 
 from selfsense.chapters import ronkanen
-from selfsense.provenance import save_figure, script_logging
+from selfsense.io.provenance import save_figure, script_logging
 
 def main(hold, ramps, captures, table_1, table_2, identified, out, drift_start, velocity_window=2.0, log=None):
     """ramps: the ±300 nA ramps compensated for too large, too small and ideal X (Figs 3, 4, 5–6);

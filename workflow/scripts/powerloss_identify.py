@@ -8,7 +8,7 @@ import argparse
 from pathlib import Path
 
 from selfsense.chapters import ronkanen
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(hold, ramps, out_ramps, out_table_1, out_identified, hold_start, velocity_window=2.0, log=None):

@@ -9,7 +9,7 @@ import argparse
 import pandas as pd
 
 from selfsense.chapters import ronkanen
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 def main(captures, identified, performance, repeatability, drift_start, drift_duration=120.0, log=None):
     """captures: {"<decay|repeat|drift>_<current|voltage>": path}."""

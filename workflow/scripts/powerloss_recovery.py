@@ -8,9 +8,9 @@ import argparse
 
 import pandas as pd
 
-from selfsense.capture import open_capture
+from selfsense.io.capture import open_capture
 from selfsense.chapters import ronkanen
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(capture, identified, table_1, table_2, table, log=None):

@@ -8,7 +8,7 @@ import argparse
 import pandas as pd
 
 from selfsense.chapters import ronkanen
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(table_1, identified, table, log=None):

@@ -8,8 +8,8 @@ Alone: python workflow/scripts/powerloss_truth.py identified.csv table.csv \
 import argparse
 
 from selfsense.chapters import ronkanen
-from selfsense.powerloss_truth import performance_truth, true_displacement
-from selfsense.provenance import script_logging, write_table
+from selfsense.verify.powerloss_truth import performance_truth, true_displacement
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(captures, identified, table, drift_start, drift_duration=120.0, log=None):

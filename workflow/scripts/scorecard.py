@@ -9,10 +9,12 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.manifest import load_dataset, load_yaml
-from selfsense.provenance import atomic_path, provenance, script_logging, write_json, write_table
-from selfsense.reference_values import reference_rows, tables_read as reference_tables
-from selfsense.scorecard import applicable, counts, parse_registry, scorecard, scorecard_html, tables_read
+from selfsense.io.manifest import load_dataset, load_yaml
+from selfsense.io.provenance import atomic_path, provenance, script_logging, write_json, write_table
+from selfsense.scorecard.reference_values import reference_rows, tables_read as reference_tables
+from selfsense.scorecard.registry import applicable, parse_registry, tables_read
+from selfsense.scorecard.scoring import counts, scorecard
+from selfsense.scorecard.render import scorecard_html
 
 REGISTRY = "workflow/scorecard.yaml"
 

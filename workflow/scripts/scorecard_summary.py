@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.provenance import atomic_path, provenance, script_logging, write_json, write_table
-from selfsense.scorecard import landing_rst, out_of_band_rst, pending_rst, rst_html, summary
+from selfsense.io.provenance import atomic_path, provenance, script_logging, write_json, write_table
+from selfsense.scorecard.render import landing_rst, out_of_band_rst, pending_rst, rst_html, summary
 
 
 def main(cards, summary_rst, counts, out_of_band, not_yet, campaign="thesis", log=None):

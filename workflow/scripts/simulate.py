@@ -7,10 +7,10 @@ Alone: python workflow/scripts/simulate.py pi_p885 ch3_sine_10hz --config tests/
 import argparse
 from pathlib import Path
 
-from selfsense.capture import write_scan_report
-from selfsense.manifest import load_config
-from selfsense.provenance import script_logging
-from selfsense.twin import simulate_experiment
+from selfsense.io.capture import write_scan_report
+from selfsense.io.manifest import load_config
+from selfsense.io.provenance import script_logging
+from selfsense.twin.experiment import simulate_experiment
 
 
 def main(raw_dir, dataset, experiment, campaign, capture, output=None, report=None, log=None):

@@ -9,14 +9,15 @@ Alone: python workflow/scripts/simulate_closed_loop.py pi_p885 ch6_p2a_closed re
 import argparse
 from pathlib import Path
 
-from selfsense.capture import write_scan_report
-from selfsense.control import IntegralController, controller_factory
-from selfsense.electromech import load_k_over_alpha
-from selfsense.gamma import load_gamma
-from selfsense.manifest import load_config
-from selfsense.observer import load_gains
-from selfsense.provenance import script_logging
-from selfsense.twin import simulate_experiment
+from selfsense.io.capture import write_scan_report
+from selfsense.methods.control import IntegralController
+from selfsense.twin.closed_loop import controller_factory
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.methods.gamma import load_gamma
+from selfsense.io.manifest import load_config
+from selfsense.methods.observer import load_gains
+from selfsense.io.provenance import script_logging
+from selfsense.twin.experiment import simulate_experiment
 
 
 def main(raw_dir, dataset, experiment, gamma, observer, model, campaign, capture, omega_c, n_periods,

@@ -5,7 +5,7 @@ Alone: the rows come from the workflow's stage selection; run `snakemake results
 
 import pandas as pd
 
-from selfsense.provenance import script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(rows, manifest, table, log=None):

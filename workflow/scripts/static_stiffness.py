@@ -8,10 +8,10 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from selfsense.capture import open_capture
+from selfsense.io.capture import open_capture
 from selfsense.chapters.ch4 import STATIC_K
-from selfsense.electromech import hold_rise, static_stiffness
-from selfsense.provenance import script_logging, write_table
+from selfsense.methods.electromech import hold_rise, static_stiffness
+from selfsense.io.provenance import script_logging, write_table
 
 
 def rise(capture, channel, t_hold):

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.capture import read_series
-from selfsense.provenance import script_logging, write_table
-from selfsense.temperature_budget import SOURCES, capture_temperature_budget
-from selfsense.thermal import ThermalModel
+from selfsense.io.capture import read_series
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.verify.temperature_budget import SOURCES, capture_temperature_budget
+from selfsense.methods.thermal import ThermalModel
 
 
 def main(capture, traces, thermal_model, table, stats=None, log=None):

@@ -8,11 +8,11 @@ import argparse
 
 import numpy as np
 
-from selfsense.capture import SeriesWriter, open_capture
+from selfsense.io.capture import SeriesWriter, open_capture
 from selfsense.chapters.ch7 import extract
-from selfsense.electromech import load_k_over_alpha
-from selfsense.provenance import script_logging
-from selfsense.ripple import plan_from_capture
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.io.provenance import script_logging
+from selfsense.methods.ripple import plan_from_capture
 
 FAST = ("U", "I", "x_laser", "Ur", "Ir")
 

@@ -5,12 +5,12 @@ Alone: run through Snakemake (`snakemake results/pi_p885/ch7/table_7_1.csv`).
 
 from pathlib import Path
 
-from selfsense.capture import read_series, series_scalars
+from selfsense.io.capture import read_series, series_scalars
 from selfsense.chapters import ch7
-from selfsense.electromech import load_k_over_alpha
-from selfsense.manifest import load_manifest
-from selfsense.provenance import provenance, save_figure, script_logging, write_json, write_table
-from selfsense.thermal import ThermalProperties
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.io.manifest import load_manifest
+from selfsense.io.provenance import provenance, save_figure, script_logging, write_json, write_table
+from selfsense.methods.thermal import ThermalProperties
 
 
 def main(freq_series, volt_series, check_series, manifest, model, volt_segments, out, log=None):

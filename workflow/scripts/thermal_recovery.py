@@ -8,10 +8,10 @@ import argparse
 
 import pandas as pd
 
-from selfsense.capture import open_capture
+from selfsense.io.capture import open_capture
 from selfsense.chapters import ch7
-from selfsense.gamma import load_gamma
-from selfsense.provenance import script_logging, write_table
+from selfsense.methods.gamma import load_gamma
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(table_7_1, gamma_t, truth_capture, recovery, log=None):

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.manifest import expand_protocols, load_config
-from selfsense.provenance import script_logging, write_table
-from selfsense.tracking_budget import capture_tracking_budget
+from selfsense.io.manifest import expand_protocols, load_config
+from selfsense.io.provenance import script_logging, write_table
+from selfsense.verify.tracking_budget import capture_tracking_budget
 
 
 def main(runs, tables, omega_c, log=None):

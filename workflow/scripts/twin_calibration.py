@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.calibration import calibration_table, load_targets
-from selfsense.provenance import script_logging, write_table
+from selfsense.scorecard.calibration import calibration_table, load_targets
+from selfsense.io.provenance import script_logging, write_table
 
 
 def main(targets, results_dir, table, tables=None, log=None):

@@ -8,10 +8,11 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from .. import figure_names, figures
-from ..capture import open_capture
-from ..metrics import direction, hysteresis_percent
-from ..ripple import SamplingPlan
+from selfsense.chapters import figure_names
+from selfsense.io import figures
+from selfsense.io.capture import open_capture
+from selfsense.methods.metrics import direction, hysteresis_percent
+from selfsense.methods.ripple import SamplingPlan
 
 #: (horizontal, vertical, thesis's value [%], the thesis's words)
 LOOPS = (

@@ -7,9 +7,9 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from .. import figure_names, figures
-from ..electromech import (ChargeFit, Geometry, ModelParameters, SetIdentification, as_row, identify_set,
-                           kinematics, material_properties, sensitivity, slope_is_consistent)
+from selfsense.chapters import figure_names
+from selfsense.io import figures
+from selfsense.methods.electromech import ChargeFit, Geometry, ModelParameters, SetIdentification, as_row, identify_set, kinematics, material_properties, sensitivity, slope_is_consistent
 
 #: Table 4.2 rows: (key, label, unit, scale from SI to the unit)
 PARAMETERS = (

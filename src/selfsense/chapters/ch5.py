@@ -8,12 +8,12 @@ from typing import Iterable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from .. import figure_names
-from ..electromech import fit_charge_position
-from ..gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, model_selection_table
-from ..observer import HPOGains, peak_offset_gain
-from ..ripple import SamplingPlan
-from ..selfsensing import SelfSensingChain
+from selfsense.chapters import figure_names
+from selfsense.methods.electromech import fit_charge_position
+from selfsense.methods.gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, model_selection_table
+from selfsense.methods.observer import HPOGains, peak_offset_gain
+from selfsense.methods.ripple import SamplingPlan
+from selfsense.methods.selfsensing import SelfSensingChain
 
 OFFSET_ATTENUATION = "offset attenuation [dB re 1 m/A]"
 THESIS_TABLE_5_3 = {"a0 [C/m]": 17.0, "omega_S [rad/s]": 2 * np.pi, "zeta_S [-]": 1.0, "L_P": 213.60, "L_I": 641.0}
@@ -222,7 +222,7 @@ def charge_estimate_figure(series, a0: float):
     the second estimate removes q0 + I0·t fitted over the run (as the HPO learns Î0), which
     leaves the hysteresis between q and x as the error.
     """
-    from .. import figures
+    from selfsense.io import figures
 
     t, q = series["time"], series["q"]
     x, q_compensated, fit = offset_compensated_charge(series)
@@ -239,9 +239,9 @@ FIGURES = figure_names.CH5
 
 def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep, gains, warmup: float = 0.0) -> dict:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14 from the chapter's series and observer traces."""
-    from .. import figures
-    from ..gamma import fit_log_gamma
-    from ..observer import magnitude_response, transfer_functions
+    from selfsense.io import figures
+    from selfsense.methods.gamma import fit_log_gamma
+    from selfsense.methods.observer import magnitude_response, transfer_functions
 
     built = []
     # leave out the warm-up hold at 0 V

@@ -11,12 +11,12 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from .. import figure_names
-from ..capture import open_capture
-from ..control import IntegralController, tracking_prediction
-from ..manifest import protocol_duration
-from ..ripple import WindowMeans, plan_from_capture
-from ..twin.drive import drive_from_protocol
+from selfsense.chapters import figure_names
+from selfsense.io.capture import open_capture
+from selfsense.methods.control import IntegralController, tracking_prediction
+from selfsense.io.manifest import protocol_duration
+from selfsense.methods.ripple import WindowMeans, plan_from_capture
+from selfsense.methods.drive import drive_from_protocol
 
 SEGMENTS = "abcdefgh"
 #: Drive frequencies [Hz] of the Chapter 6 profiles and their amplitude [m] (a 30 µm stroke, the
@@ -203,7 +203,7 @@ def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataF
                 p1_window: float = np.inf) -> dict:
     """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}}); a
     figure whose runs are missing is left out. P1's figures end at ``p1_window`` [s]."""
-    from .. import figures
+    from selfsense.io import figures
 
     built = []
     p1o, p1c = runs.get("ch6_p1_open"), runs.get("ch6_p1_closed")

@@ -9,15 +9,14 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from .. import figure_names
-from ..capture import open_capture, read_series
-from ..gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, gamma_t_table
-from ..metrics import branch_means, direction
-from ..observer import HPOGains
-from ..ripple import RippleExtractor, SamplingPlan, WindowMeans
-from ..selfsensing import SelfSensingChain
-from ..thermal import (PowerAverager, SelfHeatingEstimator, ThermalModel, ThermalProperties, identify_series,
-                       linear_fit, power_loss, predict_temperature)
+from selfsense.chapters import figure_names
+from selfsense.io.capture import open_capture, read_series
+from selfsense.methods.gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, gamma_t_table
+from selfsense.methods.metrics import branch_means, direction
+from selfsense.methods.observer import HPOGains
+from selfsense.methods.ripple import RippleExtractor, SamplingPlan, WindowMeans
+from selfsense.methods.selfsensing import SelfSensingChain
+from selfsense.methods.thermal import PowerAverager, SelfHeatingEstimator, ThermalModel, ThermalProperties, identify_series, linear_fit, power_loss, predict_temperature
 
 THESIS_TABLE_7_1 = {"tau [s]": 100.0, "k_T [W/(m² K)]": 28.0, "gamma [K/W]": 57.0, "k/alpha [V/m]": 2.85e6,
                     "T_ref [°C]": 23.0}
@@ -123,7 +122,7 @@ def thermal_identification(runs: Mapping[str, Mapping[str, np.ndarray]], freq_of
     run is long enough to identify τ (e.g. the smoke campaign) the later tables and figures say
     why. Returns ({table: DataFrame} incl. "per_run", the thermal model record, {figure: Figure}).
     """
-    from .. import figures  # here: the streaming jobs that import this module need no matplotlib
+    from selfsense.io import figures  # here: the streaming jobs that import this module need no matplotlib
 
     per_run, _ = identify(runs, props, T_amb=None)
     identified = per_run.dropna(subset=["tau [s]"]) if "tau [s]" in per_run else per_run.iloc[0:0]
@@ -255,7 +254,7 @@ def gamma_t(data, validation, orders=(4, 5, 6), order: int = 5, candidates=(1, 2
 
 def figure_7_7(samples: Mapping[str, np.ndarray]):
     """Fig 7.7: C_e against position on the 50 Hz run while the stack heats (:func:`gamma_t`'s samples)."""
-    from .. import figures  # here: the streaming jobs that import this module need no matplotlib
+    from selfsense.io import figures  # here: the streaming jobs that import this module need no matplotlib
 
     return figures.loop([samples["x_laser"] * 1e6], [samples["C_e"] * 1e6], "x [µm]", "C_e [µF]",
                         "Capacitance against position while the stack heats (50 Hz)")
@@ -319,7 +318,7 @@ def coupled_table(stats: Mapping[str, Mapping]) -> pd.DataFrame:
 def figure_coupled(name: str, run: str, traces: Mapping[str, np.ndarray], stats: Mapping):
     """Figs 7.10–7.12 (``name`` of :data:`COUPLED_FIGURES`): measured T, T_SH(PS) and T_SH(HPO) over
     one run, or why they are missing."""
-    from .. import figures
+    from selfsense.io import figures
 
     if not len(traces["time"]):
         return figures.placeholder(_title(name), stats["note"])
@@ -403,7 +402,7 @@ def _rise(t: np.ndarray, T: np.ndarray) -> float:
 
 def figure_7_8(curves: Mapping[str, Mapping[str, np.ndarray]], gamma: GammaPolynomial):
     """Fig 7.8 from :func:`frequency_effect`'s curves, with Γ drawn over the measured C_e range."""
-    from .. import figures  # here: the streaming jobs that import this module need no matplotlib
+    from selfsense.io import figures  # here: the streaming jobs that import this module need no matplotlib
 
     C = np.concatenate([c["C_e"] for c in curves.values()])
     grid = np.linspace(np.min(C), np.max(C), 200)
@@ -420,7 +419,7 @@ def figure_7_9(gamma_t: GammaPolynomial, gains: HPOGains, thermal: Mapping, k_ov
     delay). ``thermal`` is the thermal stage's model record; when it holds no identified model
     the diagram says why. Returns the figure and the values it shows.
     """
-    from .. import figures
+    from selfsense.io import figures
 
     if thermal["identified"]:
         heat = f"τ = {thermal['tau']:.1f} s, γ = {thermal['gamma']:.1f} K/W"

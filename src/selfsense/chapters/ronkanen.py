@@ -1,7 +1,7 @@
 """Ronkanen, Kallio, Koivo 2002: Tables 1–2, Figures 2–11 and the positioning results.
 
 Captures in (as :class:`Record`), tables (DataFrames) and figures out; the maths is in
-:mod:`selfsense.powerloss`. Units are SI inside; nA, GΩ, µm and µAs appear only in column names
+:mod:`selfsense.methods.powerloss`. Units are SI inside; nA, GΩ, µm and µAs appear only in column names
 and axis labels.
 """
 
@@ -14,9 +14,10 @@ from typing import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
-from .. import figure_names, figures
-from .. import powerloss as pl
-from ..capture import open_capture
+from selfsense.chapters import figure_names
+from selfsense.io import figures
+from selfsense.methods import powerloss as pl
+from selfsense.io.capture import open_capture
 
 plt = figures.plt
 #: the DAQ channels this chapter reads
@@ -74,7 +75,7 @@ class Record:
 
 
 def read_records(paths: Iterable[str | Path]) -> dict[str, Record]:
-    """{experiment: Record} of captures, opened and validated by :mod:`selfsense.capture`.
+    """{experiment: Record} of captures, opened and validated by :mod:`selfsense.io.capture`.
 
     The bench's records are short (100 Hz), so each is read whole.
     """
@@ -135,7 +136,7 @@ def identify(hold: Record, ramps: list[Record], hold_start: float,
     """Ramps table, Table 1 and the identified constants (R, a, a_cmd) from the captures.
 
     R comes from the second half of the hold (the meter and the creep have settled) with the
-    residual drift removed through a from the ramps (:func:`selfsense.powerloss.hold_from_record`).
+    residual drift removed through a from the ramps (:func:`selfsense.methods.powerloss.hold_from_record`).
     a_cmd, the displacement per *commanded* charge that the 'displacement to current' block
     needs (Eq 3), is calibrated on the best-compensated ramp — the one whose trial impedance is
     closest to the X identified from it — so it carries the current loop's own gain.

@@ -1,90 +1,12 @@
-"""The digital twin of the test bench (docs/design.md, "The digital twin").
+"""The digital twin of the test bench (docs/design.md, "The digital twin"): the simulator only.
 
-:func:`simulate_experiment` is the one entry point the workflow uses: it resolves a dataset's
-manifest and an experiment of the catalogue into the twin's parameters, the DAQ plan and the
-drive, and writes that experiment's capture.
+- ``experiment``: :func:`~selfsense.twin.experiment.simulate_experiment`, the entry point the
+  workflow uses (a manifest and a catalogue experiment in, a capture out);
+- ``params``: the twin's parameters from a manifest;
+- ``bench``: the stack's bench, sample by sample (``kernel``, ``record``, ``instruments``,
+  ``maxwell`` its physics, ``realtime`` its compiled closed loop);
+- ``closed_loop``: the bench's real-time self-sensing loop (Chapter 6);
+- ``bender``: Ronkanen's bender and its current amplifier.
+
+It uses :mod:`selfsense.io` and :mod:`selfsense.methods` only; nothing here is imported on import.
 """
-
-from __future__ import annotations
-
-import logging
-from pathlib import Path
-from typing import Callable, Mapping
-
-from ..capture import ScanReport, UnshrinkableChunk, compression_settings
-from ..manifest import ManifestError, expand_protocols, load_dataset
-from .bench import Bench, Controller, DaqPlan, simulate_capture
-from .drive import Drive, drive_from_protocol
-from .params import TwinParams
-
-LOG = logging.getLogger("selfsense.twin")
-
-__all__ = ["Bench", "Controller", "DaqPlan", "Drive", "TwinParams", "daq_plan",
-           "simulate_capture", "simulate_experiment"]
-
-
-def daq_plan(manifest: Mapping) -> DaqPlan:
-    daq = manifest["daq"]
-    ripple = daq.get("ripple", {})
-    return DaqPlan(
-        fs=float(daq["fs"]),
-        channels=tuple(daq["channels"]),
-        ranges={k: (float(v[0]), float(v[1])) for k, v in daq["ranges"].items()},
-        fr_nominal=ripple.get("fr_nominal"), ns=ripple.get("ns"), nf=ripple.get("nf"),
-    )
-
-
-def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
-                        output: str | Path | None = None,
-                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None,
-                        drive_leak: bool = True) -> ScanReport:
-    """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
-    capture is validated as it is written, :meth:`selfsense.capture.CaptureWriter.scan_report`).
-    ``drive_leak=False`` is a study's what-if (:class:`.bench.Bench`), never a capture of the campaign.
-
-    Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
-    bench's real-time loop (:func:`selfsense.control.realtime_controller`). It is passed in rather
-    than imported so that the open-loop twin does not depend on the self-sensing code it is
-    there to test.
-    """
-    manifest = load_dataset(raw_dir, dataset)
-    where = Path(raw_dir) / dataset / "dataset.yaml"
-    if manifest["source"] != "simulated":
-        raise ManifestError(f"{where}: source is {manifest['source']}; the twin never writes measured captures")
-    catalogue = expand_protocols(manifest["protocols"], config["campaign"])
-    if experiment not in catalogue:
-        raise ManifestError(f"{where}: unknown experiment {experiment!r} for campaign {config['campaign']}")
-    exp = catalogue[experiment]
-    cap = config["capture"]
-    warmup = float(exp.protocol.get("warmup", 0.0))
-    attrs = {"dataset": dataset, "protocol": exp.chapter, "campaign": config["campaign"],
-             "description": manifest["description"].strip(), "warmup_s": warmup, "control": exp.control}
-    path = output or Path(raw_dir) / dataset / f"{experiment}.nc"
-    settings = compression_settings(cap)
-    try:
-        return _simulate(path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak)
-    except UnshrinkableChunk as err:  # blosc fails on a chunk it cannot shrink; the twin is deterministic
-        LOG.warning("%s; writing it again with zlib level 1", err)
-        return _simulate(path, manifest, exp, attrs, cap, {"compression": "zlib", "complevel": 1}, where,
-                         controller_for, drive_leak)
-
-
-def _simulate(path, manifest, exp, attrs, cap, compression, where, controller_for, drive_leak=True) -> ScanReport:
-    """One run of the experiment into ``path`` with the writer's ``compression`` arguments."""
-    if manifest["model"] == "bender":
-        from . import bender  # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
-
-        return bender.simulate_experiment(path, manifest["twin"], daq_plan(manifest), exp, attrs,
-                                          manifest.get("seed", 0), cap, compression, f"{where}: twin")
-    params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
-    daq = daq_plan(manifest)
-    drive = drive_from_protocol(exp.protocol)
-    controller = None
-    if exp.control == "closed_loop":
-        if controller_for is None:
-            raise ManifestError(f"{where}: experiment {exp.name} needs the real-time controller's Γ, a0 and k/α")
-        controller = controller_for(daq, drive, float(exp.protocol.get("warmup", 0.0)))
-    return simulate_capture(
-        path, params, daq, drive, attrs, manifest.get("seed", 0), exp.name,
-        load_stiffness=exp.load_stiffness, controller=controller, chunk_len=cap["chunk_len"],
-        truth_decimation=cap["truth_decimation"], drive_leak=drive_leak, **compression)

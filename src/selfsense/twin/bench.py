@@ -1,6 +1,6 @@
 """The bench: drive → stack physics → instruments → DAQ capture, generated chunk by chunk.
 
-`simulate_capture` writes one experiment's capture through :mod:`selfsense.capture`. Memory
+`simulate_capture` writes one experiment's capture through :mod:`selfsense.io.capture`. Memory
 stays flat in the capture's length: each chunk is generated, written and dropped.
 
 Real-time control hook: pass a ``controller`` (see :class:`Controller`) and the bench runs in
@@ -23,13 +23,13 @@ from typing import Mapping, Protocol
 
 import numpy as np
 
-from .. import __version__
-from ..capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
-from . import kernel
-from .drive import Drive
-from .instruments import HighPass, RippleSource, SlowProcess, resolve, small_signal
-from .record import TRUTH, record
-from .params import TwinParams
+from selfsense import __version__
+from selfsense.io.capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
+from selfsense.twin import kernel
+from selfsense.methods.drive import Drive
+from selfsense.twin.instruments import HighPass, RippleSource, SlowProcess, resolve, small_signal
+from selfsense.twin.record import TRUTH, record
+from selfsense.twin.params import TwinParams
 
 @dataclass(frozen=True)
 class DaqPlan:
@@ -87,7 +87,7 @@ class Bench:
         self.ripple = RippleSource(params.ripple, daq.fs, rng)
         self.hp_u = HighPass(params.ripple.highpass_hz, daq.fs)
         self.hp_i = HighPass(params.ripple.highpass_hz, daq.fs)
-        if not drive_leak:  # a what-if for studies (selfsense.loop_leak): the ripple channels see the ripple alone
+        if not drive_leak:  # a what-if for studies (selfsense.verify.loop_leak): the ripple channels see the ripple alone
             self.hp_u.b = self.hp_i.b = np.zeros_like(self.hp_u.b)
         self.offset_drift = SlowProcess(rng, ins.I_offset_drift, 0.05)
         self.laser_drift = SlowProcess(rng, ins.laser_drift, 0.005)

@@ -14,7 +14,7 @@ change V. The loss impedance is model (10) as the twin's physics, a function of 
 current i_C (the rate of motion), so at rest it is the leakage resistance R (Section 4).
 
 Bench (Fig 1): a voltage amplifier of gain G drives the bender; in current mode a discrete PID
-(:class:`selfsense.powerloss.CurrentPID`) sets the amplifier input so that the current meter
+(:class:`selfsense.methods.powerloss.CurrentPID`) sets the amplifier input so that the current meter
 reads the setpoint i_t, which the feedforward block makes from the charging-current command i_c
 (Eq 3) plus the loss current: none, V/X for a trial impedance X (Eq 13), or Eq 15 with the
 operator's R and c. V in Eq 13/15 is the PID output times G of the previous sample, as the paper
@@ -43,16 +43,15 @@ import numba
 import numpy as np
 from scipy.optimize import brentq
 
-from .. import __version__
-from .. import powerloss as pl
-from ..capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, channel_spec
-from ..manifest import Experiment
-from .bench import DaqPlan, experiment_seed
-from .drive import Drive, drive_from_protocol
-from .instruments import SlowProcess
-from .maxwell import (MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step,
-                      slide_anchors, slide_anchors_reference, span)
-from .params import CreepParams, HysteresisParams, build_sections
+from selfsense import __version__
+from selfsense.methods import powerloss as pl
+from selfsense.io.capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, channel_spec
+from selfsense.io.manifest import Experiment
+from selfsense.twin.bench import DaqPlan, experiment_seed
+from selfsense.methods.drive import Drive, drive_from_protocol
+from selfsense.twin.instruments import SlowProcess
+from selfsense.twin.maxwell import MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step, slide_anchors, slide_anchors_reference, span
+from selfsense.twin.params import CreepParams, HysteresisParams, build_sections
 
 #: kernel output columns, in order
 OUTPUTS = ("V", "I", "I_meter", "Q", "U_H", "U_c", "i_t", "i_C", "i_l")
@@ -271,7 +270,7 @@ def run(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelConstants, st
 def run_reference(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelConstants,
                   state: np.ndarray) -> np.ndarray:
     """Plain-Python reference of :func:`run_kernel`: Brent's method for the voltage balance, the
-    library's :class:`~selfsense.powerloss.CurrentPID` and Eq 13/15 from :mod:`selfsense.powerloss`."""
+    library's :class:`~selfsense.methods.powerloss.CurrentPID` and Eq 13/15 from :mod:`selfsense.methods.powerloss`."""
     sc = dict(zip(_SCALARS, kc.scalars))
     q_b, U_c = kc.elements(state)
     Q, V, m, reading = state[:4]

@@ -8,8 +8,8 @@ never simulated at a higher rate and decimated.
 from __future__ import annotations
 
 import numpy as np
-from ..lti import bilinear, butterworth_highpass2, filter_run
-from .params import RippleParams
+from selfsense.methods.lti import bilinear, butterworth_highpass2, filter_run
+from selfsense.twin.params import RippleParams
 
 
 class SlowProcess:

@@ -25,10 +25,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..lti import tustin
-from .maxwell import (MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step,
-                      slide_anchors, slide_anchors_reference, span)
-from .params import TwinParams
+from selfsense.methods.lti import tustin
+from selfsense.twin.maxwell import MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step, slide_anchors, slide_anchors_reference, span
+from selfsense.twin.params import TwinParams
 
 #: output columns of the kernel, in order
 OUTPUTS = ("x", "v", "a", "q", "U_P", "U_H", "T", "I", "C_P")

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .params import CreepParams, HysteresisParams
+from selfsense.twin.params import CreepParams, HysteresisParams
 
 #: Newton iterations before a voltage balance gives up (bisection halves the bracket each time
 #: Newton would leave it, so 200 reach any float's resolution)

@@ -2,7 +2,7 @@
 numba loop (Chapter 6).
 
 :func:`run_blocks` does over a stretch of engaged samples what the Python reference does block by
-block (:func:`.bench._closed_loop_chunk` with :class:`selfsense.control.HPOIntegralController`,
+block (:func:`.bench._closed_loop_chunk` with :class:`selfsense.methods.control.HPOIntegralController`,
 whose ``run_blocks`` calls it): the controller's command from the errors of the block before (Eq
 6.1–6.3), the stack's response (:func:`.kernel.run_kernel`), the instruments as
 :meth:`.bench.Bench.step` makes them (:func:`.record.record_block` over the block: ripple current
@@ -10,7 +10,7 @@ through R_e–C_e, the ripple channels' high-pass, the probes' offsets and drift
 sample by sample, the real-time chain on
 the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq 3.12),
 x_CP = Γ(C_e) (Eq 5.4) held until the next window, and the HPO (Eq 5.5–5.9,
-:func:`selfsense.observer.hpo_update`). The reference's operations in its order, so the captures
+:func:`selfsense.methods.observer.hpo_update`). The reference's operations in its order, so the captures
 are the reference's bit for bit here; the twin's time-only signals (ripple carrier, drifts, noise)
 are made beforehand by :meth:`.bench.Bench.time_signals`, as the reference makes them once per
 chunk. Every state lives in the Python objects before and after, so the two paths can take turns;
@@ -24,9 +24,9 @@ import math
 import numba
 import numpy as np
 
-from ..observer import hpo_update
-from .kernel import N_OUT, run_kernel
-from .record import MEASURED, TRUTH, bench_arrays, record_block
+from selfsense.methods.observer import hpo_update
+from selfsense.twin.kernel import N_OUT, run_kernel
+from selfsense.twin.record import MEASURED, TRUTH, bench_arrays, record_block
 
 
 @numba.njit(cache=True)
@@ -124,7 +124,7 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
 def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, dict]:
     """The engaged stretch t of a chunk through :func:`closed_loop_kernel`, from and back into the
     state of ``bench`` (a :class:`.bench.Bench`) and ``controller`` (an
-    :class:`selfsense.control.HPOIntegralController`); returns (measured, truth, logs) as
+    :class:`selfsense.methods.control.HPOIntegralController`); returns (measured, truth, logs) as
     :meth:`.bench.Bench.step` and the controller's ``observe`` do."""
     n, chain = len(t), controller.chain
     windows, obs = chain.extractor._windows, chain.observer

@@ -110,8 +110,8 @@ def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np
     """The (sig, bench, adc) arguments of :func:`record_block` for a :class:`.bench.Bench` and its
     :meth:`~.bench.Bench.time_signals` (the signals as they are: stacking them cost as much as the
     loop)."""
-    from .bench import NOISY
-    from .instruments import effective_resistance
+    from selfsense.twin.bench import NOISY
+    from selfsense.twin.instruments import effective_resistance
 
     p, ins = bench.p, bench.p.instruments
     if len(bench.hp_u.a) != 3:  # record_block's _leaks is written for the 2nd-order Sallen-Key

@@ -6,7 +6,7 @@ ripple's phase and R_e slope, the heat transfer coefficient) sets rather than th
 thesis describes: the feedforward error and loop widths of Chapter 3 and Table 6.2, the ripple's
 phase (Fig 3.4), the stroke (Table 5.4) and U_P at its top (Table 4.3), the steady temperature and
 τ of Chapter 7 (Table 7.1). The targets are data (workflow/twin_calibration.yaml, schema
-selfsense/schemas/twin_calibration.schema.yaml): the thesis's value, a band with its reason, and
+selfsense/io/schemas/twin_calibration.schema.yaml): the thesis's value, a band with its reason, and
 the cell of the pipeline's own tables that holds the twin's value, located as the scorecard locates
 its numbers. The same targets judge the campaign's tables (rule twin_calibration) and the short
 runs of a calibration search (scripts/calibrate_twin.py). Pure: documents and tables in, a table out.
@@ -20,8 +20,10 @@ from typing import Any, Mapping
 
 import pandas as pd
 
-from .manifest import ManifestError, load_yaml, validate_document
-from .scorecard import WITHIN, Locator, NotComputed, judge, lookup
+from selfsense.io.manifest import ManifestError, load_yaml, validate_document
+from selfsense.scorecard.registry import WITHIN, Locator, NotComputed
+from selfsense.scorecard.registry import lookup
+from selfsense.scorecard.scoring import judge
 
 #: the columns of results/<dataset>/twin/calibration.csv
 COLUMNS = ["signature", "thesis source", "thesis says", "thesis value", "twin value", "unit", "band low",

@@ -23,9 +23,9 @@ from typing import Iterator, Mapping, Sequence
 import netCDF4
 import numpy as np
 
-from .provenance import provenance, temporary_path, write_json
+from selfsense.io.provenance import provenance, temporary_path, write_json
 
-LOG = logging.getLogger("selfsense.capture")
+LOG = logging.getLogger("selfsense.io.capture")
 
 #: int16 code reserved for missing samples (NaN); the ADC range maps onto ±INT16_FULL.
 FILL = np.int16(-32768)
@@ -162,7 +162,7 @@ class CaptureWriter:
     """Write a capture sequentially in chunks; the file appears only when complete and verified.
 
     Data go to a temporary beside ``path`` that no other writer uses
-    (:func:`~selfsense.provenance.temporary_path`). On a clean exit of the ``with`` block the
+    (:func:`~selfsense.io.provenance.temporary_path`). On a clean exit of the ``with`` block the
     temporary is read back whole and compared, variable by variable, with a CRC-32 of what was
     written (a check against storage and transfer errors, like HDF5's Fletcher-32, at ten times
     blake2b's speed, which took 8 % of a simulation); only then is it renamed over

@@ -14,7 +14,7 @@ import math
 import os
 from typing import Any, Mapping
 
-from .capture import CHANNEL_UNITS, FS_RTOL, Header, CaptureError
+from selfsense.io.capture import CHANNEL_UNITS, FS_RTOL, Header, CaptureError
 
 #: the largest fraction of a channel's samples that may sit at the ADC's full scale
 CLIP_LIMIT = 0.01

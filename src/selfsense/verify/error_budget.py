@@ -1,6 +1,6 @@
 """The observer's error budget: its error against the laser split into sources with the twin's truth.
 
-A verification step, like :mod:`selfsense.recovery`: it needs a simulated capture's ``/truth``
+A verification step, like :mod:`selfsense.verify.recovery`: it needs a simulated capture's ``/truth``
 group (noiseless x, q, C_e and the probe offset I_0), so it runs on the twin's datasets only.
 
 Why the error splits exactly
@@ -43,94 +43,23 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .budget_columns import AT_MAX, AT_MAX_SPREAD
-from .capture import open_capture, read_series
-from .chapters.ch5 import creep_phases, offset_compensated_charge
-from .chapters.ch6 import segment_windows, settled_after
-from .gamma import GammaPolynomial
-from .observer import HPOGains, HybridPositionObserver
-from .ripple import SamplingPlan, WindowMeans, plan_from_capture
-from .selfsensing import SelfSensingChain
+from selfsense.io.capture import open_capture, read_series
+from selfsense.chapters.ch5 import creep_phases, offset_compensated_charge
+from selfsense.chapters.ch6 import segment_windows, settled_after
+from selfsense.methods.gamma import GammaPolynomial
+from selfsense.methods.observer import HPOGains, HybridPositionObserver
+from selfsense.methods.ripple import SamplingPlan, WindowMeans, plan_from_capture
+from selfsense.methods.selfsensing import SelfSensingChain
+from selfsense.verify.truth import Truth
+
+#: a source's value at the instant of the error's max
+AT_MAX = " at total max [µm]"
+#: a source's σ over P1's tests of its value at each test's max (error_budget.spread_over_spans)
+AT_MAX_SPREAD = " at max σ over tests [µm]"
 
 #: the sources of the error, in the order of the docstring (current path, then capacitance path)
 SOURCES = ("probe offset", "current noise", "q–x map", "C_e estimate", "Γ map", "laser")
 
-#: the /truth states the budget reads
-TRUTH_STATES = ("x", "q", "C_e", "I_offset")
-
-
-@dataclass(frozen=True, eq=False)
-class Truth:
-    """The twin's noiseless states of one capture, stored every ``decimation``-th sample.
-
-    ``source`` names the capture in error messages; ``n_samples`` is the capture's length, which the
-    states must cover; ``names`` are the states a budget reads (the observer's by default).
-    """
-
-    states: Mapping[str, np.ndarray]
-    decimation: int
-    n_samples: int
-    source: str = "capture"
-    names: tuple[str, ...] = TRUTH_STATES
-    _values: np.ndarray = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        missing = [s for s in self.names if s not in self.states]
-        if missing:
-            raise ValueError(f"{self.source}: /truth lacks the state(s) {', '.join(missing)}")
-        if int(self.decimation) < 1:
-            raise ValueError(f"{self.source}: /truth decimation must be >= 1, got {self.decimation!r}")
-        values = np.array([np.asarray(self.states[s], dtype=np.float64) for s in self.names])
-        needed = -(-int(self.n_samples) // int(self.decimation))
-        if values.shape[1] < needed:
-            raise ValueError(f"{self.source}: /truth has {values.shape[1]} values, the capture's "
-                             f"{self.n_samples} samples at decimation {self.decimation} need {needed}")
-        if not np.isfinite(values[:, :needed]).all():
-            raise ValueError(f"{self.source}: /truth has non-finite values")
-        object.__setattr__(self, "_values", values)
-
-    @classmethod
-    def from_group(cls, attrs: Mapping[str, object], states: Mapping[str, np.ndarray], n_samples: int,
-                   source: str = "capture", names: tuple[str, ...] = TRUTH_STATES) -> "Truth":
-        """From :meth:`selfsense.capture.Capture.read_truth`'s (attributes, states)."""
-        if "decimation" not in attrs:
-            raise ValueError(f"{source}: /truth has no decimation attribute")
-        return cls(states, int(attrs["decimation"]), int(n_samples), source, tuple(names))
-
-    @classmethod
-    def from_capture(cls, capture, names: tuple[str, ...] = TRUTH_STATES) -> "Truth":
-        """The states ``names`` of an open simulated :class:`selfsense.capture.Capture` over its length
-        (the rest of its /truth is not kept)."""
-        attrs, states = capture.read_truth()
-        return cls.from_group(attrs, {k: states[k] for k in names if k in states}, capture.length(),
-                              str(capture.path), names)
-
-    def at(self, index: np.ndarray) -> dict[str, np.ndarray]:
-        """Each state at the global sample indices ``index``.
-
-        A 4-point cubic through the stored values: linear interpolation would be off by
-        (ωΔ)²/8 of the amplitude, 50 nm on the 100 Hz sine at 4 kHz, near the laser's own 87 nm rms;
-        the cubic's (ωΔ)⁴/43 is below 1 nm. Ends use the nearest values.
-        """
-        u = np.asarray(index, dtype=np.float64) / self.decimation
-        i = np.floor(u).astype(np.int64)
-        s = u - i
-        weights = ((-s * (s - 1) * (s - 2) / 6), ((s + 1) * (s - 1) * (s - 2) / 2),
-                   (-(s + 1) * s * (s - 2) / 2), ((s + 1) * s * (s - 1) / 6))
-        last = self._values.shape[1] - 1
-        out = sum(w * self._values[:, np.clip(i + k, 0, last)] for k, w in zip((-1, 0, 1, 2), weights))
-        return dict(zip(self.names, out))
-
-    def means(self, last: np.ndarray, n: int, block: int = 1 << 14) -> dict[str, np.ndarray]:
-        """Each state's mean over the ``n`` samples ending at each global index of ``last`` (the
-        windows a series of means was taken over), ``block`` windows at a time to bound the memory."""
-        offsets = np.arange(1 - n, 1)
-        parts = []
-        for start in range(0, len(last), block):
-            ends = np.asarray(last[start:start + block])
-            values = self.at((ends[:, None] + offsets).ravel())
-            parts.append({k: v.reshape(len(ends), n).mean(axis=1) for k, v in values.items()})
-        return {k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0) for k in self.names}
 
 
 class Superposition:
@@ -166,7 +95,7 @@ class Superposition:
 @dataclass
 class BudgetStats:
     """Streaming statistics of an error and its ``sources`` over the samples counted (Table 5.4's
-    for the observer's; :mod:`selfsense.tracking_budget` counts Chapter 6's tracking error)."""
+    for the observer's; :mod:`selfsense.verify.tracking_budget` counts Chapter 6's tracking error)."""
 
     sources: tuple[str, ...] = SOURCES
     n: int = 0

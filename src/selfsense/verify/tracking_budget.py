@@ -1,6 +1,6 @@
 """Chapter 6's tracking error split into its sources with the twin's truth (a verification step).
 
-The companion of :mod:`selfsense.error_budget`, which splits the observer's error: it needs a
+The companion of :mod:`selfsense.verify.error_budget`, which splits the observer's error: it needs a
 simulated capture's ``/truth`` group, so it runs on the twin's datasets only. The tracking error
 of Tables 6.1–6.2, ε_T = x_R − x_laser (:func:`selfsense.chapters.ch6.errors`), is taken on the same
 means over each folded ripple period (the real-time loop's 4 kHz rate) of the same run, with the
@@ -30,7 +30,7 @@ Closed loop, with the estimate x̂ the loop logged (channel ``x_hpo_rt``):
 
 The controller's own error ε_CCL = x_R − x̂ (Table 6.2) is split further, through the loop that
 made it. The loop integrates ε_CCL per sample, each sample of a block applying the error of the same
-sample of the block before (:class:`selfsense.control.HPOIntegralController`), so that over the
+sample of the block before (:class:`selfsense.methods.control.HPOIntegralController`), so that over the
 means, for an error constant within a block,
 
     (α/k)(ū_k − ū_(k−1)) = (ω_C/fs)·[(ns + 1)/2·ε_(k−1) + (ns − 1)/2·ε_(k−2)],
@@ -44,7 +44,7 @@ means' rate (:func:`loop_sensitivity`). Splitting d at the truth as the open loo
 
 * ``loop lag``: what the linear Type-I loop with its one-block delay leaves of the reference, the
   error a hysteresis-free stack and a perfect observer would still have (|1 − T| of
-  :func:`selfsense.control.tracking_prediction`, with the delay);
+  :func:`selfsense.methods.control.tracking_prediction`, with the delay);
 * ``hysteresis``, ``creep``, ``stack dynamics``: the plant's departures from α/k, as the loop
   rejects them;
 * ``observer``: the estimate's error, which the loop follows inside its bandwidth;
@@ -54,7 +54,7 @@ means' rate (:func:`loop_sensitivity`). Splitting d at the truth as the open loo
   within a block; the engagement's first block).
 
 The truth is stored every ``decimation``-th sample; each mean's truth is the mean of the 4-point
-cubic (:meth:`selfsense.error_budget.Truth.means`) over the mean's samples. That is exact for the
+cubic (:meth:`selfsense.verify.error_budget.Truth.means`) over the mean's samples. That is exact for the
 smooth P2 profiles, not for what happens between two stored values: P1's voltage steps and the
 bench's 2.5 kHz mode they ring, above the stored rate's 2 kHz Nyquist frequency. In the means next
 to a step the interpolated U, U_P and x are off, and feedforward, stack dynamics and laser take
@@ -70,10 +70,11 @@ import numpy as np
 
 from scipy.signal import lfilter
 
-from .capture import open_capture
-from .chapters.ch6 import load_run, segment_windows, settled_after
-from .error_budget import SpanBudgets, Truth
-from .ripple import plan_from_capture
+from selfsense.io.capture import open_capture
+from selfsense.chapters.ch6 import load_run, segment_windows, settled_after
+from selfsense.verify.error_budget import SpanBudgets
+from selfsense.verify.truth import Truth
+from selfsense.methods.ripple import plan_from_capture
 
 OPEN_SOURCES = ("feedforward", "hysteresis", "creep", "stack dynamics", "laser")
 CLOSED_SOURCES = ("controller", "observer", "laser")
@@ -122,7 +123,7 @@ def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: floa
     """One Chapter 6 run's tracking budget, counted as its table counts: P1 (``ch6_p1_*``) per
     segment a–h over the steady windows of :func:`selfsense.chapters.ch6.segment_windows` (Table
     6.1), a P2 profile from the loop's settling on (:func:`selfsense.chapters.ch6.settled_after`,
-    Table 6.2). Returns {"tracking": {segment or "": :meth:`selfsense.error_budget.BudgetStats.row`}}
+    Table 6.2). Returns {"tracking": {segment or "": :meth:`selfsense.verify.error_budget.BudgetStats.row`}}
     and, in closed loop, "controller": the same of ε_CCL's split (:func:`controller_split`)."""
     run = load_run(path, protocol, command=closed)
     if closed and (run["x_hat"] is None or run["u_cmd"] is None):

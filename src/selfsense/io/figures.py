@@ -227,9 +227,9 @@ def magnitude_plot(freqs_hz, curves: dict, title):
 def bode(table: pd.DataFrame, model_f, model_G, peaks: pd.DataFrame, thesis_hz: float, title):
     """Fig 5.3: measured points against the model line, magnitude and phase; resonances marked.
 
-    ``table`` has the measured columns of :func:`selfsense.frequency_response.response_table`,
+    ``table`` has the measured columns of :func:`selfsense.methods.frequency_response.response_table`,
     ``model_G`` is complex on ``model_f`` [Hz] (m/C, numerically µm/µC), ``peaks`` is
-    :func:`~selfsense.frequency_response.resonance_table`.
+    :func:`~selfsense.methods.frequency_response.resonance_table`.
     """
     fig, (mag, phase) = _fig(2, 1, sharex=True)
     f = table["frequency [Hz]"]

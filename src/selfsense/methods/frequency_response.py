@@ -17,7 +17,7 @@ Choices, with the reasons:
   fs/ns (4 kHz on the stack's DAQ, ≈ 0.2 A: more than the drive current near the resonance) and
   slow drifts (laser, creep), which a rectangular window leaks at 1/(π·cycles).
 - q is the running sum h·ΣI, the integral every stage takes of the measured current
-  (:func:`selfsense.ripple.impedance_series`); its phasor is exactly I·h/(1 − e^(−jωh)), which
+  (:func:`selfsense.methods.ripple.impedance_series`); its phasor is exactly I·h/(1 − e^(−jωh)), which
   tends to Eq 5.2's I/(jω) for ωh ≪ 1 but at 48 kHz already differs by 13.5° at 3.6 kHz.
 - The model's C_P is the clamped capacitance at the sweep's operating point,
   C_P = C_P0 + ΔCx·x̄ (Eq 4.4–4.6), x̄ the mean laser position during the sweep above its value
@@ -37,7 +37,8 @@ import pandas as pd
 import scipy.optimize
 import scipy.signal
 
-from . import figure_names, figures
+from selfsense.chapters import figure_names
+from selfsense.io import figures
 
 #: Fig 5.3 / Chapter 5 text: "the electromechanical resonance frequency (700 Hz)"
 THESIS_RESONANCE_HZ = 700.0
@@ -66,7 +67,7 @@ def sweep_plan(segments: Sequence, fs: float, settle_s: float) -> SweepPlan:
     """Where each point of a stepped-sine sweep lies in its capture.
 
     ``segments`` are the drive's segments in order (objects with ``duration`` [s], ``frequency``
-    [Hz] and ``hi``, as :func:`selfsense.twin.drive.drive_from_protocol` builds them); the first
+    [Hz] and ``hi``, as :func:`selfsense.methods.drive.drive_from_protocol` builds them); the first
     must be a hold at 0 V. A sine segment's first ⌈settle_s·f⌉ periods are discarded and
     the whole periods after them analysed. Segments with fewer than :data:`MIN_CYCLES` periods
     left are transitions (the half-cycle rises between drive levels), not points.

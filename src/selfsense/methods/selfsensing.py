@@ -10,10 +10,10 @@ from typing import Iterable, Mapping, NamedTuple
 
 import numpy as np
 
-from .capture import open_capture
-from .gamma import GammaPolynomial
-from .observer import HPOGains, HybridPositionObserver
-from .ripple import RippleExtractor, SamplingPlan, plan_from_capture
+from selfsense.io.capture import open_capture
+from selfsense.methods.gamma import GammaPolynomial
+from selfsense.methods.observer import HPOGains, HybridPositionObserver
+from selfsense.methods.ripple import RippleExtractor, SamplingPlan, plan_from_capture
 
 
 class LaserChunk(NamedTuple):

@@ -19,9 +19,9 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .capture import DISPLACEMENT, open_capture
-from .figures import UF, UM, loop_grid, placeholder, plt  # plt: after figures has chosen the Agg backend
-from .metrics import branch_gap, branch_means, direction
+from selfsense.io.capture import DISPLACEMENT, open_capture
+from selfsense.io.figures import UF, UM, loop_grid, placeholder  # plt: after figures has chosen the Agg backend
+from selfsense.methods.metrics import branch_gap, branch_means, direction
 
 #: a capture is reduced to at most this many block means
 MAX_POINTS = 1 << 20

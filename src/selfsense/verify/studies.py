@@ -11,9 +11,9 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from ..ripple import RippleExtractor, SamplingPlan, WindowMeans
-from .bench import Bench, DaqPlan, experiment_seed
-from .params import TwinParams
+from selfsense.methods.ripple import RippleExtractor, SamplingPlan, WindowMeans
+from selfsense.twin.bench import Bench, DaqPlan, experiment_seed
+from selfsense.twin.params import TwinParams
 
 
 def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[int],

@@ -1,6 +1,6 @@
 """Ronkanen's Section 7 results on the twin's truth: how much of each is the sensor's.
 
-A verification step, like :mod:`selfsense.error_budget`: it reads a simulated capture's ``/truth``
+A verification step, like :mod:`selfsense.verify.error_budget`: it reads a simulated capture's ``/truth``
 group, so it runs on the twin's datasets only. The bender's displacement is a·Q (Eq 2; docs/twin.md),
 so under current control everything the true displacement drifts is the charge's — the leakage
 compensation's error, the drive's, the creep's — and what the sensor adds (its noise, slow drift
@@ -16,16 +16,16 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from .capture import open_capture
-from .chapters.ronkanen import Record, performance
-from .error_budget import Truth
+from selfsense.io.capture import open_capture
+from selfsense.chapters.ronkanen import Record, performance
+from selfsense.verify.truth import Truth
 
 SENSOR = "sensor (measured − true x)"
 
 
 def true_displacement(path: str | Path) -> np.ndarray:
     """The twin's displacement a·Q [m] at every sample of a simulated capture, from its stored truth
-    (the 4-point cubic of :meth:`selfsense.error_budget.Truth.at`)."""
+    (the 4-point cubic of :meth:`selfsense.verify.error_budget.Truth.at`)."""
     with open_capture(path) as cap:
         truth = Truth.from_capture(cap, names=("x",))
     return truth.at(np.arange(truth.n_samples))["x"]

@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numba
 import numpy as np
 
-from .lti import tustin
+from selfsense.methods.lti import tustin
 
 if TYPE_CHECKING:
     import control
@@ -56,7 +56,7 @@ if TYPE_CHECKING:
 # python-control is imported inside the functions that build transfer functions: with the
 # matplotlib it pulls in it costs ≈ 0.4 s per process, and the streaming jobs (one per capture)
 # only need the state-space matrices. For the same reason scipy.signal is imported only by the
-# zero-order-hold discretisation and the reference: Tustin's comes from selfsense.lti.
+# zero-order-hold discretisation and the reference: Tustin's comes from selfsense.methods.lti.
 
 __all__ = [
     "THESIS_A0",

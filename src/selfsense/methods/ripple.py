@@ -168,7 +168,7 @@ def plan_from_fs(
 
 
 def plan_from_capture(capture, n_periods: int) -> SamplingPlan:
-    """The plan an open :class:`~selfsense.capture.Capture` was sampled with, from its ``fs`` and its
+    """The plan an open :class:`~selfsense.io.capture.Capture` was sampled with, from its ``fs`` and its
     ``fr_nominal``/``ns`` attributes, checked as :func:`plan_from_fs` checks it (Eq 3.3-3.5)."""
     return plan_from_fs(capture.fs, float(capture.attribute("fr_nominal")), int(capture.attribute("ns")),
                         int(n_periods))
@@ -359,7 +359,7 @@ def impedance_series(chunks, plan: SamplingPlan, fs: float, companions=("U", "x_
     """Stream a capture's chunks into C_e, R_e and window means of companion channels.
 
     ``chunks`` yields (first sample index, {channel: array}) as
-    :meth:`selfsense.capture.Capture.iter_chunks` does, with ``Ur``, ``Ir`` and the companions.
+    :meth:`selfsense.io.capture.Capture.iter_chunks` does, with ``Ur``, ``Ir`` and the companions.
     If ``I`` is a companion, the uncorrected charge ``q = ∫ I dt`` is added too (its window
     mean), carried across chunks. Yields one dict of equal-length arrays per chunk, keyed
     ``time`` (centre of each window [s]), ``C_e``, ``R_e``, the Fourier coefficients and the

@@ -19,11 +19,11 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from .capture import open_capture, read_series
-from .chapters.ch4 import identify_sets
-from .error_budget import Truth
-from .gamma_truth import window_truth
-from .ripple import plan_from_capture
+from selfsense.io.capture import open_capture, read_series
+from selfsense.chapters.ch4 import identify_sets
+from selfsense.verify.truth import Truth
+from selfsense.verify.gamma_truth import window_truth
+from selfsense.methods.ripple import plan_from_capture
 
 
 def truth_at(times: np.ndarray, truth_states: Mapping[str, np.ndarray], name: str, decimation: int,

@@ -54,7 +54,7 @@ from scipy.integrate import cumulative_trapezoid
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from .metrics import branch_gap
+from selfsense.methods.metrics import branch_gap
 
 __all__ = [
     "PAPER_HOLD_VOLTAGE",
@@ -708,7 +708,7 @@ def branch_hysteresis_percent(required: ArrayLike, measured: ArrayLike, min_swin
     The record is cut at the reversals of the required displacement; for every
     pair of consecutive branches (one rising, one falling) the largest gap in
     measured displacement at equal required displacement is found
-    (:func:`selfsense.metrics.branch_gap`), and the largest over all pairs is
+    (:func:`selfsense.methods.metrics.branch_gap`), and the largest over all pairs is
     divided by the measured peak-to-peak.  Pairing consecutive branches keeps
     the nested loops of a decaying ramp apart instead of averaging them.
     """

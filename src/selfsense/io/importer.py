@@ -5,7 +5,7 @@ variables by name, struct fields by ``.``, a column of a matrix or an element of
 ``[k]``), converts each channel to its contract unit, checks the time axis, packs int16 with the
 manifest's ranges (or ranges derived from the data) and writes ``raw/<dataset>/<experiment>.nc``,
 then scaffolds or updates ``raw/<dataset>/dataset.yaml``. The capture appears only complete and
-verified (:class:`~selfsense.capture.CaptureWriter`), the manifest by an atomic rename, the
+verified (:class:`~selfsense.io.capture.CaptureWriter`), the manifest by an atomic rename, the
 capture first: an interrupted import leaves at most a complete capture the manifest does not
 list yet. An existing capture is never overwritten (measured captures are only ever read).
 """
@@ -22,13 +22,13 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
-from . import __version__
-from .capture import CHANNEL_UNITS, SLOW_CHANNELS, CaptureWriter, channel_spec
-from .contract import clipping_problem
-from .manifest import ManifestError, check_dataset_name, check_experiment_name, load_dataset, validate_document
-from .provenance import atomic_path
+from selfsense import __version__
+from selfsense.io.capture import CHANNEL_UNITS, SLOW_CHANNELS, CaptureWriter, channel_spec
+from selfsense.io.contract import clipping_problem
+from selfsense.io.manifest import ManifestError, check_dataset_name, check_experiment_name, load_dataset, validate_document
+from selfsense.io.provenance import atomic_path
 
-LOG = logging.getLogger("selfsense.importer")
+LOG = logging.getLogger("selfsense.io.importer")
 
 #: factor from each accepted unit to the contract's unit of its quantity
 UNITS: dict[str, dict[str, float]] = {

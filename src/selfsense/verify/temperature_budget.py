@@ -1,6 +1,6 @@
 """Chapter 7's coupled temperature error split into its sources with the twin's truth.
 
-A verification step, like :mod:`selfsense.error_budget` and :mod:`selfsense.tracking_budget`: it
+A verification step, like :mod:`selfsense.verify.error_budget` and :mod:`selfsense.verify.tracking_budget`: it
 needs a simulated capture's ``/truth`` group, so it runs on the twin's datasets only. Rule
 `coupled` (:func:`selfsense.chapters.ch7.coupled_estimation`) predicts the stack's temperature with
 the identified first-order model γ/(τs + 1) (Eq 7.4), stepped exactly (zero-order hold) over 0.1 s
@@ -27,9 +27,9 @@ The true heat
 The twin heats with its own hysteresis and creep loss (docs/twin.md), per sample
 (U_drive − U_P)·(q[n] − q[n−1])·fs: U_drive − U_P = U_H + ΣU_c by the voltage balance (Eq 1.6),
 the charge before the first sample zero as in the kernel's initial state. Its means over the
-estimator's intervals are taken by the estimator's own :class:`~selfsense.thermal.PowerAverager`.
+estimator's intervals are taken by the estimator's own :class:`~selfsense.methods.thermal.PowerAverager`.
 The truth is stored every 12th sample (4 kHz); the states are rebuilt at every sample by the
-4-point cubic of :meth:`selfsense.error_budget.Truth.at` and summed as the kernel sums them. Against
+4-point cubic of :meth:`selfsense.verify.error_budget.Truth.at` and summed as the kernel sums them. Against
 the kernel's own 48 kHz sum on 0–100 V raised sines (the mixed run's drives), the interval means
 are off by +0.004 % at 20 Hz, +0.002 % at 50 Hz and −0.08 % at 100 Hz (worst interval 0.13 %),
 +0.07 % at 200 Hz: what the cubic misses are the Maxwell operator's kinks, where an element
@@ -48,10 +48,10 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from .capture import open_capture
-from .chapters.ch7 import COUPLING_INTERVAL
-from .error_budget import Truth
-from .thermal import PowerAverager, ThermalModel, predict_temperature
+from selfsense.io.capture import open_capture
+from selfsense.chapters.ch7 import COUPLING_INTERVAL
+from selfsense.verify.truth import Truth
+from selfsense.methods.thermal import PowerAverager, ThermalModel, predict_temperature
 
 #: the sources of the error, in the order of the module docstring
 SOURCES = ("power estimate", "thermal model", "thermometer")

@@ -1,7 +1,7 @@
 """The closed loop's drive at the folded ripple frequency, and what it does to C_e (a twin study).
 
-A verification step, like :mod:`selfsense.error_budget`: it reads the twin's truth, and runs on the
-twin's datasets only. In the real-time loop of Chapter 6 (:class:`selfsense.control.HPOIntegralController`)
+A verification step, like :mod:`selfsense.verify.error_budget`: it reads the twin's truth, and runs on the
+twin's datasets only. In the real-time loop of Chapter 6 (:class:`selfsense.methods.control.HPOIntegralController`)
 the observer integrates the measured current sample by sample, the 100 kHz ripple current folded
 onto fs/ns with it (part of the error budget's "current noise"), and the integral controller,
 stepping every sample at ω_C (Eq 6.1–6.3), passes part of that folded ripple on to the drive. The
@@ -15,7 +15,7 @@ simulated again with the drive kept out of the ripple channels (the twin's what-
 variant: the drive command's component at the folded ripple frequency against the ripple
 voltage's, each over every ripple window (their median ratio); the C_e estimate's error against the
 truth over the same windows; and the observer error as Table 6.2 counts it with its C_e estimate
-part at that max (:func:`selfsense.error_budget.capture_budget`).
+part at that max (:func:`selfsense.verify.error_budget.capture_budget`).
 """
 
 from __future__ import annotations
@@ -26,13 +26,14 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .capture import open_capture
-from .chapters.ch6 import settled_after
-from .error_budget import Truth, capture_budget
-from .gamma import GammaPolynomial
-from .observer import HPOGains
-from .ripple import RippleExtractor, plan_from_capture
-from .twin import simulate_experiment
+from selfsense.io.capture import open_capture
+from selfsense.chapters.ch6 import settled_after
+from selfsense.verify.truth import Truth
+from selfsense.verify.error_budget import capture_budget
+from selfsense.methods.gamma import GammaPolynomial
+from selfsense.methods.observer import HPOGains
+from selfsense.methods.ripple import RippleExtractor, plan_from_capture
+from selfsense.twin.experiment import simulate_experiment
 
 AS_SIMULATED = "as simulated"
 NO_LEAK = "no drive leak"
@@ -88,7 +89,7 @@ def leak_study(captures: Sequence[str | Path], config: Mapping, controller_for: 
                gamma: GammaPolynomial, gains: HPOGains, omega_c: float) -> list[dict[str, object]]:
     """:func:`leak_row` of each closed-loop capture (raw/<dataset>/<experiment>.nc) against the same
     experiment simulated again (``config``: the campaign and capture settings, ``controller_for``:
-    :func:`selfsense.control.controller_factory`'s) with the drive kept out of the ripple channels,
+    :func:`selfsense.methods.control.controller_factory`'s) with the drive kept out of the ripple channels,
     into a scratch folder: the what-if captures are not the campaign's."""
     rows = []
     with tempfile.TemporaryDirectory() as scratch:

@@ -14,7 +14,8 @@ from typing import Any, Mapping
 
 import pandas as pd
 
-from .scorecard import Band, Entry, Locator, Tolerance, scorecard
+from selfsense.scorecard.registry import Band, Entry, Locator, Tolerance
+from selfsense.scorecard.scoring import scorecard
 
 SECTION = "reference values"
 KIND = "emergent"

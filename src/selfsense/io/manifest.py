@@ -1,6 +1,6 @@
 """Config, dataset manifests and the experiment catalogue: loading and one-line validation.
 
-The JSON schemas are package data (``selfsense/schemas``): they are the library's contracts, so
+The JSON schemas are package data (``selfsense/io/schemas``): they are the library's contracts, so
 an installed package (editable or not) has them. Snakemake's own ``validate`` fills their
 defaults in the workflow; this module runs the same schemas first so that a bad document fails
 with one line naming the file and the offending key, and expands the catalogue into concrete
@@ -196,7 +196,7 @@ def require_keys(manifest: Mapping[str, Any], keys: Sequence[str], source: str |
         for part in key.split("."):
             if not isinstance(node, Mapping) or part not in node:
                 raise ManifestError(f"{source}: key {key} is missing: {why} computes with it "
-                                    "(src/selfsense/schemas/dataset.schema.yaml)", key)
+                                    "(src/selfsense/io/schemas/dataset.schema.yaml)", key)
             node = node[part]
 
 

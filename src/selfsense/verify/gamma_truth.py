@@ -20,12 +20,12 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from .capture import open_capture
-from .chapters.ch5 import gamma_data
-from .chapters.ch7 import gamma_t_data
-from .error_budget import Truth
-from .gamma import GammaPolynomial, coefficient_table, curve_difference, fit_gamma
-from .ripple import plan_from_capture
+from selfsense.io.capture import open_capture
+from selfsense.chapters.ch5 import gamma_data
+from selfsense.chapters.ch7 import gamma_t_data
+from selfsense.verify.truth import Truth
+from selfsense.methods.gamma import GammaPolynomial, coefficient_table, curve_difference, fit_gamma
+from selfsense.methods.ripple import plan_from_capture
 
 #: the fitted inputs and the truth state each is replaced by
 TRUE_STATE = {"C_e": "C_e", "x": "x", "T": "T"}
@@ -41,7 +41,7 @@ INTERACTION_T = "t of g_CT"
 
 def window_truth(truth: Truth, time: np.ndarray, fs: float, block_len: int, names: Sequence[str]) -> dict[str, np.ndarray]:
     """The truth states ``names`` averaged over the ripple windows a series was taken over: a
-    window of ``block_len`` samples centred on each ``time`` [s] (:func:`selfsense.ripple.impedance_series`)."""
+    window of ``block_len`` samples centred on each ``time`` [s] (:func:`selfsense.methods.ripple.impedance_series`)."""
     last = np.rint(np.asarray(time) * fs + (block_len - 1) / 2).astype(np.int64)
     means = truth.means(last, block_len)
     return {name: means[name] for name in names}
@@ -66,7 +66,7 @@ def curve_rows(data: Mapping[str, Mapping[str, np.ndarray]], orders: Mapping[str
                interaction_order: int | None = None) -> pd.DataFrame:
     """One row per fit of ``orders`` ({name: order}), in columns "<quantity>, <variant>" for each
     variant of :func:`variants`: max |Γ − Γ_thesis| over the printed curve's C range
-    (:func:`selfsense.gamma.curve_difference`), the residual standard error (the scatter Tables 5.2
+    (:func:`selfsense.methods.gamma.curve_difference`), the residual standard error (the scatter Tables 5.2
     and 7.2–7.3 report through R², MS and F) and, with a temperature, g and its t statistic. With
     ``interaction_order`` (Γ_T), a row more: the fit with a C·T term (Table 7.2's last column), its
     coefficient and t statistic (the t, not Table 7.2's p, which underflows to 0 for every |t| above

@@ -4,7 +4,7 @@ Each run is an experiment of a campaign's catalogue (the smoke campaign's by def
 not the thesis's minutes), written by :func:`simulate_capture` into a scratch folder and analysed
 with the functions the pipeline's rules call, into tables shaped as the pipeline's. The
 calibration targets' locators then read them as they read a campaign's tables
-(:func:`selfsense.calibration.calibration_table`), so a search and rule twin_calibration judge
+(:func:`selfsense.scorecard.calibration.calibration_table`), so a search and rule twin_calibration judge
 one signature by one definition. Runs and what they give (docs/twin.md, "Calibration"):
 
 - ch3_sine_10hz, 100 V at 10 Hz: the ripple series of rule extract_ripple → the loop widths and
@@ -31,15 +31,15 @@ from typing import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
-from ..capture import open_capture
-from ..chapters import ch3, ch4, ch5, ch6, ch7
-from ..electromech import Geometry
-from ..manifest import Experiment
-from ..ripple import impedance_series, plan_from_capture
-from ..thermal import ThermalModel, ThermalProperties
-from .bench import DaqPlan, simulate_capture
-from .drive import drive_from_protocol
-from .params import TwinParams
+from selfsense.io.capture import open_capture
+from selfsense.chapters import ch3, ch4, ch5, ch6, ch7
+from selfsense.methods.electromech import Geometry
+from selfsense.io.manifest import Experiment
+from selfsense.methods.ripple import impedance_series, plan_from_capture
+from selfsense.methods.thermal import ThermalModel, ThermalProperties
+from selfsense.twin.bench import DaqPlan, simulate_capture
+from selfsense.methods.drive import drive_from_protocol
+from selfsense.twin.params import TwinParams
 
 #: the tables (relative to results/<dataset>/) the short runs give, each with the runs it needs
 TABLES = {
@@ -58,7 +58,7 @@ COMPANIONS = ("U", "x_laser", "I")
 @dataclass(frozen=True)
 class ShortRuns:
     """What the short runs share whatever the twin's parameters: the dataset's DAQ, its campaign's
-    catalogue (:func:`selfsense.manifest.expand_protocols`), its geometry and moving mass (for the
+    catalogue (:func:`selfsense.io.manifest.expand_protocols`), its geometry and moving mass (for the
     Chapter 4 identification), its seed, the config's ripple np and Chapter 6 ω_C, and a scratch
     folder for the captures."""
 

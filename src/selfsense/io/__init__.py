@@ -1,0 +1,9 @@
+"""Everything that reads or writes files.
+
+- ``capture``: the capture contract (netCDF4): write, open, validate, stream;
+- ``contract``: the checks a capture must pass (attributes, agreement, clipping);
+- ``manifest``: dataset manifests, protocols and config, validated against ``schemas/``;
+- ``provenance``: atomic outputs with their provenance sidecars, script logging;
+- ``importer``: a lab's CSV/MAT recordings into captures (``selfsense import``);
+- ``figures``: the plotting helpers every figure is drawn with.
+"""

@@ -1,0 +1,242 @@
+"""The scorecard's renderings: the report's landing page, the out-of-band and pending lists
+(reStructuredText), the per-dataset HTML page, and the blocks the documentation quotes.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from typing import Any, Mapping
+
+import pandas as pd
+
+from selfsense.scorecard.registry import (CAUSE_MARK, COLUMNS, EMERGENT, INFORMATION, KINDS, MISSING, NOT_YET, OUT,
+    VERDICTS, WITHIN)
+from selfsense.scorecard.scoring import counts
+
+# --- renderings ---------------------------------------------------------------------------------
+
+def summary(cards: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """Counts per dataset, kind and chapter (and a "total" row per dataset and kind): the numbers
+    the report's opening and the README quote. ``reproduced`` = within + out of band."""
+    rows = []
+    for dataset, card in cards.items():
+        for kind in KINDS:
+            part = card[card["kind"] == kind]
+            if not len(part):
+                continue
+            groups = [(str(c), g) for c, g in part.groupby("chapter", sort=False)] + [("total", part)]
+            for chapter, g in groups:
+                n = counts(g)
+                rows.append({"dataset": dataset, "kind": kind, "chapter": chapter, "numbers": len(g),
+                             "reproduced": n[WITHIN] + n[OUT], **n})
+    return pd.DataFrame(rows, columns=["dataset", "kind", "chapter", "numbers", "reproduced", *VERDICTS])
+
+
+def headline(counts_: pd.DataFrame) -> str:
+    """One line per dataset: emergent numbers within band, then the other kinds."""
+    lines = []
+    for dataset, part in counts_[counts_["chapter"] == "total"].groupby("dataset", sort=False):
+        by_kind = part.set_index("kind")
+        parts = [f"**{_rst(dataset)}**: " + (_kind_tally(by_kind.loc[EMERGENT], "emergent") if EMERGENT in by_kind.index
+                                            else "no emergent numbers")]
+        parts += [_kind_tally(by_kind.loc[k], k) for k in KINDS[1:] if k in by_kind.index]
+        lines.append("; ".join(parts) + ".")
+    return "\n\n".join(lines)
+
+
+def _kind_tally(row: pd.Series, kind: str) -> str:
+    text = f"{kind} {row[WITHIN]} within band of {row['reproduced']}"
+    extra = [f"{row[v]} {v}" for v in (NOT_YET, MISSING, INFORMATION) if row[v]]
+    return text + (f" ({', '.join(extra)})" if extra else "")
+
+
+def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
+    """The short summary that opens the report: the emergent numbers (the reproduction proper) per
+    chapter, then the other kinds. The long lists are pages of their own (`out_of_band_rst`,
+    `pending_rst`): the report's landing text is centred vertically, so a long one starts above the
+    top of the window, out of reach."""
+    table = summary(_filled(cards))
+    return headline(table) + "\n\n" + "\n".join(_table(table[table["kind"] == EMERGENT], "Emergent numbers by chapter")) \
+        + "\n\nClosed-form, recovery and calibration numbers are checks of the method and the twin, not " \
+          "reproductions (docs/scorecard.md, \"Kinds of numbers\").\n"
+
+
+def out_of_band_rst(cards: Mapping[str, pd.DataFrame]) -> str:
+    """A page: per dataset, every number out of band by source (with the registry's note saying
+    why) and every number missing from its table."""
+    return _lists_page(cards, "Numbers out of band, and missing from their tables",
+                       lambda card: _out_of_band(card) + _missing(card), "None: every reproduced number is within band.")
+
+
+def pending_rst(cards: Mapping[str, pd.DataFrame]) -> str:
+    """A page: per dataset, the numbers no stage reproduces yet, by chapter and source."""
+    return _lists_page(cards, "Numbers not reproduced yet", _pending, "None: every number is reproduced.")
+
+
+def rst_html(text: str) -> str:
+    """A self-contained HTML page of reStructuredText; a docutils warning or error raises (so a
+    page never shows a "problematic" marker)."""
+    from docutils.core import publish_string
+
+    return publish_string(text, writer="html5", settings_overrides={
+        "halt_level": 2, "report_level": 2, "output_encoding": "unicode", "embed_stylesheet": True,
+        "_disable_config": True})
+
+
+def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
+    # a scorecard read back from CSV has NaN where a text cell was empty
+    return {d: c.fillna({"unit": "", "note": "", "read from": ""}) for d, c in cards.items()}
+
+
+def _table(table: pd.DataFrame, title: str) -> list[str]:
+    lines = [f".. list-table:: {title}", "   :header-rows: 1", "",
+             "   * - dataset", "     - chapter", "     - within band", "     - out of band", "     - not reproduced yet"]
+    for _, row in table.iterrows():
+        lines += [f"   * - {_rst(row['dataset'])}", f"     - {_chapter(row['chapter'])}",
+                  *(f"     - {row[v]}" for v in (WITHIN, OUT, NOT_YET))]
+    return lines
+
+
+def _tally(dataset: str, card: pd.DataFrame) -> str:
+    return headline(summary({dataset: card}))
+
+
+def _out_of_band(card: pd.DataFrame) -> list[str]:
+    out = card[card["verdict"] == OUT]
+    if not len(out):
+        return []
+    unexplained = int((out["note"] == "").sum())
+    measured = int(out["note"].str.contains(rf"(?:^|; ){CAUSE_MARK} (?:cause )?\(").sum())
+    counts = [f"{measured} of {len(out)} with a measured cause"]
+    if unexplained:
+        counts.append(f"{unexplained} without a note in workflow/scorecard.yaml saying why")
+    return [f"- Out of band, by source ({'; '.join(counts)}):",
+            *_by_source(out, lambda row: f"{_describe(row)}." + (f" Why: {_rst(row['note'])}" if row["note"] else ""))]
+
+
+def _missing(card: pd.DataFrame) -> list[str]:
+    missing = card[card["verdict"] == MISSING]
+    if not len(missing):
+        return []
+    return ["- Missing from their tables (a locator to fix):",
+            *_by_source(missing, lambda row: f"{_rst(row['quantity'])}: {_rst(row['note'])}")]
+
+
+def _pending(card: pd.DataFrame) -> list[str]:
+    pending = card[card["verdict"] == NOT_YET]
+    if not len(pending):
+        return []
+    lines = [f"- Not reproduced yet, by chapter and source ({len(pending)} numbers):", ""]
+    for chapter, part in pending.groupby("chapter", sort=False):
+        per_source = part.groupby("source", sort=False).size()
+        lines.append(f"  - {_chapter(chapter)}: " + ", ".join(f"{_rst(src)} ({n})" for src, n in per_source.items()))
+    return lines + [""]
+
+
+def _lists_page(cards: Mapping[str, pd.DataFrame], title: str, lists, empty: str) -> str:
+    """reStructuredText of a page: its title, then per dataset a section with its tally and lists."""
+    lines = [title, "=" * len(title), ""]
+    for dataset, card in _filled(cards).items():
+        head = _rst(dataset)
+        lines += [head, "-" * len(head), "", _tally(dataset, card), ""]
+        lines += lists(card) or [empty, ""]
+    return "\n".join(lines) + "\n"
+
+
+def _by_source(rows: pd.DataFrame, describe) -> list[str]:
+    """A nested bullet list: one item per source, one sub-item per row."""
+    lines = [""]
+    for source, part in rows.groupby("source", sort=False):
+        lines += [f"  - {_rst(source)}", ""]
+        lines += [f"    - {describe(row)}" for _, row in part.iterrows()]
+        lines.append("")
+    return lines
+
+
+def _chapter(chapter: Any) -> str:
+    return f"Chapter {chapter}" if str(chapter).isdigit() else _rst(str(chapter))
+
+
+def _describe(row: pd.Series) -> str:
+    unit = _rst(f" {row['unit']}" if row["unit"] else "")
+    lo, hi = row["band low"], row["band high"]
+    band_text = (f"≤ {hi:.6g}" if pd.isna(lo) else f"≥ {lo:.6g}" if pd.isna(hi) else f"{lo:.6g} … {hi:.6g}")
+    change = "" if pd.isna(row["deviation [%]"]) else f" ({row['deviation [%]']:+.1f} %)"
+    kind = "" if row.get("kind", EMERGENT) == EMERGENT else f" ({row['kind']})"
+    return (f"{_rst(row['quantity'])}{kind}: published {row['published']:.6g}{unit}, "
+            f"reproduced {row['reproduced']:.6g}{unit}{change}, band {band_text}{unit}")
+
+
+def _rst(text: Any) -> str:
+    """Plain text safe inside reStructuredText inline markup."""
+    return "".join("\\" + c if c in "\\*`|_[]" else c for c in str(text))
+
+
+def scorecard_html(card: pd.DataFrame, title: str) -> str:
+    """A self-contained page of the scorecard (the report shows HTML inline, a CSV only as a download)."""
+    tally = ", ".join(f"{n} {v}" for v, n in counts(card).items())
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in COLUMNS)
+    body = "\n".join(
+        f'<tr class="{row["verdict"].replace(" ", "-")}">'
+        + "".join(f"<td>{html.escape(_cell(row[c]))}</td>" for c in COLUMNS) + "</tr>"
+        for _, row in card.iterrows())
+    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>\n"
+            "<style>body{font-family:sans-serif;font-size:13px} table{border-collapse:collapse}"
+            " td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top}"
+            " .within-band{background:#e6f4e6} .out-of-band{background:#fbe3e3}"
+            " .not-reproduced-yet{color:#777} .missing-from-table{background:#fff1c2}</style></head>\n"
+            f"<body><h1>{html.escape(title)}</h1><p>{html.escape(tally)}</p>\n"
+            f"<table><thead><tr>{head}</tr></thead><tbody>\n{body}\n</tbody></table></body></html>\n")
+
+
+def _cell(value: Any) -> str:
+    if isinstance(value, float):
+        return "" if math.isnan(value) else f"{value:.6g}"
+    return "" if value is None else str(value)
+
+
+
+# --- the numbers the documentation quotes ---------------------------------------------------------
+
+#: a block of a Markdown page written by scripts/update_docs.py (never by hand) sits between these
+BEGIN, END = "<!-- scorecard:{name} begin (scripts/update_docs.py writes this block) -->", "<!-- scorecard:{name} end -->"
+
+
+def counts_markdown(counts_: pd.DataFrame, campaign: str) -> str:
+    """The README's numbers: emergent published numbers within band per dataset and chapter, then
+    the other kinds, from the summary the pipeline writes (results/scorecard_counts.csv)."""
+    lines = [f"Published numbers within their band on the `{campaign}` campaign (from `results/scorecard_counts.csv`):",
+             "", "| dataset | chapter | emergent: within band / reproduced | closed form | recovery | calibration |",
+             "|---|---|---|---|---|---|"]
+    for (dataset, chapter), part in counts_.groupby(["dataset", "chapter"], sort=False):
+        cells = {row["kind"]: f"{row[WITHIN]} / {row['reproduced']}" for _, row in part.iterrows()}
+        name = "**total**" if chapter == "total" else _chapter(chapter)
+        lines.append(f"| {dataset} | {name} | " + " | ".join(cells.get(k, "–") for k in KINDS) + " |")
+    return "\n".join(lines)
+
+
+def deviations_markdown(cards: Mapping[str, pd.DataFrame]) -> str:
+    """docs/deviations.md's list: every emergent number out of band, per dataset and chapter, with
+    published and reproduced values and the registry's note."""
+    lines = []
+    for dataset, card in _filled(cards).items():
+        out = card[(card["kind"] == EMERGENT) & (card["verdict"] == OUT)]
+        lines += [f"**{dataset}**: {len(out)} emergent numbers out of band.", ""]
+        for chapter, part in out.groupby("chapter", sort=False):
+            lines.append(f"- {_chapter(chapter)}:")
+            for _, row in part.iterrows():
+                unit = f" {row['unit']}" if row["unit"] else ""
+                lines.append(f"  - {row['source']}, {row['quantity']}: {row['published']:.4g} → {row['reproduced']:.4g}{unit}")
+        lines.append("")
+    return "\n".join(lines).rstrip()
+
+
+def replace_block(text: str, name: str, body: str) -> str:
+    """``text`` with its generated block ``name`` replaced by ``body``."""
+    begin, end = BEGIN.format(name=name), END.format(name=name)
+    head, sep, rest = text.partition(begin)
+    _, sep2, tail = rest.partition(end)
+    if not (sep and sep2):
+        raise ValueError(f"no block {name!r} ({begin} … {end})")
+    return f"{head}{begin}\n{body}\n{end}{tail}"
