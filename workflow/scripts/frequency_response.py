@@ -8,6 +8,7 @@ import argparse
 import json
 from pathlib import Path
 
+from selfsense.chapters import ch5
 from selfsense.methods import frequency_response as fr
 from selfsense.io.capture import open_capture
 from selfsense.io.manifest import expand_protocols
@@ -27,7 +28,7 @@ def main(capture, model, protocol, settle_s, out, log=None):
     inputs = [capture, model]
     write_table(table, out["table"], inputs=inputs, config=cfg)
     write_table(peaks, out["peaks"], inputs=inputs, config=cfg)
-    save_figure(fr.figure_5_3(table, peaks, G), out["figure"], inputs=inputs, config=cfg)
+    save_figure(ch5.figure_5_3(table, peaks, G), out["figure"], inputs=inputs, config=cfg)
     logger.info("operating position %.2f µm\n%s\n%s", measured.operating_position * 1e6, table.to_string(),
                 peaks.to_string())
 

@@ -289,3 +289,13 @@ def figures_ch5(series_by_f, gamma_series, n_periods, orders, traces_by_f, creep
                               [(traces_by_f[f]["x_hat"] - traces_by_f[f]["x_laser"]) * 1e6 for f in hz],
                               "time [s]", "x̂ − x [µm]", "Observer error", labels=[f"{f:g} Hz" for f in hz]))
     return dict(zip(FIGURES, built))
+
+
+def figure_5_3(table: pd.DataFrame, peaks: pd.DataFrame, G):
+    """Fig 5.3: the measured points of :func:`selfsense.methods.frequency_response.response_table` over the model ``G`` on a fine grid."""
+    from selfsense.io import figures
+    from selfsense.methods.frequency_response import THESIS_RESONANCE_HZ, evaluate
+
+    grid = np.geomspace(table["frequency [Hz]"].min(), table["frequency [Hz]"].max(), 600)
+    return figures.bode(table, grid, evaluate(G, grid), peaks, THESIS_RESONANCE_HZ,
+                        "Fig 5.3: frequency response of G(s) = x(s)/q(s)")

@@ -11,7 +11,7 @@ CH3 = ("fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_
 CH3_MODEL = "fig_3_2"
 #: Figures 4.2–4.8 of ``ch4.figures_ch4``
 CH4 = ("fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_8")
-#: ``frequency_response.figure_5_3`` (the stepped-sine sweep)
+#: ``ch5.figure_5_3`` (the stepped-sine sweep)
 CH5_SWEEP = "fig_5_3"
 #: the figures of ``ch5.figures_ch5``
 CH5 = ("fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",

@@ -37,8 +37,6 @@ import pandas as pd
 import scipy.optimize
 import scipy.signal
 
-from selfsense.chapters import figure_names
-from selfsense.io import figures
 
 #: Fig 5.3 / Chapter 5 text: "the electromechanical resonance frequency (700 Hz)"
 THESIS_RESONANCE_HZ = 700.0
@@ -220,14 +218,3 @@ def measure_sweep(capture, segments: Sequence, settle_s: float) -> Measured:
     plan = sweep_plan(segments, capture.fs, settle_s)
     rest = capture.read(["x_laser"], *plan.rest)["x_laser"]
     return measure(rest, ((p, capture.read(CHANNELS, p.start, p.stop)) for p in plan.points), capture.fs)
-
-
-#: file name of :func:`figure_5_3`
-FIGURE = figure_names.CH5_SWEEP
-
-
-def figure_5_3(table: pd.DataFrame, peaks: pd.DataFrame, G: control.TransferFunction):
-    """Fig 5.3: the measured points of :func:`response_table` over the model ``G`` on a fine grid."""
-    grid = np.geomspace(table["frequency [Hz]"].min(), table["frequency [Hz]"].max(), 600)
-    return figures.bode(table, grid, evaluate(G, grid), peaks, THESIS_RESONANCE_HZ,
-                        "Fig 5.3: frequency response of G(s) = x(s)/q(s)")

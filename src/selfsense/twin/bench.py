@@ -28,7 +28,7 @@ from selfsense.io.capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter,
 from selfsense.twin import kernel
 from selfsense.methods.drive import Drive
 from selfsense.twin.instruments import HighPass, RippleSource, SlowProcess, resolve, small_signal
-from selfsense.twin.record import TRUTH, record
+from selfsense.twin.record import NOISY, TRUTH, record
 from selfsense.twin.params import TwinParams
 
 @dataclass(frozen=True)
@@ -56,11 +56,6 @@ class Controller(Protocol):
 
     def observe(self, t: np.ndarray, measured: Mapping[str, np.ndarray]) -> Mapping[str, np.ndarray]:
         """See one block of measured channels; return the block's real-time logs."""
-
-
-#: the channels recorded with a noise of their own and its parameter [rms]; the current probe and
-#: the laser are specified by their resolution instead (:func:`.instruments.resolve`)
-NOISY = {"U": "U_noise", "Ur": "ripple_noise_U", "Ir": "ripple_noise_I", "F": "F_noise"}
 
 
 def experiment_seed(seed: int, experiment: str) -> np.random.SeedSequence:

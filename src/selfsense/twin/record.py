@@ -16,7 +16,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from selfsense.twin.instruments import effective_resistance
+
 #: measured channels in the recorder's order (rows of its ``measured`` output)
+#: the channels recorded with a noise of their own and its parameter [rms]; the current probe and
+#: the laser are specified by their resolution instead (:func:`.instruments.resolve`)
+NOISY = {"U": "U_noise", "Ur": "ripple_noise_U", "Ir": "ripple_noise_I", "F": "F_noise"}
+
 MEASURED = ("U", "I", "Ur", "Ir", "x_laser", "F")
 #: rows of the truth output: the noiseless states a simulated capture keeps in /truth (every
 #: ``truth_decimation``-th sample)
@@ -73,7 +79,7 @@ def record_block(j0, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, 
     more than the rest of the recording).
 
     sig: the chunk's arrays f_r, u (complex ripple voltage), h (high-pass at f_r), I_offset,
-    laser_drift and the noise of each channel of bench.NOISY, in its order (U, Ur, Ir, F).
+    laser_drift and the noise of each channel of :data:`NOISY`, in its order (U, Ur, Ir, F).
     bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb, dC_H, dR_H, the current
     probe's and the laser's resolution.
     adc: (scale, offset) per MEASURED channel.
@@ -110,9 +116,6 @@ def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np
     """The (sig, bench, adc) arguments of :func:`record_block` for a :class:`.bench.Bench` and its
     :meth:`~.bench.Bench.time_signals` (the signals as they are: stacking them cost as much as the
     loop)."""
-    from selfsense.twin.bench import NOISY
-    from selfsense.twin.instruments import effective_resistance
-
     p, ins = bench.p, bench.p.instruments
     if len(bench.hp_u.a) != 3:  # record_block's _leaks is written for the 2nd-order Sallen-Key
         raise ValueError(f"the ripple high-pass has order {len(bench.hp_u.a) - 1}; the recorder takes 2")

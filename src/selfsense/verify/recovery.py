@@ -26,17 +26,10 @@ from selfsense.verify.gamma_truth import window_truth
 from selfsense.methods.ripple import plan_from_capture
 
 
-def truth_at(times: np.ndarray, truth_states: Mapping[str, np.ndarray], name: str, decimation: int,
-             fs: float) -> np.ndarray:
-    """A truth state (stored every ``decimation``-th sample) interpolated at ``times`` [s]."""
-    values = np.asarray(truth_states[name], dtype=float)
-    return np.interp(times, np.arange(len(values)) * decimation / fs, values)
-
-
-def ce_tracking(series: Mapping[str, np.ndarray], truth_states: Mapping[str, np.ndarray], decimation: int,
-                fs: float) -> dict[str, float]:
-    """How closely the estimated C_e follows the twin's true small-signal C_e (rms and max, % of it)."""
-    c_true = truth_at(series["time"], truth_states, "C_e", decimation, fs)
+def ce_tracking(series: Mapping[str, np.ndarray], truth: Truth, fs: float) -> dict[str, float]:
+    """How closely the estimated C_e follows the twin's true small-signal C_e (rms and max, % of it),
+    the truth read at each window's time [s]."""
+    c_true = truth.at(np.asarray(series["time"], dtype=float) * fs)["C_e"]
     err = 100 * (np.asarray(series["C_e"]) / c_true - 1)
     err = err[np.isfinite(err)]
     return {"rms error [%]": float(np.sqrt(np.mean(err ** 2))), "max error [%]": float(np.max(np.abs(err))),

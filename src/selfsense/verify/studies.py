@@ -14,6 +14,7 @@ import pandas as pd
 from selfsense.methods.ripple import RippleExtractor, SamplingPlan, WindowMeans
 from selfsense.twin.bench import Bench, DaqPlan, experiment_seed
 from selfsense.twin.params import TwinParams
+from selfsense.verify.truth import Truth
 
 
 def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[int],
@@ -37,7 +38,7 @@ def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[
             blocks = RippleExtractor(plan).process(measured["Ur"], measured["Ir"])
             _, (c_window,) = WindowMeans(plan, 1).process(truth["C_e"])
             centre = blocks.sample_index - (plan.block_len - 1) / 2
-            c_now = np.interp(centre, np.arange(len(t)), truth["C_e"])
+            c_now = Truth({"C_e": truth["C_e"]}, 1, len(t), names=("C_e",)).at(centre)["C_e"]
             err = 100 * (blocks.C_e / c_window - 1)
             lagged = 100 * (blocks.C_e / c_now - 1)
             rows.append({"np": n_p, "wander [Hz]": wander, "bandwidth [Hz]": plan.bandwidth,
