@@ -35,7 +35,9 @@ def number(text: str) -> float:
 def compare_scorecard(before: Path, after: Path) -> list[str]:
     """The rows of two scorecards that differ beyond their tolerance (or in verdict), as lines."""
     old, new = rows(before), rows(after)
-    problems = [f"  row only in {'before' if k in old else 'after'}: {k}" for k in old.keys() ^ new.keys()]
+    problems = [
+        f"  row only in {'before' if k in old else 'after'}: {k}" for k in old.keys() ^ new.keys()
+    ]
     changed = 0
     for key in old.keys() & new.keys():
         a, b = old[key], new[key]
@@ -46,22 +48,30 @@ def compare_scorecard(before: Path, after: Path) -> list[str]:
         delta = abs(number(b["reproduced"]) - number(a["reproduced"]))
         moved = not (delta <= half) and a["reproduced"] != b["reproduced"]
         if moved or a["verdict"] != b["verdict"]:
-            problems.append(f"  {key}: {a['reproduced']} → {b['reproduced']} (tolerance ±{half:g}), "
-                            f"verdict {a['verdict']} → {b['verdict']}")
+            problems.append(
+                f"  {key}: {a['reproduced']} → {b['reproduced']} (tolerance ±{half:g}), "
+                f"verdict {a['verdict']} → {b['verdict']}"
+            )
         else:
             print(f"  within tolerance: {key}: {a['reproduced']} → {b['reproduced']} (±{half:g})")
-    print(f"  {before.parent.name}/scorecard.csv: {len(old)} rows, {changed} changed, {len(problems)} beyond "
-          f"tolerance or verdict")
+    print(
+        f"  {before.parent.name}/scorecard.csv: {len(old)} rows, {changed} changed, {len(problems)} beyond "
+        f"tolerance or verdict"
+    )
     return problems
 
 
 def main() -> int:
-    cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    cli = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     cli.add_argument("before", type=Path)
     cli.add_argument("after", type=Path)
     args = cli.parse_args()
-    tables = sorted({p.relative_to(args.before) for p in args.before.rglob("*.csv")}
-                    | {p.relative_to(args.after) for p in args.after.rglob("*.csv")})
+    tables = sorted(
+        {p.relative_to(args.before) for p in args.before.rglob("*.csv")}
+        | {p.relative_to(args.after) for p in args.after.rglob("*.csv")}
+    )
     same, differ, missing = [], [], []
     for t in tables:
         a, b = args.before / t, args.after / t
@@ -71,7 +81,9 @@ def main() -> int:
             same.append(t)
         else:
             differ.append(t)
-    print(f"{len(tables)} tables: {len(same)} byte-identical, {len(differ)} differ, {len(missing)} in one run only")
+    print(
+        f"{len(tables)} tables: {len(same)} byte-identical, {len(differ)} differ, {len(missing)} in one run only"
+    )
     for t in differ:
         print(f"  differs: {t}")
     for t in missing:
@@ -79,9 +91,15 @@ def main() -> int:
     problems = []
     for card in (t for t in differ if t.name == "scorecard.csv"):
         problems += compare_scorecard(args.before / card, args.after / card)
-    if missing:  # a run that made fewer tables (or a wrong folder) is no match, whatever its scorecards say
+    if (
+        missing
+    ):  # a run that made fewer tables (or a wrong folder) is no match, whatever its scorecards say
         problems.append(f"  {len(missing)} tables are in one run only")
-    print("\n".join(problems) if problems else "scorecards: every row unchanged or within its tolerance")
+    print(
+        "\n".join(problems)
+        if problems
+        else "scorecards: every row unchanged or within its tolerance"
+    )
     return 1 if problems else 0
 
 

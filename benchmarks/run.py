@@ -46,8 +46,20 @@ from selfsense.io.capture import TWIN_COMPRESSION
 ROOT = Path(__file__).resolve().parents[1]
 FS = 48000.0
 # what a scratch copy leaves out: outputs, captures, caches (as tests/conftest.py's copy_repo)
-SCRATCH_IGNORE = shutil.ignore_patterns(".venv", ".git", ".snakemake", "results", "figures", "logs", "*.nc",
-                                        "out", "__pycache__", ".hypothesis", ".pytest_cache", "report.html")
+SCRATCH_IGNORE = shutil.ignore_patterns(
+    ".venv",
+    ".git",
+    ".snakemake",
+    "results",
+    "figures",
+    "logs",
+    "*.nc",
+    "out",
+    "__pycache__",
+    ".hypothesis",
+    ".pytest_cache",
+    "report.html",
+)
 
 
 def best_of(fn, repeats=3):
@@ -61,8 +73,8 @@ def best_of(fn, repeats=3):
 
 def params():
     from selfsense.io.manifest import load_dataset
-    from selfsense.twin.params import TwinParams
     from selfsense.twin.experiment import daq_plan
+    from selfsense.twin.params import TwinParams
 
     manifest = load_dataset(ROOT / "raw", "pi_p885")
     return TwinParams.from_manifest(manifest["twin"]), daq_plan(manifest)
@@ -89,20 +101,22 @@ def speed_probe(when):
     loop = best_of(lambda: sum(i * i for i in range(n)))
     values = np.random.default_rng(0).standard_normal(n)
     sort = best_of(lambda: np.sort(values))
-    print(f"  speed probe {when}: Python loop {n / loop / 1e6:.1f} M iterations/s, numpy sort "
-          f"{n / sort / 1e6:.1f} M values/s (one core)")
+    print(
+        f"  speed probe {when}: Python loop {n / loop / 1e6:.1f} M iterations/s, numpy sort "
+        f"{n / sort / 1e6:.1f} M values/s (one core)"
+    )
 
 
 def simulate(path, seconds, compression=TWIN_COMPRESSION):
     """A capture of ``seconds`` of 50 Hz drive on the twin, with (compression, complevel)."""
-    from selfsense.methods.drive import Drive
+    from selfsense.methods.drive import Drive, Segment
     from selfsense.twin.bench import simulate_capture
-    from selfsense.methods.drive import Segment
 
     p, daq = params()
     drive = Drive("voltage", (Segment(seconds, 50.0, 0.0, 100.0),))
-    return simulate_capture(path, p, daq, drive, {}, 1, "bench", compression=compression[0],
-                            complevel=compression[1]).path
+    return simulate_capture(
+        path, p, daq, drive, {}, 1, "bench", compression=compression[0], complevel=compression[1]
+    ).path
 
 
 def bench_capture(seconds, tmp):
@@ -113,13 +127,16 @@ def bench_capture(seconds, tmp):
         label = f"{compression[0]} {compression[1]}" if compression[0] else "none"
         path = tmp / f"cap_{label.replace(' ', '')}.nc"
         t = best_of(lambda: simulate(path, seconds, compression), repeats=1)
-        print(f"simulate whole capture ({label:12s}, 9 ch): {n / t / 1e6:8.2f} M time steps/s "
-              f"({path.stat().st_size / n / 9:.2f} B/sample)")
+        print(
+            f"simulate whole capture ({label:12s}, 9 ch): {n / t / 1e6:8.2f} M time steps/s "
+            f"({path.stat().st_size / n / 9:.2f} B/sample)"
+        )
 
         def read():
             with open_capture(path) as cap:
                 for _ in cap.iter_chunks(["U", "I", "Ur", "Ir", "x_laser", "F"]):
                     pass
+
         t = best_of(read)
         print(f"read+unpack 6 channels ({label:12s}):  {6 * n / t / 1e6:8.2f} M samples/s")
     return tmp / f"cap_{TWIN_COMPRESSION[0]}{TWIN_COMPRESSION[1]}.nc"
@@ -144,18 +161,23 @@ def bench_ripple_and_hpo(path):
     def ripple():
         ex = RippleExtractor(SamplingPlan(1e5, 12, 4, 4))
         for s in range(0, n, chunk):
-            ex.process(data["Ur"][s:s + chunk], data["Ir"][s:s + chunk])
+            ex.process(data["Ur"][s : s + chunk], data["Ir"][s : s + chunk])
+
     t_rip = best_of(ripple)
-    print(f"ripple extraction (np=4, 1 core):      {2 * n / t_rip / 1e6:8.2f} M samples/s "
-          f"= {t_read / t_rip:.2f}× reading Ur+Ir ({2 * n / t_read / 1e6:.1f} M/s)")
+    print(
+        f"ripple extraction (np=4, 1 core):      {2 * n / t_rip / 1e6:8.2f} M samples/s "
+        f"= {t_read / t_rip:.2f}× reading Ur+Ir ({2 * n / t_read / 1e6:.1f} M/s)"
+    )
 
     obs = HybridPositionObserver(HPOGains(17.0), FS)
     xcp = np.zeros(n)
     obs.step(data["I"][:100], xcp[:100])
     t_hpo = best_of(lambda: obs.step(data["I"], xcp))
     t_read_i = best_of(lambda: read(["I"]))
-    print(f"HPO (numba, 1 core):                   {n / t_hpo / 1e6:8.2f} M samples/s "
-          f"= {t_read_i / t_hpo:.2f}× reading I")
+    print(
+        f"HPO (numba, 1 core):                   {n / t_hpo / 1e6:8.2f} M samples/s "
+        f"= {t_read_i / t_hpo:.2f}× reading I"
+    )
 
 
 def peak_rss_mb(code):
@@ -164,8 +186,10 @@ def peak_rss_mb(code):
     Read as VmHWM from /proc, which starts afresh at exec; getrusage's ru_maxrss does not (Linux
     carries it across fork and exec), so it would report this process's own size when that is larger.
     """
-    code = (f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import run; {code}; "
-            "print(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmHWM:')))")
+    code = (
+        f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import run; {code}; "
+        "print(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmHWM:')))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return int(out.stdout.split()[-1]) / 1024
 
@@ -184,14 +208,23 @@ def bench_streaming(seconds, tmp):
     for length in (seconds, 10 * seconds):
         cap = tmp / f"stream_{length:g}.nc"
         peaks["simulate"].append(peak_rss_mb(f"run.simulate({str(cap)!r}, {length})"))
-        peaks["extract_ripple"].append(peak_rss_mb(f"run.run_script('extract_ripple', {str(cap)!r}, "
-                                                   f"{str(tmp / 'series.nc')!r})"))
-        peaks["thermal_extract"].append(peak_rss_mb(f"run.run_script('thermal_extract', {str(cap)!r}, "
-                                                    f"{str(model)!r}, {str(tmp / 'p.nc')!r}, {str(tmp / 'g.nc')!r})"))
+        peaks["extract_ripple"].append(
+            peak_rss_mb(
+                f"run.run_script('extract_ripple', {str(cap)!r}, {str(tmp / 'series.nc')!r})"
+            )
+        )
+        peaks["thermal_extract"].append(
+            peak_rss_mb(
+                f"run.run_script('thermal_extract', {str(cap)!r}, "
+                f"{str(model)!r}, {str(tmp / 'p.nc')!r}, {str(tmp / 'g.nc')!r})"
+            )
+        )
         cap.unlink()
     for name, (short, long) in peaks.items():
-        print(f"{name + ' peak RSS:':25s} {short:5.0f} MB for {seconds:g} s, {long:5.0f} MB for "
-              f"{10 * seconds:g} s (ratio {long / short:.2f})")
+        print(
+            f"{name + ' peak RSS:':25s} {short:5.0f} MB for {seconds:g} s, {long:5.0f} MB for "
+            f"{10 * seconds:g} s (ratio {long / short:.2f})"
+        )
 
 
 def run_sampled(cmd, cwd, every=0.5):
@@ -200,7 +233,9 @@ def run_sampled(cmd, cwd, every=0.5):
     reaped, exact where the benchmark files' cpu_time is sampled)."""
     speed_probe("before")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    with open(Path(cwd) / "benchmark-run.log", "w+") as log:  # a file: a full pipe would stall the run
+    with open(
+        Path(cwd) / "benchmark-run.log", "w+"
+    ) as log:  # a file: a full pipe would stall the run
         t0 = time.perf_counter()
         proc = subprocess.Popen(cmd, cwd=cwd, stdout=log, stderr=subprocess.STDOUT)
         root, peak = psutil.Process(proc.pid), 0
@@ -229,8 +264,11 @@ def rule_of(tsv, out):
     return parts[1] if len(parts) == 3 else tsv.stem
 
 
-def print_rss_by_capture_length(repo, out, rules=("simulate", "check_capture", "extract_ripple", "observe",
-                                                   "thermal_extract", "coupled")):
+def print_rss_by_capture_length(
+    repo,
+    out,
+    rules=("simulate", "check_capture", "extract_ripple", "observe", "thermal_extract", "coupled"),
+):
     """max_rss of the per-capture rules against the length (in samples) of the capture each job
     streamed: the shortest and the longest capture of each rule, from the benchmark files.
 
@@ -246,12 +284,16 @@ def print_rss_by_capture_length(repo, out, rules=("simulate", "check_capture", "
             with tsv.open() as f:
                 row = next(csv.DictReader(f, delimiter="\t"))
             if float(row["s"]) >= 1.0:
-                with netCDF4.Dataset(repo / "raw" / tsv.parent.parent.name / f"{tsv.stem}.nc") as nc:
+                with netCDF4.Dataset(
+                    repo / "raw" / tsv.parent.parent.name / f"{tsv.stem}.nc"
+                ) as nc:
                     jobs.append((nc.dimensions["time"].size / 1e6, float(row["max_rss"])))
         if len(jobs) > 1:
             (short, rss_short), (long, rss_long) = min(jobs), max(jobs)
-            print(f"    {rule:22s} {rss_short:5.0f} MB at {short:6.2f} M samples, {rss_long:5.0f} MB at {long:6.1f} M "
-                  f"(largest of {len(jobs)} jobs {max(j[1] for j in jobs):5.0f} MB)")
+            print(
+                f"    {rule:22s} {rss_short:5.0f} MB at {short:6.2f} M samples, {rss_long:5.0f} MB at {long:6.1f} M "
+                f"(largest of {len(jobs)} jobs {max(j[1] for j in jobs):5.0f} MB)"
+            )
 
 
 def job_rows(out):
@@ -268,8 +310,10 @@ def startup_seconds(repo, python, rule):
     """A job's start-up: a fresh interpreter importing Snakemake's script module (the preamble of
     every script job) and the rule's script with its imports (best of 2, wall)."""
     script = repo / "workflow" / "scripts" / f"{rule}.py"
-    code = ("import sys, runpy, snakemake.script; sys.argv = ['x', '--help']; "
-            f"runpy.run_path({str(script)!r}, run_name='__main__')")
+    code = (
+        "import sys, runpy, snakemake.script; sys.argv = ['x', '--help']; "
+        f"runpy.run_path({str(script)!r}, run_name='__main__')"
+    )
     times = []
     for _ in range(2):
         t0 = time.perf_counter()
@@ -287,18 +331,23 @@ def print_shares(repo, python, rules, wall):
     captures (packing, compressing, writing, reading back: the writers' log lines), simulating the
     bench (the twin's jobs less those two) and analysis (every other job less its start-up)."""
     startup = {rule: startup_seconds(repo, python, rule) * len(js) for rule, js in rules.items()}
-    write = sum(float(a) + float(b) for log in (repo / "logs").glob("*/simulate*/*.log")
-                for a, b in CAPTURE_WRITE.findall(log.read_text()))
+    write = sum(
+        float(a) + float(b)
+        for log in (repo / "logs").glob("*/simulate*/*.log")
+        for a, b in CAPTURE_WRITE.findall(log.read_text())
+    )
     busy = {rule: sum(j[0] for j in js) for rule, js in rules.items()}
     total = sum(busy.values())
     simulate = sum(busy.get(r, 0) - startup.get(r, 0) for r in SIMULATING) - write
     analysis = sum(b - startup[r] for r, b in busy.items() if r not in SIMULATING)
     print(f"  share of the jobs' {total:.0f} s (2 cores × wall {wall:.0f} s = {2 * wall:.0f} s):")
-    for cause, seconds in (("simulate (twin kernel, instruments, real-time loop)", simulate),
-                           ("capture write (pack, compress, write, read back)", write),
-                           ("analysis (every other job's own work)", analysis),
-                           ("per-job start-up (interpreter, Snakemake preamble, imports)", sum(startup.values())),
-                           ("cores idle (scheduling, the DAG's narrow parts)", 2 * wall - total)):
+    for cause, seconds in (
+        ("simulate (twin kernel, instruments, real-time loop)", simulate),
+        ("capture write (pack, compress, write, read back)", write),
+        ("analysis (every other job's own work)", analysis),
+        ("per-job start-up (interpreter, Snakemake preamble, imports)", sum(startup.values())),
+        ("cores idle (scheduling, the DAG's narrow parts)", 2 * wall - total),
+    ):
         print(f"    {cause:62s} {seconds:7.0f} s  {100 * seconds / (2 * wall):5.1f} %")
 
 
@@ -307,15 +356,21 @@ def report_dag(label, repo, python, config, wall, peak, cpu):
     rules = job_rows(out)
     jobs = [j for js in rules.values() for j in js]
     job_s = sum(j[0] for j in jobs)
-    print(f"DAG ({config}, --cores 2, {label}): {len(jobs)} jobs, wall {wall:.0f} s, CPU {cpu:.0f} s (user + sys "
-          f"of Snakemake and every job), peak RSS of the process tree {peak:.0f} MB (sampled every 0.5 s)")
+    print(
+        f"DAG ({config}, --cores 2, {label}): {len(jobs)} jobs, wall {wall:.0f} s, CPU {cpu:.0f} s (user + sys "
+        f"of Snakemake and every job), peak RSS of the process tree {peak:.0f} MB (sampled every 0.5 s)"
+    )
     # Snakemake samples a job's cpu_time every 30 s after its first 15 s: a long job's is short by up to 30 s
-    print(f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall); "
-          f"largest job max_rss {max(j[1] for j in jobs):.0f} MB")
+    print(
+        f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall); "
+        f"largest job max_rss {max(j[1] for j in jobs):.0f} MB"
+    )
     print(f"  {'rule':24s} {'jobs':>4s} {'s (sum)':>8s} {'s (max)':>8s} {'max_rss MB':>10s}")
     for rule, js in sorted(rules.items(), key=lambda kv: -sum(j[0] for j in kv[1])):
-        print(f"  {rule:24s} {len(js):4d} {sum(j[0] for j in js):8.1f} {max(j[0] for j in js):8.1f} "
-              f"{max(j[1] for j in js):10.0f}")
+        print(
+            f"  {rule:24s} {len(js):4d} {sum(j[0] for j in js):8.1f} {max(j[0] for j in js):8.1f} "
+            f"{max(j[1] for j in js):10.0f}"
+        )
     print_shares(repo, python, rules, wall)
     print_rss_by_capture_length(repo, out)
 
@@ -328,8 +383,10 @@ def noop_dry_run(snakemake, repo):
         times.append(time.perf_counter() - t0)
         if "Nothing to be done" not in dry.stdout + dry.stderr:
             sys.exit(f"the tree is not up to date after the run:\n{dry.stdout[-3000:]}")
-    print(f"no-op `snakemake -n` on the up-to-date tree: {min(times):.1f} s (best of 3; "
-          f"{', '.join(f'{t:.1f}' for t in times)})")
+    print(
+        f"no-op `snakemake -n` on the up-to-date tree: {min(times):.1f} s (best of 3; "
+        f"{', '.join(f'{t:.1f}' for t in times)})"
+    )
 
 
 def bench_dag(config):
@@ -354,9 +411,17 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
         subprocess.run(["git", "clone", "--quiet", str(ROOT), str(repo)], check=True)
         python = repo / ".venv" / "bin" / "python"
         t0 = time.perf_counter()
-        subprocess.run([shutil.which("python3.11") or sys.executable, "-m", "venv", ".venv"], cwd=repo, check=True)
-        subprocess.run([str(python), "-m", "pip", "install", "-q", "-c", "constraints.txt", "-e", "."], cwd=repo,
-                       check=True, capture_output=True)
+        subprocess.run(
+            [shutil.which("python3.11") or sys.executable, "-m", "venv", ".venv"],
+            cwd=repo,
+            check=True,
+        )
+        subprocess.run(
+            [str(python), "-m", "pip", "install", "-q", "-c", "constraints.txt", "-e", "."],
+            cwd=repo,
+            check=True,
+            capture_output=True,
+        )
         install = time.perf_counter() - t0
         snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
         fresh, peak, cpu = run_sampled(snakemake, repo)
@@ -364,33 +429,56 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
         if keep_results:
             shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
         if not warm:
-            print(f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
-                  f"(README's first command {install + fresh:.0f} s)")
+            print(
+                f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
+                f"(README's first command {install + fresh:.0f} s)"
+            )
             return
         # outputs, captures and logs go; the venv, bytecode and numba's cache (src/**/__pycache__) stay
-        subprocess.run(["git", "clean", "-fdxq", "-e", ".venv", "-e", "__pycache__"], cwd=repo, check=True)
+        subprocess.run(
+            ["git", "clean", "-fdxq", "-e", ".venv", "-e", "__pycache__"], cwd=repo, check=True
+        )
         warm, peak, cpu = run_sampled(snakemake, repo)
         report_dag("the same clone again, warm", repo, python, config, warm, peak, cpu)
-        print(f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
-              f"(README's first command {install + fresh:.0f} s); warm {warm:.0f} s")
+        print(
+            f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
+            f"(README's first command {install + fresh:.0f} s); warm {warm:.0f} s"
+        )
 
 
 def main():
-    cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    cli.add_argument("--seconds", type=float, default=20.0, help="capture length for throughput and memory")
-    cli.add_argument("--configs", nargs="+", default=["tests/config/smoke.yaml", "config.yaml"],
-                     help="configfiles of the DAG part, each run from scratch (default: small, then full)")
+    cli = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    cli.add_argument(
+        "--seconds", type=float, default=20.0, help="capture length for throughput and memory"
+    )
+    cli.add_argument(
+        "--configs",
+        nargs="+",
+        default=["tests/config/smoke.yaml", "config.yaml"],
+        help="configfiles of the DAG part, each run from scratch (default: small, then full)",
+    )
     cli.add_argument("--skip-hot", action="store_true", help="skip the hot-path throughputs")
     cli.add_argument("--skip-dag", action="store_true", help="skip the whole-DAG run")
-    cli.add_argument("--fresh", action="store_true",
-                     help="run the DAG part from a new clone of HEAD with a new venv, then warm in that clone")
+    cli.add_argument(
+        "--fresh",
+        action="store_true",
+        help="run the DAG part from a new clone of HEAD with a new venv, then warm in that clone",
+    )
     cli.add_argument("--skip-stream", action="store_true", help="skip the streaming peak memories")
-    cli.add_argument("--no-warm", action="store_true", help="with --fresh: skip the warm run in the clone")
-    cli.add_argument("--keep-results", metavar="DIR", help="with --fresh: copy the fresh run's results/ to DIR")
+    cli.add_argument(
+        "--no-warm", action="store_true", help="with --fresh: skip the warm run in the clone"
+    )
+    cli.add_argument(
+        "--keep-results", metavar="DIR", help="with --fresh: copy the fresh run's results/ to DIR"
+    )
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {mem:.0f} GiB, python "
-          f"{platform.python_version()}; load average at start {os.getloadavg()[0]:.1f}")
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} cores, {mem:.0f} GiB, python "
+        f"{platform.python_version()}; load average at start {os.getloadavg()[0]:.1f}"
+    )
     if not args.skip_hot:
         bench_kernel(args.seconds)
         with tempfile.TemporaryDirectory() as tmp:

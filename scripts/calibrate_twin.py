@@ -45,11 +45,11 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from selfsense.scorecard.calibration import calibration_table, load_targets
-from selfsense.methods.electromech import geometry_from_actuator
 from selfsense.io.manifest import ManifestError, expand_protocols, load_config, load_dataset
-from selfsense.twin.params import TwinParams
+from selfsense.methods.electromech import geometry_from_actuator
+from selfsense.scorecard.calibration import calibration_table, load_targets
 from selfsense.twin.experiment import daq_plan
+from selfsense.twin.params import TwinParams
 from selfsense.verify.signatures import TABLES, ShortRuns
 
 #: a trial whose signature is not a number (an identification that fails at the edge of a
@@ -64,7 +64,9 @@ MARGIN, FAVOUR = 0.1, 10.0
 MOVES = 0.05
 #: a search for one signature alone is cheap (its own runs only): it may iterate this many times more
 ALONE = 4
-WRITTEN = "# twin: {names} found by scripts/calibrate_twin.py against workflow/twin_calibration.yaml"
+WRITTEN = (
+    "# twin: {names} found by scripts/calibrate_twin.py against workflow/twin_calibration.yaml"
+)
 
 
 class Search:
@@ -76,18 +78,34 @@ class Search:
 
     def values(self, u):
         """{name: value} at the point u of the unit cube."""
-        return {name: (math.exp(math.log(low) + x * math.log(high / low)) if name in self.log else low + x * (high - low))
-                for (name, (low, high)), x in zip(self.free.items(), u)}
+        return {
+            name: (
+                math.exp(math.log(low) + x * math.log(high / low))
+                if name in self.log
+                else low + x * (high - low)
+            )
+            for (name, (low, high)), x in zip(self.free.items(), u)
+        }
 
     def point(self, values):
-        return np.array([(math.log(values[n] / low) / math.log(high / low) if n in self.log
-                          else (values[n] - low) / (high - low)) for n, (low, high) in self.free.items()]).clip(0, 1)
+        return np.array(
+            [
+                (
+                    math.log(values[n] / low) / math.log(high / low)
+                    if n in self.log
+                    else (values[n] - low) / (high - low)
+                )
+                for n, (low, high) in self.free.items()
+            ]
+        ).clip(0, 1)
 
     def twin(self, values):
         params = self.params
         for name, value in values.items():
             section, key = name.split(".")
-            params = dataclasses.replace(params, **{section: dataclasses.replace(getattr(params, section), **{key: value})})
+            params = dataclasses.replace(
+                params, **{section: dataclasses.replace(getattr(params, section), **{key: value})}
+            )
         return params
 
     def table(self, values, targets=None, runs=None):
@@ -98,8 +116,12 @@ class Search:
 
     def distances(self, u, targets, weights):
         values = self.table(self.values(u), targets)["twin value"].astype(float)
-        return np.array([w * (t.distance(v, MARGIN) if np.isfinite(v) else UNMEASURED)
-                         for t, v, w in zip(targets, values, weights)])
+        return np.array(
+            [
+                w * (t.distance(v, MARGIN) if np.isfinite(v) else UNMEASURED)
+                for t, v, w in zip(targets, values, weights)
+            ]
+        )
 
     def fit(self, u0, targets, max_nfev, favour=None, moving=None):
         """The point least squares reaches from u0 moving the parameters ``moving`` (indices; all by
@@ -113,7 +135,9 @@ class Search:
             u[moving] = x
             return self.distances(u, targets, weights)
 
-        found = least_squares(distances, u0[moving], bounds=(0, 1), diff_step=DIFF_STEP, max_nfev=max_nfev)
+        found = least_squares(
+            distances, u0[moving], bounds=(0, 1), diff_step=DIFF_STEP, max_nfev=max_nfev
+        )
         u = u0.copy()
         u[moving] = found.x
         return u, found.status == 0
@@ -133,17 +157,25 @@ def check_free(free, params, source):
     for name in free:
         section, key = name.split(".")
         part = getattr(params, section, None)
-        if part is None or key not in {f.name for f in dataclasses.fields(part)} \
-                or not isinstance(getattr(part, key), (int, float)):
-            raise ManifestError(f"{source}: key free.{name}: not a number of the twin's parameters "
-                                "(a manifest's twin.<section>.<key>)")
+        if (
+            part is None
+            or key not in {f.name for f in dataclasses.fields(part)}
+            or not isinstance(getattr(part, key), (int, float))
+        ):
+            raise ManifestError(
+                f"{source}: key free.{name}: not a number of the twin's parameters "
+                "(a manifest's twin.<section>.<key>)"
+            )
 
 
 def write_manifest(path, values):
     """The values into the manifest's twin block, each on its own line, with the comment line."""
     names, values = sorted(values), dict(values)
-    lines = [line for line in Path(path).read_text(encoding="utf-8").splitlines()
-             if not line.startswith(WRITTEN.split("{")[0])]
+    lines = [
+        line
+        for line in Path(path).read_text(encoding="utf-8").splitlines()
+        if not line.startswith(WRITTEN.split("{")[0])
+    ]
     block = section = None
     for i, line in enumerate(lines):
         if re.match(r"[^\s#]", line):
@@ -152,7 +184,9 @@ def write_manifest(path, values):
             section = m.group(1)
         elif block == "twin" and (m := re.match(r"(    (\w+):\s*)([^#]*?)(\s*#.*)?$", line)):
             if f"{section}.{m.group(2)}" in values:
-                lines[i] = f"{m.group(1)}{values.pop(f'{section}.{m.group(2)}'):.4g}{m.group(4) or ''}"
+                lines[i] = (
+                    f"{m.group(1)}{values.pop(f'{section}.{m.group(2)}'):.4g}{m.group(4) or ''}"
+                )
     if values or "twin:" not in lines:
         raise ManifestError(f"{path}: key twin.{next(iter(values), '')} not found to write")
     lines.insert(lines.index("twin:"), WRITTEN.format(names=", ".join(names)))
@@ -184,12 +218,25 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
             print(f"{t.id}: no short run gives {t.locate.table}; not searched")
     cfg = load_config(config)
     with tempfile.TemporaryDirectory() as scratch:
-        def runs(protocols, seed=manifest.get("seed", 0)):
-            return ShortRuns(daq_plan(manifest), expand_protocols(manifest["protocols"], protocols),
-                             geometry_from_actuator(manifest["actuator"]), float(manifest["actuator"]["moving_mass_kg"]),
-                             seed, cfg["ripple"]["n_periods"], cfg["control"]["omega_c"], Path(scratch))
 
-        search = Search(params, chosen, [t for t in calibration.targets if t.locate.table in TABLES], runs(campaign))
+        def runs(protocols, seed=manifest.get("seed", 0)):
+            return ShortRuns(
+                daq_plan(manifest),
+                expand_protocols(manifest["protocols"], protocols),
+                geometry_from_actuator(manifest["actuator"]),
+                float(manifest["actuator"]["moving_mass_kg"]),
+                seed,
+                cfg["ripple"]["n_periods"],
+                cfg["control"]["omega_c"],
+                Path(scratch),
+            )
+
+        search = Search(
+            params,
+            chosen,
+            [t for t in calibration.targets if t.locate.table in TABLES],
+            runs(campaign),
+        )
         ids = [t.id for t in search.targets]
         start = {n: getattr(getattr(params, n.split(".")[0]), n.split(".")[1]) for n in chosen}
         u0 = search.point(start)
@@ -197,15 +244,26 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
         def measured(values):
             """The table at ``values`` on the dataset's seed, and each value's spread over the seeds."""
             table = search.table(values)
-            repeats = [search.table(values, runs=runs(campaign, s))["twin value"] for s in range(1, seeds)]
-            return table, pd.concat([table["twin value"], *repeats], axis=1).std(axis=1) if repeats else None
+            repeats = [
+                search.table(values, runs=runs(campaign, s))["twin value"] for s in range(1, seeds)
+            ]
+            return table, pd.concat([table["twin value"], *repeats], axis=1).std(
+                axis=1
+            ) if repeats else None
 
         first, spread = measured(start)
-        print(f"{dataset}, {campaign} protocols, at the manifest's values:\n{show(first.set_axis(ids), spread)}\n")
+        print(
+            f"{dataset}, {campaign} protocols, at the manifest's values:\n{show(first.set_axis(ids), spread)}\n"
+        )
         effect = search.sensitivity(u0, first)
-        print(f"change of each signature when a parameter moves by {STEP:.0%} of its range:\n"
-              f"{effect.to_string(float_format=lambda v: f'{v:.3g}')}\n")
-        moves = effect.abs().div(pd.Series({t.id: t.high - t.low for t in search.targets}), axis=0) >= MOVES
+        print(
+            f"change of each signature when a parameter moves by {STEP:.0%} of its range:\n"
+            f"{effect.to_string(float_format=lambda v: f'{v:.3g}')}\n"
+        )
+        moves = (
+            effect.abs().div(pd.Series({t.id: t.high - t.low for t in search.targets}), axis=0)
+            >= MOVES
+        )
 
         def movers(target):
             return [j for j, name in enumerate(chosen) if moves.loc[target.id, name]]
@@ -216,8 +274,10 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
                 reachable.append(t)
                 continue
             if not movers(t):
-                print(f"{t.id} alone: out of reach: no free parameter moves it by {MOVES:.0%} of its band; "
-                      "left out of the joint search")
+                print(
+                    f"{t.id} alone: out of reach: no free parameter moves it by {MOVES:.0%} of its band; "
+                    "left out of the joint search"
+                )
                 continue
             point, stopped = search.fit(u0, [t], ALONE * max_nfev, moving=movers(t))
             values = search.values(point)
@@ -226,27 +286,42 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
                 reachable.append(t)
                 print(f"{t.id} alone: met, {value:.4g} {t.unit}, at {assignments(values)}")
             else:
-                print(f"{t.id} alone: not met; least squares from the manifest's values "
-                      + ("stops after its iterations" if stopped else "converges") + f" at {value:.4g} {t.unit} "
-                      f"(band {t.low:g}–{t.high:g}), moving {', '.join(n for j, n in enumerate(chosen) if j in movers(t))}; "
-                      "left out of the joint search")
+                print(
+                    f"{t.id} alone: not met; least squares from the manifest's values "
+                    + ("stops after its iterations" if stopped else "converges")
+                    + f" at {value:.4g} {t.unit} "
+                    f"(band {t.low:g}–{t.high:g}), moving {', '.join(n for j, n in enumerate(chosen) if j in movers(t))}; "
+                    "left out of the joint search"
+                )
 
         u, _ = search.fit(u0, reachable, max_nfev)
         found = search.values(u)
         table, spread = measured(found)
         table = table.set_axis(ids)
-        print(f"\njoint search of {', '.join(t.id for t in reachable)}:\n"
-              + pd.DataFrame({"start": start, "found": found, "low": {n: b[0] for n, b in chosen.items()},
-                              "high": {n: b[1] for n, b in chosen.items()}}).to_string(float_format=lambda v: f"{v:.4g}")
-              + f"\n\nat the values found:\n{show(table, spread)}\n")
+        print(
+            f"\njoint search of {', '.join(t.id for t in reachable)}:\n"
+            + pd.DataFrame(
+                {
+                    "start": start,
+                    "found": found,
+                    "low": {n: b[0] for n, b in chosen.items()},
+                    "high": {n: b[1] for n, b in chosen.items()},
+                }
+            ).to_string(float_format=lambda v: f"{v:.4g}")
+            + f"\n\nat the values found:\n{show(table, spread)}\n"
+        )
         missed = [t for t in reachable if not table.loc[t.id, "within"]]
         print(f"met together: {', '.join(t.id for t in reachable if t not in missed) or 'none'}")
         for t in missed:
             point, _ = search.fit(u, reachable, max_nfev, favour=t, moving=movers(t))
-            favoured = search.table(search.values(point), reachable).set_axis([r.id for r in reachable])
+            favoured = search.table(search.values(point), reachable).set_axis(
+                [r.id for r in reachable]
+            )
             lost = [r for r in favoured.index if not favoured.loc[r, "within"] and r != t.id]
-            print(f"{t.id}, favoured: {'met' if favoured.loc[t.id, 'within'] else 'still not met'}"
-                  f" ({favoured.loc[t.id, 'twin value']:.4g} {t.unit}); out of their bands then: {', '.join(lost) or 'none'}")
+            print(
+                f"{t.id}, favoured: {'met' if favoured.loc[t.id, 'within'] else 'still not met'}"
+                f" ({favoured.loc[t.id, 'twin value']:.4g} {t.unit}); out of their bands then: {', '.join(lost) or 'none'}"
+            )
     if write:
         write_manifest(write, found)
         load_dataset(Path(write).parent.parent, Path(write).parent.name)
@@ -254,14 +329,20 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
 
 
 if __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    cli = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     cli.add_argument("--dataset", default="pi_p885")
     cli.add_argument("--raw", default="raw")
     cli.add_argument("--config", default="config.yaml", help="the ripple's np and Chapter 6's ω_C")
     cli.add_argument("--targets", default="workflow/twin_calibration.yaml")
     cli.add_argument("--campaign", default="thesis", help="whose protocols the short runs follow")
     cli.add_argument("--free", nargs="+", help="move only these of the targets' free parameters")
-    cli.add_argument("--seeds", type=int, default=3, help="noise seeds the values found are measured with")
-    cli.add_argument("--max-nfev", type=int, default=5, help="least-squares iterations of each search")
+    cli.add_argument(
+        "--seeds", type=int, default=3, help="noise seeds the values found are measured with"
+    )
+    cli.add_argument(
+        "--max-nfev", type=int, default=5, help="least-squares iterations of each search"
+    )
     cli.add_argument("--write", help="a dataset.yaml to write the values found into")
     main(**vars(cli.parse_args()))

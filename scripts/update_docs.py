@@ -20,8 +20,11 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
     """The generated blocks, from the snapshot of the summary and the scorecards."""
     counts = pd.read_csv(snapshot / "scorecard_counts.csv")
     campaign = json.loads((snapshot / "campaign.json").read_text())["campaign"]
-    cards = {p.stem.removeprefix("scorecard_"): pd.read_csv(p) for p in sorted(snapshot.glob("scorecard_*.csv"))
-             if p.name != "scorecard_counts.csv"}
+    cards = {
+        p.stem.removeprefix("scorecard_"): pd.read_csv(p)
+        for p in sorted(snapshot.glob("scorecard_*.csv"))
+        if p.name != "scorecard_counts.csv"
+    }
     return {"counts": counts_markdown(counts, campaign), "deviations": deviations_markdown(cards)}
 
 
@@ -31,10 +34,17 @@ def main(results: Path, snapshot: Path = SNAPSHOT):
     for card in sorted(results.glob("*/scorecard.csv")):
         shutil.copy(card, snapshot / f"scorecard_{card.parent.name}.csv")
     sidecar = json.loads((results / "scorecard_counts.csv.json").read_text())
-    (snapshot / "campaign.json").write_text(json.dumps({"campaign": sidecar["config"]["campaign"],
-                                                        "code": sidecar["code"]["git_describe"]}, indent=1) + "\n")
+    (snapshot / "campaign.json").write_text(
+        json.dumps(
+            {"campaign": sidecar["config"]["campaign"], "code": sidecar["code"]["git_describe"]},
+            indent=1,
+        )
+        + "\n"
+    )
     for name, body in render(snapshot).items():
-        PAGES[name].write_text(replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8")
+        PAGES[name].write_text(
+            replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8"
+        )
 
 
 if __name__ == "__main__":

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from selfsense.io.manifest import load_dataset
-from selfsense.twin.params import TwinParams
 from selfsense.twin.experiment import daq_plan
+from selfsense.twin.params import TwinParams
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,8 +36,20 @@ def raised_sine(f, duration, fs=48000.0, hi=100.0):
     return t, hi * 0.5 * (1 - np.cos(2 * np.pi * f * t))
 
 
-IGNORE = shutil.ignore_patterns(".venv", ".git", ".snakemake", "results", "figures", "logs", "*.nc",
-                                "out", "__pycache__", ".hypothesis", ".pytest_cache", "report.html")
+IGNORE = shutil.ignore_patterns(
+    ".venv",
+    ".git",
+    ".snakemake",
+    "results",
+    "figures",
+    "logs",
+    "*.nc",
+    "out",
+    "__pycache__",
+    ".hypothesis",
+    ".pytest_cache",
+    "report.html",
+)
 
 
 def copy_repo(dest: Path) -> Path:
@@ -51,14 +63,22 @@ def measured_copy_remakes(table: str) -> bool:
     the same samples in its own DAG, and is held to its bytes there: every table of pi_p885 but the
     twin's (they read /truth, which a measured capture has not) and the scorecard and stage plan
     (they differ by design). The rebuild test (tests/test_report.py) remakes the rest."""
-    return table.startswith("results/pi_p885/") and not table.startswith("results/pi_p885/twin/") \
+    return (
+        table.startswith("results/pi_p885/")
+        and not table.startswith("results/pi_p885/twin/")
         and table not in ("results/pi_p885/scorecard.csv", "results/pi_p885/stages.csv")
+    )
 
 
 def snakemake(repo, *args, config="tests/config/smoke.yaml"):
     # targets go before --configfile, which takes several values
-    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", *args, "--configfile", config],
-                          cwd=repo, capture_output=True, text=True, timeout=1800)
+    return subprocess.run(
+        [sys.executable, "-m", "snakemake", "--cores", "2", *args, "--configfile", config],
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
 
 
 #: module-scoped fixtures that run a DAG of their own: a worker builds its own instance of a module's
@@ -93,7 +113,9 @@ def smoke_run(tmp_path_factory):
             try:
                 repo = _smoke_dag(shared / "dag")
                 done.write_text(json.dumps({"repo": str(repo)}))
-            except AssertionError as err:  # every worker fails with the same reason, none runs it again
+            except (
+                AssertionError
+            ) as err:  # every worker fails with the same reason, none runs it again
                 done.write_text(json.dumps({"failed": str(err)}))
     state = json.loads(done.read_text())
     assert "failed" not in state, state.get("failed")

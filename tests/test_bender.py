@@ -6,17 +6,22 @@ import dataclasses
 import numpy as np
 import pytest
 
-from selfsense.methods import powerloss as pl
-from selfsense.io.capture import open_capture
 from selfsense.chapters import ronkanen
-from selfsense.io.manifest import ManifestError, expand_protocols, load_config, load_dataset, validate_document
-from selfsense.twin import bender as B
-from selfsense.twin.experiment import daq_plan, simulate_experiment
-from selfsense.twin.bench import experiment_seed
+from selfsense.io.capture import open_capture
+from selfsense.io.manifest import (
+    ManifestError,
+    expand_protocols,
+    load_config,
+    load_dataset,
+    validate_document,
+)
+from selfsense.methods import powerloss as pl
 from selfsense.methods.drive import Drive, Segment, drive_from_protocol
+from selfsense.twin import bender as B
+from selfsense.twin.bench import experiment_seed
+from selfsense.twin.experiment import daq_plan, simulate_experiment
 
 from .conftest import ROOT
-
 from .tolerances import CLOSED_FORM, rtol
 
 MANIFEST = load_dataset(ROOT / "raw", "tokin_nb40")
@@ -30,14 +35,25 @@ def run(drive: Drive, params=PARAMS, compensation=B.Compensation(), seed=0, name
     bench = B.BenderBench(params, FS, experiment_seed(seed, name), compensation)
     t = np.arange(int(round(drive.duration * FS))) / FS
     measured, truth = bench.step(t, drive.quantity, drive(t))
-    rec = ronkanen.Record(name, t, measured["U"], measured["I"], measured["i_cmd"], measured["x_disp"],
-                          drive.quantity, compensation.kind, compensation.X)
+    rec = ronkanen.Record(
+        name,
+        t,
+        measured["U"],
+        measured["I"],
+        measured["i_cmd"],
+        measured["x_disp"],
+        drive.quantity,
+        compensation.kind,
+        compensation.X,
+    )
     return rec, truth
 
 
 def run_experiment(name, campaign="thesis", seed=0):
     exp = expand_protocols(["ronkanen"], campaign)[name]
-    return run(drive_from_protocol(exp.protocol), compensation=B.compensation_of(exp), seed=seed, name=name)
+    return run(
+        drive_from_protocol(exp.protocol), compensation=B.compensation_of(exp), seed=seed, name=name
+    )
 
 
 def current(*steps):
@@ -53,7 +69,7 @@ def test_static_hold_reaches_about_105_V_and_then_holds():
     end_of_charge = int(40 * FS) - 1
     assert 95.0 <= truth["V"][end_of_charge] <= 115.0  # Section 4: 105 V
     assert 150e-6 <= truth["x"][end_of_charge] <= 200e-6  # Fig 2
-    hold = truth["x"][int(60 * FS):]
+    hold = truth["x"][int(60 * FS) :]
     assert np.ptp(hold) < 1e-6
 
 
@@ -73,7 +89,9 @@ def test_moving_lowers_the_loss_impedance_as_model_10():
     # which these arrays are not)
     np.testing.assert_allclose(truth["X"][moving], expected, rtol=CLOSED_FORM)
     # i_l·X = V holds to the kernel's root solve (≤ 4ε of V) and the product's rounding
-    np.testing.assert_allclose(truth["i_l"][moving] * truth["X"][moving], truth["V"][moving], rtol=float(rtol(4.0)))
+    np.testing.assert_allclose(
+        truth["i_l"][moving] * truth["X"][moving], truth["V"][moving], rtol=float(rtol(4.0))
+    )
     assert truth["X"][moving].max() < 0.2 * PARAMS.actuator.R
 
 
@@ -92,18 +110,21 @@ def test_trial_compensation_bends_the_ramp_velocity_as_figs_3_and_4(X_trial, tre
     too small an X over-compensates and the speed grows (Fig 4)."""
     rec, _ = run(current((50.0, 300e-9)), compensation=B.Compensation("impedance", X=X_trial))
     v = pl.ramp_velocity(rec.t, rec.x, 2.0)
-    early, late = np.mean(v[int(5 * FS):int(15 * FS)]), np.mean(v[int(38 * FS):int(48 * FS)])
+    early, late = np.mean(v[int(5 * FS) : int(15 * FS)]), np.mean(v[int(38 * FS) : int(48 * FS)])
     assert (late < 0.97 * early) if trend == "slows" else (late > 1.03 * early)
 
 
 def test_current_loop_gain_follows_the_design_rule():
     """Into a capacitance the PID's integral gain is a proportional current gain K = C·G·ki:
     the meter settles at K/(1 + K) of the setpoint (hysteresis and creep switched off)."""
-    linear = dataclasses.replace(PARAMS, hysteresis=dataclasses.replace(PARAMS.hysteresis, v_total=1e-9),
-                                 creep=dataclasses.replace(PARAMS.creep, C=(1e3,)))
+    linear = dataclasses.replace(
+        PARAMS,
+        hysteresis=dataclasses.replace(PARAMS.hysteresis, v_total=1e-9),
+        creep=dataclasses.replace(PARAMS.creep, C=(1e3,)),
+    )
     rec, _ = run(current((5.0, 300e-9)), params=linear)
     K = PARAMS.actuator.C * PARAMS.amplifier.gain * PARAMS.pid.ki
-    assert np.mean(rec.I[int(3 * FS):]) == pytest.approx(300e-9 * K / (1 + K), rel=0.01)
+    assert np.mean(rec.I[int(3 * FS) :]) == pytest.approx(300e-9 * K / (1 + K), rel=0.01)
 
 
 def test_amplifier_output_saturates():
@@ -115,8 +136,16 @@ def test_amplifier_output_saturates():
 # Kernel against the plain-Python reference
 # ---------------------------------------------------------------------------------------------
 CASES = [
-    ("current", B.Compensation(), np.r_[np.full(300, 300e-9), np.full(500, -550e-9), np.full(200, 5e-9)]),
-    ("current", B.Compensation("impedance", X=2e9), np.r_[np.full(400, 300e-9), np.full(400, -300e-9)]),
+    (
+        "current",
+        B.Compensation(),
+        np.r_[np.full(300, 300e-9), np.full(500, -550e-9), np.full(200, 5e-9)],
+    ),
+    (
+        "current",
+        B.Compensation("impedance", X=2e9),
+        np.r_[np.full(400, 300e-9), np.full(400, -300e-9)],
+    ),
     ("current", EQ15, np.r_[np.full(400, 450e-9), np.full(300, -150e-9), np.zeros(300)]),
     ("current", EQ15, np.full(300, 20e-6)),  # saturates the amplifier: anti-windup path
     ("voltage", B.Compensation(), 120 * np.sin(np.linspace(0, 4 * np.pi, 1000)) + 30),
@@ -145,7 +174,10 @@ def test_kernel_is_chunk_invariant():
     noise = np.random.default_rng(1).standard_normal(drive.size) * 5e-12
     whole = B.run("current", drive, noise, kc, B.initial_state(kc))
     state = B.initial_state(kc)
-    parts = [B.run("current", drive[i:i + 333], noise[i:i + 333], kc, state) for i in range(0, drive.size, 333)]
+    parts = [
+        B.run("current", drive[i : i + 333], noise[i : i + 333], kc, state)
+        for i in range(0, drive.size, 333)
+    ]
     np.testing.assert_array_equal(np.vstack(parts), whole)
 
 
@@ -153,8 +185,17 @@ def test_kernel_is_chunk_invariant():
 # Captures, catalogue and dispatch
 # ---------------------------------------------------------------------------------------------
 def _capture(tmp_path, name, seed):
-    return B.simulate_bender_capture(tmp_path / name, PARAMS, daq_plan(MANIFEST), current((3.0, 300e-9)),
-                                     EQ15, {"dataset": "tokin_nb40"}, seed, "det", chunk_len=128).path
+    return B.simulate_bender_capture(
+        tmp_path / name,
+        PARAMS,
+        daq_plan(MANIFEST),
+        current((3.0, 300e-9)),
+        EQ15,
+        {"dataset": "tokin_nb40"},
+        seed,
+        "det",
+        chunk_len=128,
+    ).path
 
 
 def test_capture_carries_channels_settings_and_truth(tmp_path):
@@ -182,7 +223,9 @@ def test_same_seed_same_capture(tmp_path):
 
 def test_simulate_experiment_dispatches_model_bender(tmp_path):
     config = load_config(ROOT / "tests" / "config" / "smoke.yaml")
-    path = simulate_experiment(ROOT / "raw", "tokin_nb40", "rk_ramp_300na_1g", config, tmp_path / "r.nc").path
+    path = simulate_experiment(
+        ROOT / "raw", "tokin_nb40", "rk_ramp_300na_1g", config, tmp_path / "r.nc"
+    ).path
     with open_capture(path) as cap:
         assert cap.attrs["compensation"] == "impedance" and cap.attrs["compensation_X"] == 1e9
         assert cap.attrs["dataset"] == "tokin_nb40" and cap.duration == pytest.approx(100.0)
@@ -197,10 +240,21 @@ def test_catalogue_compensations():
     assert repeat.duration == pytest.approx(20 * 240.0)
 
 
-@pytest.mark.parametrize("compensation", [{"impedance": 1e9, "R": 21e9, "c": 3.4e7}, {"R": 21e9}, {"X": 1e9}])
+@pytest.mark.parametrize(
+    "compensation", [{"impedance": 1e9, "R": 21e9, "c": 3.4e7}, {"R": 21e9}, {"X": 1e9}]
+)
 def test_protocol_schema_rejects_a_bad_compensation(compensation):
-    doc = {"chapter": "x", "experiments": {"e": {"description": "d", "quantity": "current",
-                                                 "segments": [{"duration": 1.0}], "compensation": compensation}}}
+    doc = {
+        "chapter": "x",
+        "experiments": {
+            "e": {
+                "description": "d",
+                "quantity": "current",
+                "segments": [{"duration": 1.0}],
+                "compensation": compensation,
+            }
+        },
+    }
     with pytest.raises(ManifestError):
         validate_document(doc, "protocol.schema.yaml", "test.yaml")
 
@@ -216,8 +270,10 @@ def test_manifest_rejects_an_unknown_twin_section():
 @pytest.fixture(scope="module")
 def identified():
     hold, _ = run_experiment("rk_static_hold")
-    ramps = [run_experiment(n)[0] for n in ("rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300na_2g",
-                                            "rk_ramp_100na_6g")]
+    ramps = [
+        run_experiment(n)[0]
+        for n in ("rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300na_2g", "rk_ramp_100na_6g")
+    ]
     ramp_table, table_1, ident = ronkanen.identify(hold, ramps, 40.0, 2.0)
     value = ident.set_index("key")["value"]
     return ramp_table, table_1, ronkanen.table_2_both(table_1, value["R"]), value
@@ -233,7 +289,9 @@ def test_identification_recovers_R_a_and_c_of_the_twin(identified):
     assert twin.loc["(10)", "c"] == pytest.approx(act.c, rel=0.05)
     for _, row in table_1.iterrows():
         i = row["charging current [nA]"] * 1e-9
-        assert row["identified X [GOhm]"] * 1e9 == pytest.approx(act.R / np.hypot(act.c * i, 1), rel=0.03)
+        assert row["identified X [GOhm]"] * 1e9 == pytest.approx(
+            act.R / np.hypot(act.c * i, 1), rel=0.03
+        )
 
 
 def test_table_2_from_the_paper_is_the_library_table(identified):
@@ -245,9 +303,13 @@ def test_table_2_from_the_paper_is_the_library_table(identified):
 def test_compensated_current_control_beats_open_loop_voltage_control(identified):
     """The paper's claims (Section 7–8): hysteresis and drift fall by an order of magnitude."""
     a_cmd = identified[3]["a_cmd"]
-    pairs = {k: {c: run_experiment(f"rk_{k}_{c}")[0] for c in ("current", "voltage")}
-             for k in ("decay", "repeat", "drift")}
-    table = ronkanen.performance(pairs["decay"], pairs["repeat"], pairs["drift"], a_cmd, 40.0, 120.0)
+    pairs = {
+        k: {c: run_experiment(f"rk_{k}_{c}")[0] for c in ("current", "voltage")}
+        for k in ("decay", "repeat", "drift")
+    }
+    table = ronkanen.performance(
+        pairs["decay"], pairs["repeat"], pairs["drift"], a_cmd, 40.0, 120.0
+    )
     value = table.set_index(["measure", "control"])["value"]
     for measure in ("hysteresis [%]", "drift over the hold [%]"):
         assert abs(value[measure, "current"]) < abs(value[measure, "voltage"]) / 5

@@ -11,11 +11,11 @@ import pytest
 import yaml
 from scipy.io import savemat
 
-from selfsense.methods import characterise as ch
-from selfsense.io.capture import INT16_FULL, CaptureError, open_capture
-from selfsense.cli import main as cli
 from selfsense.chapters.figure_names import loop_pages
+from selfsense.cli import main as cli
+from selfsense.io.capture import INT16_FULL, CaptureError, open_capture
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
+from selfsense.methods import characterise as ch
 from selfsense.scorecard.reference_values import KIND, reference_rows
 from selfsense.scorecard.registry import PUBLISHED, WITHIN, applicable, parse_registry
 from selfsense.scorecard.scoring import scorecard
@@ -40,7 +40,16 @@ def write_csv(path, t0=2.0):
 
 def imported(tmp_path, source, *channel_args, experiment="sine_1hz", dataset="lab_stack", extra=()):
     raw = tmp_path / "raw"
-    args = [str(source), "--dataset", dataset, "--experiment", experiment, "--raw-dir", str(raw), *extra]
+    args = [
+        str(source),
+        "--dataset",
+        dataset,
+        "--experiment",
+        experiment,
+        "--raw-dir",
+        str(raw),
+        *extra,
+    ]
     for c in channel_args:
         args += ["--channel", c]
     assert cli(["import", *args]) == 0
@@ -52,16 +61,29 @@ def characterised(tmp_path, folder, experiment="sine_1hz"):
     out = tmp_path / folder.name
     out.mkdir()
     table, page, figure = out / "summary.csv", out / "page_01.json", out / "loops_01.png"
-    script("characterise_page").main([str(folder / f"{experiment}.nc")], str(page), str(figure), folder.name)
-    script("characterise").main(str(folder / "dataset.yaml"), [str(page)], str(table), str(out / "instruments.csv"))
+    script("characterise_page").main(
+        [str(folder / f"{experiment}.nc")], str(page), str(figure), folder.name
+    )
+    script("characterise").main(
+        str(folder / "dataset.yaml"), [str(page)], str(table), str(out / "instruments.csv")
+    )
     return pd.read_csv(table).iloc[0].to_dict(), figure
 
 
 def test_a_csv_of_u_and_x_gives_stroke_gain_loop_width_and_the_loop_figure(tmp_path):
-    folder = imported(tmp_path, write_csv(tmp_path / "sine.csv"), "U=U [V]:V", "x_laser=x [um]:um",
-                      extra=["--time", "t [s]:s"])
+    folder = imported(
+        tmp_path,
+        write_csv(tmp_path / "sine.csv"),
+        "U=U [V]:V",
+        "x_laser=x [um]:um",
+        extra=["--time", "t [s]:s"],
+    )
     manifest = load_dataset(folder.parent, "lab_stack")  # scaffolded, valid, no model
-    assert "model" not in manifest and manifest["daq"]["fs"] == FS and manifest["experiments"] == ["sine_1hz"]
+    assert (
+        "model" not in manifest
+        and manifest["daq"]["fs"] == FS
+        and manifest["experiments"] == ["sine_1hz"]
+    )
     with open_capture(folder / "sine_1hz.nc") as cap:
         assert cap.n == 3 * FS and "shifted to 0" in cap.attrs["import_note"]
         steps = {c: cap.resolution(c) for c in ("U", "x_laser")}
@@ -69,23 +91,41 @@ def test_a_csv_of_u_and_x_gives_stroke_gain_loop_width_and_the_loop_figure(tmp_p
     assert figure.exists() and figure.with_suffix(".pdf").exists()
     # the ellipse's loop: width 100·sin φ % of stroke, gain B·cos φ / A by either definition
     assert abs(row["x–U loop width [% of stroke]"] - 100 * np.sin(PHI)) < 0.5
-    assert abs(row["stroke [µm]"] - 2e6 * B) <= 2 * steps["x_laser"] * 1e6  # the ADC's steps at the two peaks
+    assert (
+        abs(row["stroke [µm]"] - 2e6 * B) <= 2 * steps["x_laser"] * 1e6
+    )  # the ADC's steps at the two peaks
     gain = 1e6 * B * np.cos(PHI) / A
     # quantisation of both channels bounds either gain's error: a few steps relative to the amplitudes
     quantisation = 4 * (steps["x_laser"] / B + steps["U"] / A)
     assert abs(row["gain (least squares) [µm/V]"] / gain - 1) < quantisation
     assert abs(row["gain (end points) [µm/V]"] / gain - 1) < quantisation
-    assert row["nonlinearity vs end-point chord [% of stroke]"] < 0.05  # an ellipse's middle line is straight
-    assert np.isnan(row["creep after step [µm]"]) and np.isnan(row["dx/dq [µm/µC]"])  # no step, no current
+    assert (
+        row["nonlinearity vs end-point chord [% of stroke]"] < 0.05
+    )  # an ellipse's middle line is straight
+    assert np.isnan(row["creep after step [µm]"]) and np.isnan(
+        row["dx/dq [µm/µC]"]
+    )  # no step, no current
 
 
 def test_a_mat_file_with_the_same_content_gives_the_same_table(tmp_path):
     t, u, x = ellipse()
     savemat(tmp_path / "sine.mat", {"rec": {"t": t, "data": np.column_stack([u, x * 1e6])}})
-    from_mat = imported(tmp_path, tmp_path / "sine.mat", "U=rec.data[0]:V", "x_laser=rec.data[1]:um",
-                        dataset="lab_mat", extra=["--fs", str(FS)])
-    from_csv = imported(tmp_path, write_csv(tmp_path / "sine.csv", t0=0.0), "U=1:V", "x_laser=2:um",
-                        dataset="lab_csv", extra=["--time", "t [s]:s"])
+    from_mat = imported(
+        tmp_path,
+        tmp_path / "sine.mat",
+        "U=rec.data[0]:V",
+        "x_laser=rec.data[1]:um",
+        dataset="lab_mat",
+        extra=["--fs", str(FS)],
+    )
+    from_csv = imported(
+        tmp_path,
+        write_csv(tmp_path / "sine.csv", t0=0.0),
+        "U=1:V",
+        "x_laser=2:um",
+        dataset="lab_csv",
+        extra=["--time", "t [s]:s"],
+    )
     rows = [characterised(tmp_path, f)[0] for f in (from_mat, from_csv)]
     pd.testing.assert_frame_equal(*(pd.DataFrame([r]) for r in rows))
 
@@ -93,10 +133,10 @@ def test_a_mat_file_with_the_same_content_gives_the_same_table(tmp_path):
 def test_nonlinearity_is_the_middle_lines_largest_distance_from_the_end_point_chord():
     # a parabola added to the ellipse bends its middle line by d·(u² − A²) from the chord: d·A² at u = 0
     t, u, x = ellipse()
-    d = 2e-6 / A ** 2
-    out = ch.loop_measures(u, x + d * u ** 2, ch.rising(u))
+    d = 2e-6 / A**2
+    out = ch.loop_measures(u, x + d * u**2, ch.rising(u))
     # the chord's ends are means over the last 2 % of the range, where u² is ≈ 2 % short of A²
-    assert abs(out["nonlinearity"] / (100 * d * A ** 2 / out["stroke"]) - 1) < 0.05
+    assert abs(out["nonlinearity"] / (100 * d * A**2 / out["stroke"]) - 1) < 0.05
     assert abs(out["loop_width"] - 100 * 2 * B * np.sin(PHI) / out["stroke"]) < 0.5
 
 
@@ -115,10 +155,14 @@ def test_a_held_step_gives_its_creep_and_the_current_its_charge_slope():
     current, C = 3e-6 * np.gradient(u, 1 / fs), 3e-6
     q = ch.charge(current, fs)
     measures = ch.charge_measures(u, 2e-7 * u, q, ch.rising(u))
-    assert abs(measures["capacitance"] / C - 1) < 1e-3 and abs(measures["dx_dq"] / (2e-7 / C) - 1) < 1e-3
+    assert (
+        abs(measures["capacitance"] / C - 1) < 1e-3
+        and abs(measures["dx_dq"] / (2e-7 / C) - 1) < 1e-3
+    )
 
 
 # -- the manifest and the captures must agree (one line each, naming both files) ------------------
+
 
 def _check(tmp_path, capture, manifest):
     report = tmp_path / "qc" / "report.json"
@@ -128,14 +172,29 @@ def _check(tmp_path, capture, manifest):
     return str(e.value)
 
 
-@pytest.mark.parametrize("change,fragments", [
-    pytest.param({"daq": {"fs": 50000.0}}, ["fs = 48000 Hz, the manifest declares daq.fs = 50000 Hz"], id="fs"),
-    pytest.param({"daq": {"channels": ["U", "I", "Ur", "Ir"], "ranges": {}}},
-                 ["channel x_laser is not declared in the manifest's daq.channels"], id="channels"),
-    pytest.param({"sensors": {"x_laser": {"type": "laser vibrometer", "units": "um"}}},
-                 ["channel x_laser is in 'm', the manifest declares 'um'"], id="units"),
-])
-def test_a_capture_that_contradicts_its_manifest_stops_in_one_line_naming_both(tmp_path, change, fragments):
+@pytest.mark.parametrize(
+    "change,fragments",
+    [
+        pytest.param(
+            {"daq": {"fs": 50000.0}},
+            ["fs = 48000 Hz, the manifest declares daq.fs = 50000 Hz"],
+            id="fs",
+        ),
+        pytest.param(
+            {"daq": {"channels": ["U", "I", "Ur", "Ir"], "ranges": {}}},
+            ["channel x_laser is not declared in the manifest's daq.channels"],
+            id="channels",
+        ),
+        pytest.param(
+            {"sensors": {"x_laser": {"type": "laser vibrometer", "units": "um"}}},
+            ["channel x_laser is in 'm', the manifest declares 'um'"],
+            id="units",
+        ),
+    ],
+)
+def test_a_capture_that_contradicts_its_manifest_stops_in_one_line_naming_both(
+    tmp_path, change, fragments
+):
     capture = synthetic(tmp_path / "raw" / "ch3_sine_10hz.nc")
     doc = load_yaml(bench_manifest(tmp_path))
     for key, value in change.items():
@@ -152,15 +211,25 @@ def test_a_missing_attribute_the_analyses_read_stops_in_one_line(tmp_path):
 
     with netCDF4.Dataset(capture, "a") as nc:
         nc.delncattr("warmup_s")
-    one_line(_check(tmp_path, capture, bench_manifest(tmp_path)), capture, "global attribute warmup_s is missing")
+    one_line(
+        _check(tmp_path, capture, bench_manifest(tmp_path)),
+        capture,
+        "global attribute warmup_s is missing",
+    )
 
 
 def test_a_channel_clipped_beyond_1_percent_names_the_channel_and_the_likely_cause(tmp_path):
     capture = synthetic(tmp_path / "raw" / "ch3_sine_10hz.nc")  # 9600 samples
     set_codes(capture, "x_laser", 100, 97, INT16_FULL)  # 1.01 %
     message = _check(tmp_path, capture, bench_manifest(tmp_path))
-    one_line(message, capture, "channel x_laser is clipped in 1.01 % of its 9600 samples", "daq.ranges.x_laser",
-             "too narrow", "µm written as m")
+    one_line(
+        message,
+        capture,
+        "channel x_laser is clipped in 1.01 % of its 9600 samples",
+        "daq.ranges.x_laser",
+        "too narrow",
+        "µm written as m",
+    )
     capture = synthetic(tmp_path / "raw" / "ch3_sine_1hz.nc")
     set_codes(capture, "x_laser", 100, 96, INT16_FULL)  # 1.00 %: counted, not refused
     script("check_capture").main(str(capture), bench_manifest(tmp_path), str(tmp_path / "ok.json"))
@@ -168,29 +237,60 @@ def test_a_channel_clipped_beyond_1_percent_names_the_channel_and_the_likely_cau
 
 
 def test_an_import_in_the_wrong_unit_is_refused_before_anything_is_written(tmp_path, capsys):
-    folder = imported(tmp_path, write_csv(tmp_path / "sine.csv"), "U=U [V]:V", "x_laser=x [um]:um",
-                      extra=["--time", "t [s]:s"])
+    folder = imported(
+        tmp_path,
+        write_csv(tmp_path / "sine.csv"),
+        "U=U [V]:V",
+        "x_laser=x [um]:um",
+        extra=["--time", "t [s]:s"],
+    )
     before = (folder / "dataset.yaml").read_text()
-    args = ["import", str(tmp_path / "sine.csv"), "--dataset", "lab_stack", "--experiment", "again",
-            "--raw-dir", str(folder.parent), "--time", "t [s]:s", "--channel", "U=U [V]:V",
-            "--channel", "x_laser=x [um]:m"]
+    args = [
+        "import",
+        str(tmp_path / "sine.csv"),
+        "--dataset",
+        "lab_stack",
+        "--experiment",
+        "again",
+        "--raw-dir",
+        str(folder.parent),
+        "--time",
+        "t [s]:s",
+        "--channel",
+        "U=U [V]:V",
+        "--channel",
+        "x_laser=x [um]:m",
+    ]
     assert cli(args) == 1
     line = capsys.readouterr().err.strip().splitlines()[-1]
-    assert line.startswith("selfsense import: ") and "channel x_laser is clipped" in line and "µm written as m" in line
+    assert (
+        line.startswith("selfsense import: ")
+        and "channel x_laser is clipped" in line
+        and "µm written as m" in line
+    )
     assert (folder / "dataset.yaml").read_text() == before and not (folder / "again.nc").exists()
     assert leftovers(folder) == []
     # a capture is never overwritten, and experiment names follow the wildcard's rule
     args[args.index("again")] = "sine_1hz"
     assert cli(args) == 1 and "never overwritten" in capsys.readouterr().err
     args[args.index("sine_1hz")] = "sine-1hz"
-    assert cli(args) == 1 and "experiment name 'sine-1hz' must be letters, digits or '_'" in capsys.readouterr().err
+    assert (
+        cli(args) == 1
+        and "experiment name 'sine-1hz' must be letters, digits or '_'" in capsys.readouterr().err
+    )
 
 
 def test_a_hyphenated_experiment_name_in_a_manifest_is_one_line(tmp_path):
     folder = tmp_path / "lab"
     folder.mkdir()
-    doc = {"name": "lab", "description": "x", "source": "measured", "daq": {"fs": 1000.0, "channels": ["U"],
-           "ranges": {"U": [-10, 10]}}, "protocols": [], "experiments": ["sine-1hz"]}
+    doc = {
+        "name": "lab",
+        "description": "x",
+        "source": "measured",
+        "daq": {"fs": 1000.0, "channels": ["U"], "ranges": {"U": [-10, 10]}},
+        "protocols": [],
+        "experiments": ["sine-1hz"],
+    }
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc))
     with pytest.raises(ManifestError) as e:
         load_dataset(tmp_path, "lab")
@@ -212,33 +312,59 @@ def test_a_foreign_actuator_gets_no_published_rows(model):
 def test_reference_values_replace_the_published_numbers():
     stack = {"name": "lab", "source": "measured", "model": "stack"}
     assert {e.section for e in applicable(REGISTRY, stack)} == {PUBLISHED}
-    reference = {"stroke_um": {"value": 30.0, "tolerance_percent": 10, "source": "data sheet"},
-                 "gain_um_per_V": {"value": 0.2, "tolerance_percent": 10, "source": "data sheet",
-                                   "experiment": "small"}}
+    reference = {
+        "stroke_um": {"value": 30.0, "tolerance_percent": 10, "source": "data sheet"},
+        "gain_um_per_V": {
+            "value": 0.2,
+            "tolerance_percent": 10,
+            "source": "data sheet",
+            "experiment": "small",
+        },
+    }
     assert applicable(REGISTRY, stack | {"reference": reference}) == []
-    table = pd.DataFrame({"experiment": ["small", "full"], "stroke [µm]": [10.0, 31.0],
-                          "gain (least squares) [µm/V]": [0.3, 0.21]})
+    table = pd.DataFrame(
+        {
+            "experiment": ["small", "full"],
+            "stroke [µm]": [10.0, 31.0],
+            "gain (least squares) [µm/V]": [0.3, 0.21],
+        }
+    )
     rows = reference_rows(stack | {"reference": reference}, {"characterise/summary.csv": table})
-    assert list(rows["quantity"]) == ["stroke (full)", "gain x/U (least squares) (small)"]  # default: largest stroke
-    assert list(rows["reproduced"]) == [31.0, 0.3] and list(rows["verdict"]) == [WITHIN, "out of band"]
+    assert list(rows["quantity"]) == [
+        "stroke (full)",
+        "gain x/U (least squares) (small)",
+    ]  # default: largest stroke
+    assert list(rows["reproduced"]) == [31.0, 0.3] and list(rows["verdict"]) == [
+        WITHIN,
+        "out of band",
+    ]
     assert (rows["kind"] == KIND).all()
 
 
 # -- end to end (slow): an imported dataset, and a measured copy of the smoke bench ----------------
+
 
 def copy_without_truth(src, dst, dataset):
     """A capture as a lab's DAQ would have written it: the same channels and attributes, no /truth."""
     import netCDF4
 
     with netCDF4.Dataset(src) as a, netCDF4.Dataset(dst, "w", format="NETCDF4") as b:
-        b.setncatts({k: a.getncattr(k) for k in a.ncattrs()} | {"dataset": dataset, "source": "measured"})
+        b.setncatts(
+            {k: a.getncattr(k) for k in a.ncattrs()} | {"dataset": dataset, "source": "measured"}
+        )
         for name, dim in a.dimensions.items():
             b.createDimension(name, len(dim))
         for name, var in a.variables.items():
             var.set_auto_maskandscale(False)
             attrs = {k: var.getncattr(k) for k in var.ncattrs()}
-            out = b.createVariable(name, var.dtype, var.dimensions, zlib=True, complevel=1,
-                                   fill_value=attrs.pop("_FillValue", None))
+            out = b.createVariable(
+                name,
+                var.dtype,
+                var.dimensions,
+                zlib=True,
+                complevel=1,
+                fill_value=attrs.pop("_FillValue", None),
+            )
             out.set_auto_maskandscale(False)
             out.setncatts(attrs)
             out[:] = var[:]
@@ -255,12 +381,19 @@ def measured_bench(smoke_run, tmp_path_factory):
     folder = repo / "raw" / "bench_lab"
     folder.mkdir()
     # in the simulated dataset's order, which the tables' rows follow
-    runs = list(pd.read_csv(smoke_run / "results" / "pi_p885" / "qc" / "captures.csv")["experiment"])
+    runs = list(
+        pd.read_csv(smoke_run / "results" / "pi_p885" / "qc" / "captures.csv")["experiment"]
+    )
     assert sorted(runs) == sorted(p.stem for p in (smoke_run / "raw" / "pi_p885").glob("*.nc"))
     for run in runs:
-        copy_without_truth(smoke_run / "raw" / "pi_p885" / f"{run}.nc", folder / f"{run}.nc", "bench_lab")
-    doc = {k: v for k, v in load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml").items()
-           if k not in ("twin", "seed")}
+        copy_without_truth(
+            smoke_run / "raw" / "pi_p885" / f"{run}.nc", folder / f"{run}.nc", "bench_lab"
+        )
+    doc = {
+        k: v
+        for k, v in load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml").items()
+        if k not in ("twin", "seed")
+    }
     doc |= {"name": "bench_lab", "source": "measured", "experiments": runs}
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
     run = run_snakemake(repo, write_config(repo, "lab", ["bench_lab"]))
@@ -280,11 +413,17 @@ def test_a_measured_ripple_bench_runs_every_analysis_to_the_end(measured_bench):
     # dataset's DAG made, byte for byte: both the reproduction's determinism and its independence
     # of the capture's compression (the rebuild test remakes the tables this cannot)
     remade = sorted(str(p.relative_to(res)) for p in res.rglob("*.csv"))
-    expected = sorted(str(p.relative_to(smoke / "results" / "pi_p885"))
-                      for p in (smoke / "results" / "pi_p885").rglob("*.csv")
-                      if measured_copy_remakes(str(p.relative_to(smoke))))
+    expected = sorted(
+        str(p.relative_to(smoke / "results" / "pi_p885"))
+        for p in (smoke / "results" / "pi_p885").rglob("*.csv")
+        if measured_copy_remakes(str(p.relative_to(smoke)))
+    )
     assert sorted(set(remade) - {"scorecard.csv", "stages.csv"}) == expected
-    assert [t for t in expected if (res / t).read_bytes() != (smoke / "results" / "pi_p885" / t).read_bytes()] == []
+    assert [
+        t
+        for t in expected
+        if (res / t).read_bytes() != (smoke / "results" / "pi_p885" / t).read_bytes()
+    ] == []
     # the same published numbers as the simulated dataset, and no twin recovery
     card = pd.read_csv(res / "scorecard.csv")
     twin = pd.read_csv(smoke / "results" / "pi_p885" / "scorecard.csv")
@@ -300,7 +439,9 @@ def test_a_measured_ripple_bench_runs_every_analysis_to_the_end(measured_bench):
     assert mid.to_numpy() == pytest.approx(card.loc[centred, "published"].to_numpy(), rel=1e-12)
     assert not (res / "twin").exists()  # every step that reads /truth is absent, not failed
     stages = pd.read_csv(res / "stages.csv").set_index("stage")
-    assert (stages.drop("powerloss (Ronkanen)")["status"] == "runs").all()  # every thesis stage, to the end
+    assert (
+        stages.drop("powerloss (Ronkanen)")["status"] == "runs"
+    ).all()  # every thesis stage, to the end
     captures = sorted(p.stem for p in (repo / "raw" / "bench_lab").glob("*.nc"))
     assert sorted(pd.read_csv(res / "characterise" / "summary.csv")["experiment"]) == captures
 
@@ -315,11 +456,20 @@ def lab_csv(tmp_path_factory):
     repo = copy_repo(tmp_path_factory.mktemp("csv") / "repo")
     source = write_csv(repo / "sine.csv")
     for dataset in ("lab_stack", "lab_fs"):
-        imported(repo, source, "U=U [V]:V", "x_laser=x [um]:um", dataset=dataset, extra=["--time", "t [s]:s"])
+        imported(
+            repo,
+            source,
+            "U=U [V]:V",
+            "x_laser=x [um]:um",
+            dataset=dataset,
+            extra=["--time", "t [s]:s"],
+        )
     path = repo / "raw" / "lab_stack" / "dataset.yaml"
-    path.write_text(path.read_text()
-                    + "reference:\n  stroke_um: {value: 31, tolerance_percent: 10, source: data sheet}\n"
-                    "sensors:\n  x_laser: {type: laser vibrometer, resolution: 3.0e-7, units: m}\n")
+    path.write_text(
+        path.read_text()
+        + "reference:\n  stroke_um: {value: 31, tolerance_percent: 10, source: data sheet}\n"
+        "sensors:\n  x_laser: {type: laser vibrometer, resolution: 3.0e-7, units: m}\n"
+    )
     path = repo / "raw" / "lab_fs" / "dataset.yaml"
     path.write_text(path.read_text().replace("fs: 5000.0", "fs: 5120.0"))
     good = run_snakemake(repo, write_config(repo, "good", ["lab_stack"]))
@@ -336,13 +486,18 @@ def test_an_imported_csv_gets_its_table_figure_and_a_scorecard_of_its_own(lab_cs
     assert list(table["experiment"]) == ["sine_1hz"]
     assert abs(table.loc[0, "x–U loop width [% of stroke]"] - 100 * np.sin(PHI)) < 0.5
     assert (repo / "figures" / "lab_stack" / "characterise" / "loops_01.png").exists()
-    sensors = pd.read_csv(res / "characterise" / "instruments.csv").set_index(["item", "property"])["value"]
+    sensors = pd.read_csv(res / "characterise" / "instruments.csv").set_index(["item", "property"])[
+        "value"
+    ]
     assert sensors[("channel x_laser", "type")] == "laser vibrometer"
     card = pd.read_csv(res / "scorecard.csv")  # no published rows: the data sheet's stroke only
     assert list(card["section"]) == ["reference values"] and list(card["verdict"]) == [WITHIN]
     stages = pd.read_csv(res / "stages.csv").set_index("stage")
     assert stages.loc["characterise", "status"] == "runs"
-    assert "this dataset lacks: channel Ur, channel Ir, channel I, daq.ripple" in stages.loc["ripple (Ch. 3)", "needs"]
+    assert (
+        "this dataset lacks: channel Ur, channel Ir, channel I, daq.ripple"
+        in stages.loc["ripple (Ch. 3)", "needs"]
+    )
 
 
 @pytest.mark.slow
@@ -358,7 +513,14 @@ def test_a_capture_that_contradicts_its_manifest_stops_the_run_and_its_log_says_
 def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():
     names = [f"run_{k}" for k in range(31)]
     pages = loop_pages(names)
-    assert list(pages) == ["01", "02", "03", "04", "05", "06"]  # 31 captures: 6 pages, the last with one
+    assert list(pages) == [
+        "01",
+        "02",
+        "03",
+        "04",
+        "05",
+        "06",
+    ]  # 31 captures: 6 pages, the last with one
     assert [len(p) for p in pages.values()] == [6, 6, 6, 6, 6, 1]
     assert [n for p in pages.values() for n in p] == names
 
@@ -366,6 +528,8 @@ def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():
 def test_a_page_without_loops_says_so():
     before = set(ch.plt.get_fignums())
     fig = ch.loop_page([], "lab_stack (1 of 1)")
-    assert "no capture records a drive voltage U and a displacement" in [t.get_text() for t in fig.axes[0].texts]
+    assert "no capture records a drive voltage U and a displacement" in [
+        t.get_text() for t in fig.axes[0].texts
+    ]
     ch.plt.close(fig)
     assert set(ch.plt.get_fignums()) == before

@@ -6,7 +6,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.io.capture import FILL, CaptureError, CaptureWriter, channel_spec, compression_of, folded_fs, open_capture, scan_capture
+from selfsense.io.capture import (
+    FILL,
+    CaptureError,
+    CaptureWriter,
+    channel_spec,
+    compression_of,
+    folded_fs,
+    open_capture,
+    scan_capture,
+)
 
 FS = 48000.0
 
@@ -17,8 +26,10 @@ def write(path, n=4800, attrs=None, values=None, channels=("U", "I"), **kw):
     with CaptureWriter(path, attrs, specs, n, **kw) as w:
         for start in range(0, n, 1000):
             m = min(1000, n - start)
-            chunk = {c: (values[start:start + m] if values is not None else np.linspace(0, 100, m))
-                     for c in channels}
+            chunk = {
+                c: (values[start : start + m] if values is not None else np.linspace(0, 100, m))
+                for c in channels
+            }
             w.write(chunk)
     return path
 
@@ -55,7 +66,11 @@ def test_storage_is_packed_int16_with_cf_attributes(tmp_path):
         v = nc["U"]
         assert v.dtype == np.int16 and v.units == "V"
         assert {"scale_factor", "add_offset"} <= set(v.ncattrs())
-        assert compression_of(v) == "zlib" and v.filters()["fletcher32"] and v.chunking() != "contiguous"
+        assert (
+            compression_of(v) == "zlib"
+            and v.filters()["fletcher32"]
+            and v.chunking() != "contiguous"
+        )
         assert nc.Conventions.startswith("CF")
 
 
@@ -165,13 +180,19 @@ def test_fs_that_violates_the_folding_equation(tmp_path):
     one_line(e, path, "folding equation", "need fs = 48000")
 
 
-@pytest.mark.parametrize("ns,nf,fs", [(4, 0, 400e3), (4, 2, 80e3), (4, 12, 16e3), (12, 0, 1200e3), (12, 4, 48e3)])
+@pytest.mark.parametrize(
+    "ns,nf,fs", [(4, 0, 400e3), (4, 2, 80e3), (4, 12, 16e3), (12, 0, 1200e3), (12, 4, 48e3)]
+)
 def test_folding_equation_matches_table_3_1(ns, nf, fs):
     assert folded_fs(100e3, ns, nf) == pytest.approx(fs)
 
 
 @settings(max_examples=50, deadline=None)
-@given(values=st.lists(st.one_of(st.floats(-30.0, 30.0), st.just(float("nan"))), min_size=1, max_size=50))
+@given(
+    values=st.lists(
+        st.one_of(st.floats(-30.0, 30.0), st.just(float("nan"))), min_size=1, max_size=50
+    )
+)
 def test_quantize_equals_unpacking_the_packed_codes(values):
     spec = channel_spec("U", -20.0, 20.0)
     codes, _ = spec.pack(np.array(values))
@@ -180,27 +201,44 @@ def test_quantize_equals_unpacking_the_packed_codes(values):
 
 
 @pytest.mark.parametrize("compression", ["zlib", "zstd", "blosc_lz4", "blosc_zstd", None])
-def test_every_allowed_compression_round_trips_and_the_written_scan_is_the_read_one(tmp_path, compression):
+def test_every_allowed_compression_round_trips_and_the_written_scan_is_the_read_one(
+    tmp_path, compression
+):
     values = np.sin(np.arange(48000) / 50) * 150  # smooth: compressible by every codec
     values[100:110] = np.nan
     values[200:203] = 500.0
     specs = [channel_spec(c, -200.0, 200.0) for c in ("U", "I")]
-    with CaptureWriter(tmp_path / "c.nc", {"fs": FS}, specs, len(values), compression=compression, complevel=3,
-                       chunk_len=4096) as w:
+    with CaptureWriter(
+        tmp_path / "c.nc",
+        {"fs": FS},
+        specs,
+        len(values),
+        compression=compression,
+        complevel=3,
+        chunk_len=4096,
+    ) as w:
         for start in range(0, len(values), 5000):
-            w.write({c: values[start:start + 5000] for c in ("U", "I")})
+            w.write({c: values[start : start + 5000] for c in ("U", "I")})
     with netCDF4.Dataset(w.path) as nc:
         assert compression_of(nc["U"]) == compression
     assert w.scan_report() == scan_capture(w.path)
     with open_capture(w.path) as cap:
-        np.testing.assert_array_equal(cap.read(["U"])["U"], specs[0].quantize(values))  # NaN kept, 500 V clipped
+        np.testing.assert_array_equal(
+            cap.read(["U"])["U"], specs[0].quantize(values)
+        )  # NaN kept, 500 V clipped
 
 
 def test_a_chunk_blosc_cannot_shrink_is_one_line_and_leaves_nothing(tmp_path):
     noise = np.random.default_rng(1).uniform(-200, 200, 4096)  # 16 bits of entropy per sample
     with pytest.raises(CaptureError) as e:
-        with CaptureWriter(tmp_path / "c.nc", {"fs": FS}, [channel_spec("U", -200, 200)], 4096,
-                           compression="blosc_zstd", complevel=3) as w:
+        with CaptureWriter(
+            tmp_path / "c.nc",
+            {"fs": FS},
+            [channel_spec("U", -200, 200)],
+            4096,
+            compression="blosc_zstd",
+            complevel=3,
+        ) as w:
             w.write({"U": noise})
     one_line(e, tmp_path / "c.nc", "blosc", "zlib stores any data")
     assert list(tmp_path.iterdir()) == []

@@ -21,7 +21,9 @@ def heating_run(P=0.7, tau=105.0, gamma=52.0, T_amb=23.0, seconds=600):
 
 
 def test_identify_recovers_tau_and_gamma_and_reports_unidentifiable_runs():
-    per_run, fits = ch7.identify({"long": heating_run(), "short": heating_run(seconds=2)}, PROPS, T_amb=None)
+    per_run, fits = ch7.identify(
+        {"long": heating_run(), "short": heating_run(seconds=2)}, PROPS, T_amb=None
+    )
     row = per_run.set_index("run").loc["long"]
     assert row["tau [s]"] == pytest.approx(105.0, rel=0.02)
     assert row["gamma [K/W]"] == pytest.approx(52.0, rel=0.02)
@@ -33,8 +35,11 @@ def test_voltage_trend_is_quadratic_for_a_quadratic_loss():
     t = np.arange(0, 1600, 0.1)
     volts = [25, 50, 75, 100]
     P = np.concatenate([np.full(4000, 1e-4 * v * v) for v in volts])
-    table = ch7.voltage_trend({"time": t, "P_PS": P}, [{"duration": 400, "hi": v} for v in volts],
-                              ThermalModel(100.0, 50.0))
+    table = ch7.voltage_trend(
+        {"time": t, "P_PS": P},
+        [{"duration": 400, "hi": v} for v in volts],
+        ThermalModel(100.0, 50.0),
+    )
     assert table["fit R²"].iloc[0] == pytest.approx(1.0)
     assert table["fit slope [K/V²]"].iloc[0] == pytest.approx(50.0 * 1e-4)
 
@@ -51,7 +56,9 @@ def test_extract_is_chunk_invariant_and_measures_hysteresis_power(stack_params, 
 
     def run(sizes):
         starts = np.cumsum([0] + sizes[:-1])
-        chunks = ((s, {k: v[s:s + n] for k, v in measured.items()}) for s, n in zip(starts, sizes))
+        chunks = (
+            (s, {k: v[s : s + n] for k, v in measured.items()}) for s, n in zip(starts, sizes)
+        )
         parts = list(ch7.extract(chunks, fs, plan, k_over_alpha, 0.1, 200))
         return np.concatenate([p[0]["P_PS"] for p in parts])
 
@@ -59,8 +66,10 @@ def test_extract_is_chunk_invariant_and_measures_hysteresis_power(stack_params, 
     # means of 4800 samples per 0.1 s, summed in other chunks; U − (k/α)x cancels |U|/|U_H| of the digits
     kappa = np.max(np.abs(measured["U"])) / np.max(np.abs(truth["U_H"]))
     np.testing.assert_allclose(run([10_000, 7, len(t) - 10_007]), whole, rtol=sums(4800) * kappa)
-    true_power = np.mean((truth["U_H"] * np.gradient(truth["q"]) * fs)[int(fs) // 2:])
-    assert np.mean(whole[5:]) == pytest.approx(true_power, rel=0.2)  # the loss seen through the instruments
+    true_power = np.mean((truth["U_H"] * np.gradient(truth["q"]) * fs)[int(fs) // 2 :])
+    assert np.mean(whole[5:]) == pytest.approx(
+        true_power, rel=0.2
+    )  # the loss seen through the instruments
 
 
 @pytest.mark.parametrize("period", [20, 40, 80, 133.3, 200, 400, 1000, 4000, 40_000])
@@ -83,11 +92,18 @@ def test_gamma_t_samples_see_every_phase_of_any_drive(period):
 def test_gamma_t_windows_are_the_same_in_any_chunks():
     every = 200
     whole = ch7.kept_windows(np.arange(100_000), every)
-    parts = np.concatenate([ch7.kept_windows(np.arange(a, b), every) for a, b in ((0, 7), (7, 33_333), (33_333, 100_000))])
+    parts = np.concatenate(
+        [
+            ch7.kept_windows(np.arange(a, b), every)
+            for a, b in ((0, 7), (7, 33_333), (33_333, 100_000))
+        ]
+    )
     assert np.array_equal(parts, whole)
 
 
-LINEAR_GAMMA = GammaPolynomial((32.0 * 3.13, -32.0))  # x [µm] = 32 (3.13 − C [µF]): 0 at rest, 32 µm at 2.13 µF
+LINEAR_GAMMA = GammaPolynomial(
+    (32.0 * 3.13, -32.0)
+)  # x [µm] = 32 (3.13 − C [µF]): 0 at rest, 32 µm at 2.13 µF
 
 
 def sine_run(frequency, shift=0.0, loop=0.0, T=(23.0, 23.0), seconds=3.0, warmup=0.5, rate=4000.0):
@@ -97,23 +113,41 @@ def sine_run(frequency, shift=0.0, loop=0.0, T=(23.0, 23.0), seconds=3.0, warmup
     U = np.where(t >= warmup, 50 - 50 * np.cos(2 * np.pi * frequency * (t - warmup)), 0.0)
     C = 3.13e-6 - 1e-8 * U
     rising = np.gradient(U) >= 0
-    x = LINEAR_GAMMA.predict(C) + 5e-6 + (t >= warmup) * (shift + np.where(rising, loop, -loop))  # laser zero: 5 µm
+    x = (
+        LINEAR_GAMMA.predict(C) + 5e-6 + (t >= warmup) * (shift + np.where(rising, loop, -loop))
+    )  # laser zero: 5 µm
     t_slow = np.arange(0, seconds, 0.1)
-    return {"time": t, "C_e": C, "x_laser": x, "U": U, "frequency": frequency, "warmup": warmup, "T_time": t_slow,
-            "T_mid": np.interp(t_slow, [warmup, seconds], T)}
+    return {
+        "time": t,
+        "C_e": C,
+        "x_laser": x,
+        "U": U,
+        "frequency": frequency,
+        "warmup": warmup,
+        "T_time": t_slow,
+        "T_mid": np.interp(t_slow, [warmup, seconds], T),
+    }
 
 
 def test_frequency_effect_is_zero_on_gamma_and_gives_a_shift_or_a_loop_back():
-    runs = {"ref": sine_run(0.5), "on": sine_run(10.0), "shifted": sine_run(50.0, shift=0.4e-6, T=(25.0, 25.0)),
-            "loop": sine_run(100.0, loop=0.3e-6, T=(23.0, 24.0))}
-    table, curves = ch7.frequency_effect(runs, LINEAR_GAMMA, g=0.2, reference="ref", bins=10, min_windows=5)
+    runs = {
+        "ref": sine_run(0.5),
+        "on": sine_run(10.0),
+        "shifted": sine_run(50.0, shift=0.4e-6, T=(25.0, 25.0)),
+        "loop": sine_run(100.0, loop=0.3e-6, T=(23.0, 24.0)),
+    }
+    table, curves = ch7.frequency_effect(
+        runs, LINEAR_GAMMA, g=0.2, reference="ref", bins=10, min_windows=5
+    )
     t = table.set_index("run")
     assert list(table["frequency [Hz]"]) == [0.5, 10, 50, 100]
     for run in ("ref", "on"):
         assert t.loc[run, "max |x − Γ(C_e)| [µm]"] < 1e-6
     for col in ("mean x − Γ(C_e) [µm]", "max |x − Γ(C_e)| [µm]", "rms x − Γ(C_e) [µm]"):
         assert t.loc["shifted", col] == pytest.approx(0.4, rel=1e-6)
-    assert t.loc["shifted", "max [% of stroke]"] == pytest.approx(100 * 0.4 / t.loc["shifted", "stroke [µm]"])
+    assert t.loc["shifted", "max [% of stroke]"] == pytest.approx(
+        100 * 0.4 / t.loc["shifted", "stroke [µm]"]
+    )
     # the two branches straddle Γ: their mean hides the loop, the per-branch curves do not
     assert abs(t.loc["loop", "mean x − Γ(C_e) [µm]"]) < 0.05
     assert t.loc["loop", "max |x − Γ(C_e)| [µm]"] == pytest.approx(0.3, rel=1e-6)
@@ -130,14 +164,29 @@ def test_figure_7_9_shows_the_identified_values_or_says_why_not():
     def texts(fig):
         return " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
 
-    args = (GammaPolynomial((1.0, 2.0, 0.0, 0.0, 0.0, 3.0), g=0.203), HPOGains(16.6, 2 * np.pi, 1.0))
+    args = (
+        GammaPolynomial((1.0, 2.0, 0.0, 0.0, 0.0, 3.0), g=0.203),
+        HPOGains(16.6, 2 * np.pi, 1.0),
+    )
     plan = plan_from_fs(48000.0, 1e5, 12, 4)
-    fig, shown = ch7.figure_7_9(*args, {"identified": True, "tau": 106.9, "gamma": 50.4, "T_amb": 23.1}, 2.64e6, plan)
-    assert "τ = 106.9 s, γ = 50.4 K/W" in texts(fig) and "g = 0.203 µm/K" in texts(fig) and "2.64 V/µm" in texts(fig)
+    fig, shown = ch7.figure_7_9(
+        *args, {"identified": True, "tau": 106.9, "gamma": 50.4, "T_amb": 23.1}, 2.64e6, plan
+    )
+    assert (
+        "τ = 106.9 s, γ = 50.4 K/W" in texts(fig)
+        and "g = 0.203 µm/K" in texts(fig)
+        and "2.64 V/µm" in texts(fig)
+    )
     assert "order 5" in texts(fig) and shown["Gamma_T order"] == 5
     assert shown["L_I"] == pytest.approx((2 * np.pi) ** 2 * 16.6) and shown["tau [s]"] == 106.9
-    fig, shown = ch7.figure_7_9(*args, {"identified": False, "reason": "runs too short"}, 2.64e6, plan)
-    assert "not identified" in texts(fig) and "runs too short" in texts(fig) and shown["tau [s]"] is None
+    fig, shown = ch7.figure_7_9(
+        *args, {"identified": False, "reason": "runs too short"}, 2.64e6, plan
+    )
+    assert (
+        "not identified" in texts(fig)
+        and "runs too short" in texts(fig)
+        and shown["tau [s]"] is None
+    )
 
 
 def _heating_run(rng, T_end, n=6000, kappa=7.9e-9, dC_x=-0.03, C0=3.13e-6, noise=2e-9):
@@ -158,4 +207,7 @@ def test_gamma_t_order_is_validated_on_a_hotter_run_and_gives_g_back():
     # C_e noise of 2 nF (≈ 0.07 %) over 18 K of warming: g is determined to ≈ 0.1 %; 2 % is the
     # scorecard's twin-input rule
     assert table.loc[table["chosen"], "g [µm/K]"].item() == pytest.approx(g_true, rel=0.02)
-    assert (table["rms error on the validation run [µm]"] >= table.loc[table["chosen"], "rms error on the validation run [µm]"].item()).all()
+    assert (
+        table["rms error on the validation run [µm]"]
+        >= table.loc[table["chosen"], "rms error on the validation run [µm]"].item()
+    ).all()

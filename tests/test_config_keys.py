@@ -18,9 +18,24 @@ SMOKE = ROOT / "tests" / "config" / "smoke.yaml"
 
 #: config key: (a changed value, the rules whose params declare it; see workflow/rules/*.smk)
 USES = {
-    "ripple.n_periods": (5, {"extract_ripple", "ce_recovery", "gamma_fit", "observe", "observer_study", "charge_budget",
-                             "ch5_figures", "simulate_closed_loop", "audit_realtime", "thermal_extract",
-                             "estimator_diagram", "coupled", "error_budget"}),
+    "ripple.n_periods": (
+        5,
+        {
+            "extract_ripple",
+            "ce_recovery",
+            "gamma_fit",
+            "observe",
+            "observer_study",
+            "charge_budget",
+            "ch5_figures",
+            "simulate_closed_loop",
+            "audit_realtime",
+            "thermal_extract",
+            "estimator_diagram",
+            "coupled",
+            "error_budget",
+        },
+    ),
     "ripple.np_sweep": ([1, 2, 4], {"ce_np_study"}),
     "gamma.orders": ([3, 4], {"gamma_fit", "ch5_figures"}),
     "observer.omega_s": (3.0, {"charge_sensing"}),
@@ -65,8 +80,10 @@ def with_change(key, value):
 def reasons(output):
     """{reason: rules} from the "Reasons:" summary that ends a dry run with --quiet rules."""
     summary = output.split("Reasons:", 1)[1] if "Reasons:" in output else ""
-    return {reason: set(rules.split(", "))
-            for reason, rules in re.findall(r"^ {4}(\S[^\n]*):\n {8}(\S[^\n]*)$", summary, re.M)}
+    return {
+        reason: set(rules.split(", "))
+        for reason, rules in re.findall(r"^ {4}(\S[^\n]*):\n {8}(\S[^\n]*)$", summary, re.M)
+    }
 
 
 def test_every_config_key_is_covered():

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from selfsense.chapters.ch6 import errors, segment_maxima, segment_windows, table_6_1
-from selfsense.twin.closed_loop import HPOIntegralController
 from selfsense.methods.control import IntegralController, tracking_prediction
+from selfsense.twin.closed_loop import HPOIntegralController
 
 from .tolerances import CLOSED_FORM
 
@@ -15,13 +15,17 @@ def test_gain_and_loop_shape():
     assert g.K_I == pytest.approx(2 * np.pi * 250 * 2.68e6)
     T = g.tracking()
     assert abs(T(0)) == pytest.approx(1.0)  # Type-I: no steady error to a constant reference
-    assert abs(T(2j * np.pi * 250)) == pytest.approx(1 / np.sqrt(2), rel=CLOSED_FORM)  # crossover at ω_C
+    assert abs(T(2j * np.pi * 250)) == pytest.approx(
+        1 / np.sqrt(2), rel=CLOSED_FORM
+    )  # crossover at ω_C
 
 
 def test_tracking_prediction_at_125_hz():
     table = tracking_prediction(IntegralController(2 * np.pi * 250, 2.68e6), [125.0], 15e-6)
     assert table["phase lag [deg]"].iloc[0] == pytest.approx(np.degrees(np.arctan(0.5)))
-    assert table["predicted error amplitude [µm]"].iloc[0] == pytest.approx(15 * 0.5 / np.sqrt(1.25))
+    assert table["predicted error amplitude [µm]"].iloc[0] == pytest.approx(
+        15 * 0.5 / np.sqrt(1.25)
+    )
 
 
 class FakeChain:
@@ -37,7 +41,9 @@ class FakeChain:
 def test_controller_integrates_per_sample_with_one_block_delay():
     fs, block = 48000.0, 12
     gains = IntegralController(1000.0, 2e6)
-    ctl = HPOIntegralController(FakeChain(0.0), gains, lambda t: np.full(len(t), 1e-6), fs, block, engage_at=0.0)
+    ctl = HPOIntegralController(
+        FakeChain(0.0), gains, lambda t: np.full(len(t), 1e-6), fs, block, engage_at=0.0
+    )
     t0 = np.arange(block) / fs
     u0 = ctl.command(t0)
     assert np.all(u0 == 0)  # nothing observed yet
@@ -55,7 +61,9 @@ def test_segment_maxima_and_table_6_1():
     x_ref = np.append(x_ref, [2e-6] * (len(t) - len(x_ref)))
     errs = errors(x_ref, x_ref - 1e-6, x_ref - 0.5e-6, closed=True)
     windows = segment_windows({"segments": [{"duration": 0.1}] * 8}, omega_c=5 / 0.01)
-    assert [w[0] for w in windows] == list("abcdefgh") and windows[1][1:] == pytest.approx((0.11, 0.2))
+    assert [w[0] for w in windows] == list("abcdefgh") and windows[1][1:] == pytest.approx(
+        (0.11, 0.2)
+    )
     maxima = segment_maxima(t, errs, windows)
     assert maxima["e_TCL"] == pytest.approx([1e-6] * 8)
     assert maxima["e_OCL"] == pytest.approx([0.5e-6] * 8)

@@ -11,7 +11,9 @@ from .conftest import ROOT
 
 
 def update_docs():
-    spec = importlib.util.spec_from_file_location("update_docs", ROOT / "scripts" / "update_docs.py")
+    spec = importlib.util.spec_from_file_location(
+        "update_docs", ROOT / "scripts" / "update_docs.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -31,8 +33,13 @@ def test_the_pages_quote_the_snapshot_exactly():
 
 def test_the_snapshot_counts_are_the_snapshot_scorecards_counts():
     snapshot = ROOT / "docs" / "snapshot"
-    cards = {p.stem.removeprefix("scorecard_"): pd.read_csv(p) for p in sorted(snapshot.glob("scorecard_*.csv"))
-             if p.name != "scorecard_counts.csv"}
+    cards = {
+        p.stem.removeprefix("scorecard_"): pd.read_csv(p)
+        for p in sorted(snapshot.glob("scorecard_*.csv"))
+        if p.name != "scorecard_counts.csv"
+    }
     counts = pd.read_csv(snapshot / "scorecard_counts.csv")
     expected = summary(cards)
-    pd.testing.assert_frame_equal(counts.astype({"chapter": str}), expected.astype({"chapter": str}), check_dtype=False)
+    pd.testing.assert_frame_equal(
+        counts.astype({"chapter": str}), expected.astype({"chapter": str}), check_dtype=False
+    )

@@ -2,9 +2,21 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from selfsense.methods.electromech import Geometry, Kinematics, ModelParameters, alpha_from_slope, capacitance_line, fit_charge_position, identify_set, material_properties, sensitivity, slope_is_consistent
+from selfsense.methods.electromech import (
+    Geometry,
+    Kinematics,
+    ModelParameters,
+    alpha_from_slope,
+    capacitance_line,
+    fit_charge_position,
+    identify_set,
+    material_properties,
+    sensitivity,
+    slope_is_consistent,
+)
 
 FS = 4000.0
 TRUE = ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 160.0, 0.1017)
@@ -23,7 +35,12 @@ def synthetic(p=TRUE, f=10.0, cycles=5, I0=1e-3, q0=2e-6):
 
 
 @settings(max_examples=20, deadline=None)
-@given(k=st.floats(10e6, 40e6), alpha=st.floats(5, 15), dC=st.floats(-0.05, -0.01), f=st.sampled_from([10.0, 50.0]))
+@given(
+    k=st.floats(10e6, 40e6),
+    alpha=st.floats(5, 15),
+    dC=st.floats(-0.05, -0.01),
+    f=st.sampled_from([10.0, 50.0]),
+)
 def test_case_2_recovers_k_alpha_and_capacitance(k, alpha, dC, f):
     p = ModelParameters(2, 3.0e-6, dC, k, alpha, 0.0, 0.0)
     t, C_e, x, q, I = synthetic(p, f)
@@ -63,8 +80,10 @@ def test_case_1_alpha_from_the_slope():
 
 
 def test_material_properties_of_the_thesis_parameters():
-    mp = material_properties(ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 0, 0), GEOMETRY, 32e-6)
-    assert mp.C_T == pytest.approx(3.13e-6 + 9.36 ** 2 / 25.1e6)
+    mp = material_properties(
+        ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 0, 0), GEOMETRY, 32e-6
+    )
+    assert mp.C_T == pytest.approx(3.13e-6 + 9.36**2 / 25.1e6)
     assert mp.k33 == pytest.approx(0.72, abs=0.01)  # Table 4.3
     assert mp.d33 == pytest.approx(9.36 * 55e-6 / (32e-3 * 25.1e6))
     assert mp.U_P_max == pytest.approx(32e-6 * 25.1e6 / 9.36)
@@ -73,12 +92,22 @@ def test_material_properties_of_the_thesis_parameters():
 def test_sensitivity_follows_eq_4_18():
     t, C_e, x, q, I = synthetic()
     fit = identify_set(t, C_e, x, q, I, k_static=25e6, m=0.0)
-    table = sensitivity(fit.charge_quadratic, TRUE.C_P0, TRUE.dC_x, GEOMETRY, 32e-6,
-                        {"none": (1, 1), "C": (1.2, 1), "dC": (1, 1.2)})
+    table = sensitivity(
+        fit.charge_quadratic,
+        TRUE.C_P0,
+        TRUE.dC_x,
+        GEOMETRY,
+        32e-6,
+        {"none": (1, 1), "C": (1.2, 1), "dC": (1, 1.2)},
+    )
     # +20 % C_P0 keeps k/α and lowers α; +20 % ΔCx lowers k/α by 1.2 and raises α
-    assert table["C"]["k"] / table["C"]["alpha"] == pytest.approx(table["none"]["k"] / table["none"]["alpha"])
+    assert table["C"]["k"] / table["C"]["alpha"] == pytest.approx(
+        table["none"]["k"] / table["none"]["alpha"]
+    )
     assert table["C"]["alpha"] < table["none"]["alpha"] < table["dC"]["alpha"]
-    assert table["dC"]["k"] / table["dC"]["alpha"] == pytest.approx(table["none"]["k"] / table["none"]["alpha"] / 1.2)
+    assert table["dC"]["k"] / table["dC"]["alpha"] == pytest.approx(
+        table["none"]["k"] / table["none"]["alpha"] / 1.2
+    )
 
 
 def test_the_u_h_share_is_held_to_the_peak_of_the_twins_hysteresis_voltage_over_the_peak_drive():
@@ -87,12 +116,22 @@ def test_the_u_h_share_is_held_to_the_peak_of_the_twins_hysteresis_voltage_over_
     from selfsense.verify.recovery import hysteresis_share_recovery
 
     t = np.linspace(0, 1, 4001)
-    states = {"U_drive": 50 - 50 * np.cos(2 * np.pi * 10 * t), "U_H": 8 * np.sin(2 * np.pi * 10 * t - 0.3) + 2}
-    identified = pd.DataFrame({"frequency [Hz]": [10.0, 10.0, 100.0], "case": [1, 2, 2],
-                               "U_H share of max U [%]": [12.0, 5.0, 30.0]})
+    states = {
+        "U_drive": 50 - 50 * np.cos(2 * np.pi * 10 * t),
+        "U_H": 8 * np.sin(2 * np.pi * 10 * t - 0.3) + 2,
+    }
+    identified = pd.DataFrame(
+        {
+            "frequency [Hz]": [10.0, 10.0, 100.0],
+            "case": [1, 2, 2],
+            "U_H share of max U [%]": [12.0, 5.0, 30.0],
+        }
+    )
     rows = hysteresis_share_recovery(identified, states, 10.0).set_index("case")
     assert list(rows.index) == [1, 2]
-    assert rows["truth"].tolist() == pytest.approx([10.0, 10.0], rel=1e-5)  # (8 + 2) V of a 100 V peak
+    assert rows["truth"].tolist() == pytest.approx(
+        [10.0, 10.0], rel=1e-5
+    )  # (8 + 2) V of a 100 V peak
     assert rows.loc[2, "error [%]"] == pytest.approx(-50.0, rel=1e-4)
 
 
@@ -102,8 +141,8 @@ def test_the_model_on_truth_gives_the_built_values_where_eq_4_4_holds_and_reads_
     β·x + (a loop term orthogonal to x over whole cycles) is read as the slope ΔCx + d·β, and α
     through k/α = 2a₂/ΔCx (Eq 4.18) as a₁ − C_P0·(k/α)·ΔCx/(ΔCx + d·β): the pseudo-true values."""
     from selfsense.chapters.ch4 import identify_sets
-    from selfsense.verify.truth import Truth
     from selfsense.verify.recovery import truth_series
+    from selfsense.verify.truth import Truth
 
     fs, block, f = 48000.0, 12, 10.0
     p = ModelParameters(2, 3.13e-6, -0.03, 25.1e6, 9.36, 0.0, 0.0)
@@ -113,14 +152,21 @@ def test_the_model_on_truth_gives_the_built_values_where_eq_4_4_holds_and_reads_
     q = p.charge(Kinematics(t, x, 16e-6 * w * np.sin(w * t), 16e-6 * w * w * np.cos(w * t)))
     last = np.arange(block - 1, len(t), block)
     noisy = np.random.default_rng(1).normal(size=len(last))  # what the ripple measured: replaced
-    series = {"time": (last - (block - 1) / 2) / fs, "C_e": 3e-6 + 1e-9 * noisy, "x_laser": 1e-6 * noisy,
-              "q": noisy, "I": noisy}
+    series = {
+        "time": (last - (block - 1) / 2) / fs,
+        "C_e": 3e-6 + 1e-9 * noisy,
+        "x_laser": 1e-6 * noisy,
+        "q": noisy,
+        "I": noisy,
+    }
     d, beta = -1.6e-9, 2e5  # [F/V], [V/m]
     identified = {}
     for share in (0.0, d):
         C_e = p.capacitance(x) + share * (beta * x + 4.0 * np.sin(w * t))
         truth = Truth({"C_e": C_e, "x": x, "q": q}, 1, len(t), names=("C_e", "x", "q"))
-        per_set, _ = identify_sets({"ch4_sine_10hz_s1": truth_series(series, truth, fs, block)}, 20e6, 0.0, GEOMETRY)
+        per_set, _ = identify_sets(
+            {"ch4_sine_10hz_s1": truth_series(series, truth, fs, block)}, 20e6, 0.0, GEOMETRY
+        )
         identified[share] = per_set[per_set["case"] == 2].iloc[0]
     assert identified[0.0]["dC_x"] == pytest.approx(p.dC_x, rel=1e-4)
     assert identified[0.0]["alpha"] == pytest.approx(p.alpha, rel=1e-3)
@@ -128,4 +174,6 @@ def test_the_model_on_truth_gives_the_built_values_where_eq_4_4_holds_and_reads_
     slope = p.dC_x + d * beta
     assert identified[d]["dC_x"] == pytest.approx(slope, rel=1e-4)
     a1 = p.C_P0 * p.k_over_alpha + p.alpha
-    assert identified[d]["alpha"] == pytest.approx(a1 - p.C_P0 * p.k_over_alpha * p.dC_x / slope, rel=1e-3)
+    assert identified[d]["alpha"] == pytest.approx(
+        a1 - p.C_P0 * p.k_over_alpha * p.dC_x / slope, rel=1e-3
+    )

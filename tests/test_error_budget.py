@@ -10,12 +10,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.verify.error_budget import CHARGE_SOURCES, SOURCES, BudgetStats, SpanBudgets, Superposition, charge_position_budget
-from selfsense.verify.truth import TRUTH_STATES, Truth
-from selfsense.verify.error_budget import AT_MAX_SPREAD
 from selfsense.io.manifest import load_yaml
 from selfsense.methods.observer import HPOGains, HybridPositionObserver
 from selfsense.scorecard.registry import BUDGET_TABLE, LEFT_OUT, parse_registry
+from selfsense.verify.error_budget import (
+    AT_MAX_SPREAD,
+    CHARGE_SOURCES,
+    SOURCES,
+    BudgetStats,
+    SpanBudgets,
+    Superposition,
+    charge_position_budget,
+)
+from selfsense.verify.truth import TRUTH_STATES, Truth
 
 from .conftest import ROOT
 from .tolerances import CLOSED_FORM, rtol
@@ -49,8 +56,15 @@ def bench(**faults):
     the ``faults`` given as {input: what is added to it} (arrays over the N samples)."""
     current = GAINS.a0 * 15e-6 * 2 * np.pi * 10 * np.sin(2 * np.pi * 10 * t)
     x = trapezoid(current) / GAINS.a0  # the true x is exactly what the charge path integrates
-    signals = {"current": current, "x_cp": x, "x_laser": x, "x": x, "x_charge": x, "x_capacitance": x,
-               "offset": np.zeros(N)}
+    signals = {
+        "current": current,
+        "x_cp": x,
+        "x_laser": x,
+        "x": x,
+        "x_charge": x,
+        "x_capacitance": x,
+        "offset": np.zeros(N),
+    }
     for name, fault in faults.items():
         signals[name] = signals[name] + fault
     return signals
@@ -58,8 +72,10 @@ def bench(**faults):
 
 def split(signals, chunks=1):
     paths = Superposition(observer())
-    parts = [paths.split(**{k: v[sl] for k, v in signals.items()})
-             for sl in np.array_split(np.arange(N), chunks)]
+    parts = [
+        paths.split(**{k: v[sl] for k, v in signals.items()})
+        for sl in np.array_split(np.arange(N), chunks)
+    ]
     return {s: np.concatenate([p[s] for p in parts]) for s in SOURCES}
 
 
@@ -120,7 +136,9 @@ def test_a_low_frequency_gamma_error_passes_whole_and_a_fast_hysteresis_of_q_too
     gamma = split(bench(x_capacitance=np.full(N, 0.2e-6), x_cp=np.full(N, 0.2e-6)))["Γ map"]
     assert np.max(np.abs(gamma[late] - 0.2e-6)) < 0.01 * 0.2e-6
     charge = split(bench(**CASES["q–x map"]))["q–x map"]
-    assert np.max(np.abs(charge[late] - HYSTERESIS[late])) < 0.05 * 0.5e-6  # |H_I − 1| ≈ 2ζωS/ω at 300 Hz
+    assert (
+        np.max(np.abs(charge[late] - HYSTERESIS[late])) < 0.05 * 0.5e-6
+    )  # |H_I − 1| ≈ 2ζωS/ω at 300 Hz
 
 
 @settings(max_examples=25, deadline=None)
@@ -130,12 +148,19 @@ def test_the_sources_add_up_to_the_error_for_any_signals(seed, chunks):
     changes nothing."""
     r = np.random.default_rng(seed)
     walk = lambda scale: scale * np.cumsum(r.standard_normal(N)) / np.sqrt(N)  # noqa: E731
-    signals = {"current": 1e-3 * r.standard_normal(N) + walk(1e-2), "offset": walk(1e-3),
-               **{k: walk(30e-6) for k in ("x_cp", "x_laser", "x", "x_charge", "x_capacitance")}}
+    signals = {
+        "current": 1e-3 * r.standard_normal(N) + walk(1e-2),
+        "offset": walk(1e-3),
+        **{k: walk(30e-6) for k in ("x_cp", "x_laser", "x", "x_charge", "x_capacitance")},
+    }
     parts = split(signals, chunks)
     x_i = np.max(np.abs(trapezoid(signals["current"]))) / GAINS.a0
-    scale = max(x_i, *(np.max(np.abs(v)) for k, v in signals.items() if k not in ("current", "offset")))
-    np.testing.assert_allclose(sum(parts.values()), direct_error(signals), rtol=0, atol=recursion_tol(scale))
+    scale = max(
+        x_i, *(np.max(np.abs(v)) for k, v in signals.items() if k not in ("current", "offset"))
+    )
+    np.testing.assert_allclose(
+        sum(parts.values()), direct_error(signals), rtol=0, atol=recursion_tol(scale)
+    )
     whole = split(signals)
     for s in SOURCES:
         np.testing.assert_array_equal(parts[s], whole[s])
@@ -147,7 +172,9 @@ def test_the_stats_report_the_sources_at_the_instant_of_the_max_and_shares_with_
     stats = BudgetStats()
     stats.add(np.arange(3.0), e, parts, np.array([True, True, True]))
     row = stats.row()
-    assert row["total max error [µm]"] == pytest.approx(3.0) and row["total at max [µm]"] == pytest.approx(-3.0)
+    assert row["total max error [µm]"] == pytest.approx(3.0) and row[
+        "total at max [µm]"
+    ] == pytest.approx(-3.0)
     assert row["laser at total max [µm]"] == pytest.approx(-1.5) and row["time of max [s]"] == 1.0
     assert row["laser share of mean square"] == pytest.approx(0.25)
     assert row["cross terms share of mean square"] == pytest.approx(0.5)  # two equal halves: 2·(½)²
@@ -159,9 +186,19 @@ def test_spans_of_one_label_are_counted_together_and_their_spread_over_tests_spl
     tests; its σ over the tests is Table 6.1's (ddof = 1) of the tests' maxima, and of the sources at
     each test's max; a label with no samples has no row."""
     t = np.arange(60.0)
-    tests = np.repeat([1.0, 2.0, 4.0, 1.0, 1.0, 1.0], 10) * 1e-6  # a's tests: 1, 2, 4 µm; b's: 1 µm each
+    tests = (
+        np.repeat([1.0, 2.0, 4.0, 1.0, 1.0, 1.0], 10) * 1e-6
+    )  # a's tests: 1, 2, 4 µm; b's: 1 µm each
     parts = dict.fromkeys(SOURCES, np.zeros(60)) | {"laser": tests / 4, "Γ map": 3 * tests / 4}
-    spans = [("a", 0, 10), ("a", 10, 20), ("a", 20, 30), ("b", 30, 40), ("b", 40, 50), ("b", 50, 60), ("c", 70, 80)]
+    spans = [
+        ("a", 0, 10),
+        ("a", 10, 20),
+        ("a", 20, 30),
+        ("b", 30, 40),
+        ("b", 40, 50),
+        ("b", 50, 60),
+        ("c", 70, 80),
+    ]
     budgets = SpanBudgets(spans)
     for cut in (slice(0, 25), slice(25, 60)):
         budgets.add(t[cut], tests[cut], {k: v[cut] for k, v in parts.items()})
@@ -169,10 +206,16 @@ def test_spans_of_one_label_are_counted_together_and_their_spread_over_tests_spl
     assert list(rows) == ["a", "b"] and rows["a"]["samples"] == 30 and rows["a"]["tests"] == 3
     assert rows["a"]["total max error [µm]"] == pytest.approx(4.0)
     assert rows["a"]["total max σ over tests [µm]"] == pytest.approx(np.std([1, 2, 4], ddof=1))
-    assert rows["a"]["Γ map at max σ over tests [µm]"] == pytest.approx(0.75 * np.std([1, 2, 4], ddof=1))
-    assert rows["a"]["laser at max σ over tests [µm]"] == pytest.approx(0.25 * np.std([1, 2, 4], ddof=1))
+    assert rows["a"]["Γ map at max σ over tests [µm]"] == pytest.approx(
+        0.75 * np.std([1, 2, 4], ddof=1)
+    )
+    assert rows["a"]["laser at max σ over tests [µm]"] == pytest.approx(
+        0.25 * np.std([1, 2, 4], ddof=1)
+    )
     assert rows["b"]["total max σ over tests [µm]"] == 0.0
-    assert [c for c in rows["a"] if c.endswith(AT_MAX_SPREAD)] == [s + AT_MAX_SPREAD for s in SOURCES]  # sources only
+    assert [c for c in rows["a"] if c.endswith(AT_MAX_SPREAD)] == [
+        s + AT_MAX_SPREAD for s in SOURCES
+    ]  # sources only
 
 
 def test_truth_interpolation_is_aligned_to_the_stored_samples_and_exact_for_cubics():
@@ -185,11 +228,14 @@ def test_truth_interpolation_is_aligned_to_the_stored_samples_and_exact_for_cubi
     assert np.array_equal(truth.at(k)["q"], cubic(k))
 
 
-@pytest.mark.parametrize("states, n, problem", [
-    ({s: np.zeros(10) for s in TRUTH_STATES if s != "C_e"}, 120, "lacks the state(s) C_e"),
-    ({s: np.zeros(10) for s in TRUTH_STATES}, 121, "has 10 values, the capture's 121 samples"),
-    ({s: np.full(10, np.nan) for s in TRUTH_STATES}, 120, "non-finite"),
-])
+@pytest.mark.parametrize(
+    "states, n, problem",
+    [
+        ({s: np.zeros(10) for s in TRUTH_STATES if s != "C_e"}, 120, "lacks the state(s) C_e"),
+        ({s: np.zeros(10) for s in TRUTH_STATES}, 121, "has 10 values, the capture's 121 samples"),
+        ({s: np.full(10, np.nan) for s in TRUTH_STATES}, 120, "non-finite"),
+    ],
+)
 def test_bad_truth_fails_with_one_line_naming_the_file(states, n, problem):
     with pytest.raises(ValueError, match=re.escape(problem)) as err:
         Truth(states, 12, n, "raw/x/run.nc")
@@ -203,12 +249,16 @@ def test_a_means_truth_is_the_mean_over_its_samples():
     values, so each window's mean is the cubic's mean over the window's samples."""
     decimation, ns, n = 12, 12, 1200
     k = np.arange(n, dtype=float)
-    cubic = 1e-6 * (1 + 3e-3 * k - 2e-6 * k ** 2 + 1e-9 * k ** 3)
+    cubic = 1e-6 * (1 + 3e-3 * k - 2e-6 * k**2 + 1e-9 * k**3)
     truth = Truth({s: cubic[::decimation] for s in TRUTH_STATES}, decimation, n)
-    last = np.arange(2 * ns - 1, n - 2 * decimation, ns)  # clear of the ends, which hold the nearest value
+    last = np.arange(
+        2 * ns - 1, n - 2 * decimation, ns
+    )  # clear of the ends, which hold the nearest value
     got = truth.means(last, ns)
-    expected = np.array([cubic[i - ns + 1:i + 1].mean() for i in last])
-    assert np.allclose(got["x"], expected, rtol=CLOSED_FORM, atol=0)  # four weights ≤ 1, terms of one size
+    expected = np.array([cubic[i - ns + 1 : i + 1].mean() for i in last])
+    assert np.allclose(
+        got["x"], expected, rtol=CLOSED_FORM, atol=0
+    )  # four weights ≤ 1, terms of one size
     assert set(got) == set(TRUTH_STATES)
 
 
@@ -226,28 +276,47 @@ def test_the_charge_position_error_splits_into_current_path_q_x_map_and_laser(lo
     truth = Truth({"x": x, "q": q}, 1, n, names=("x", "q"))
     last = np.arange(block - 1, n, block)
     means = truth.means(last, block)
-    series = {"time": (last - (block - 1) / 2) / fs, "x_laser": means["x"] + 10e-9,
-              "q": means["q"] + 1e-9 + 2e-9 * (last / fs)}
+    series = {
+        "time": (last - (block - 1) / 2) / fs,
+        "x_laser": means["x"] + 10e-9,
+        "q": means["q"] + 1e-9 + 2e-9 * (last / fs),
+    }
     row = charge_position_budget(series, truth, fs, block)
     assert row["max |sum of sources − total| [µm]"] <= 1e-9
     assert row["laser max [µm]"] < 1e-6  # its offset is gone with its zero
-    if loop_um == 0.0:  # κ of the fit's 3-column least squares ≈ 1e4 on these scales: far below 1 pm
+    if (
+        loop_um == 0.0
+    ):  # κ of the fit's 3-column least squares ≈ 1e4 on these scales: far below 1 pm
         assert row["q–x map max [µm]"] < 1e-6 and row["current path max [µm]"] < 1e-6
     else:
         assert 0.2 < row["q–x map max [µm]"] < 0.4
         assert row["q–x map rms [µm]"] > 3 * row["current path rms [µm]"]
-    assert [c.removesuffix(" rms [µm]") for c in row if c.endswith(" rms [µm]") and c != "total rms [µm]"] == list(CHARGE_SOURCES)
+    assert [
+        c.removesuffix(" rms [µm]")
+        for c in row
+        if c.endswith(" rms [µm]") and c != "total rms [µm]"
+    ] == list(CHARGE_SOURCES)
 
 
 # --- on the smoke DAG ---------------------------------------------------------------------------
+
 
 @pytest.mark.slow
 def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_errors(smoke_run):
     res = smoke_run / "results/pi_p885"
     budget = pd.read_csv(res / "twin/error_budget.csv")
-    columns = [f"{s} {stat}" for s in SOURCES for stat in
-               ("rms [µm]", "max [µm]", "at total max [µm]", "share of mean square")]
-    assert {"segment", "frequency [Hz]", "total max error [µm]", "cross terms share of mean square", *columns} <= set(budget)
+    columns = [
+        f"{s} {stat}"
+        for s in SOURCES
+        for stat in ("rms [µm]", "max [µm]", "at total max [µm]", "share of mean square")
+    ]
+    assert {
+        "segment",
+        "frequency [Hz]",
+        "total max error [µm]",
+        "cross terms share of mean square",
+        *columns,
+    } <= set(budget)
     t54 = pd.read_csv(res / "ch5/table_5_4.csv")
     assert sorted(budget["frequency [Hz]"].dropna()) == sorted(t54["frequency [Hz]"])
     # the creep run in its phases as its table counts them; the smoke run's 5 s hold has no steady state
@@ -255,18 +324,30 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
     creep = pd.read_csv(res / "ch5/creep.csv").set_index("phase")["max error [µm]"]
     assert np.isnan(creep["steady state"])
     # Chapter 6's rows are its tables' ε_OCL: the logged estimate, which the offline chain equals to the audit's margin
-    audit = pd.read_csv(res / "ch6/audit.csv").set_index("run")["max |offline − logged| [nm]"] * 1e-3
+    audit = (
+        pd.read_csv(res / "ch6/audit.csv").set_index("run")["max |offline − logged| [nm]"] * 1e-3
+    )
     t62 = pd.read_csv(res / "ch6/table_6_2.csv").set_index(["profile", "error"])
-    t61 = pd.read_csv(res / "ch6/table_6_1.csv").set_index(["error", "statistic"]).loc[("e_OCL", "max")]
+    t61 = (
+        pd.read_csv(res / "ch6/table_6_1.csv")
+        .set_index(["error", "statistic"])
+        .loc[("e_OCL", "max")]
+    )
     closed = budget[budget["run"].str.startswith("ch6_")]
-    assert sorted(closed["run"].unique()) == sorted(audit.index[audit.index.str.startswith(("ch6_p1_", "ch6_p2"))])
+    assert sorted(closed["run"].unique()) == sorted(
+        audit.index[audit.index.str.startswith(("ch6_p1_", "ch6_p2"))]
+    )
     assert list(closed.loc[closed["run"] == "ch6_p1_closed", "segment"]) == list("abcdefgh")
     for _, row in closed.iterrows():
-        if row["run"] == "ch6_p1_closed":  # P1's tests one after another: each segment's largest max |ε_OCL|
+        if (
+            row["run"] == "ch6_p1_closed"
+        ):  # P1's tests one after another: each segment's largest max |ε_OCL|
             table = t61[f"{row['segment']} [µm]"]
         else:
             table = t62.loc[("P" + row["run"].split("_")[1][1:], "e_OCL"), "max [µm]"]
-        assert abs(row["total max error [µm]"] - table) <= audit[row["run"]] + 1e-9 * table, row["run"]
+        assert abs(row["total max error [µm]"] - table) <= audit[row["run"]] + 1e-9 * table, row[
+            "run"
+        ]
     p2a = t62.loc[("P2a", "e_OCL")]
     p2_stroke = 100 * p2a["max [µm]"] / p2a["% of stroke"]
     for _, row in budget.iterrows():
@@ -274,32 +355,61 @@ def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_error
         if not run.startswith("ch6_"):
             stats = json.loads((res / f"observer/{run}.json").read_text())
             # the same chain on the same chunks: equal but for the CSV's 10 significant digits
-            table = stats["max error by phase [µm]"][row["segment"]] if run == "ch5_creep" else stats["max error [µm]"]
+            table = (
+                stats["max error by phase [µm]"][row["segment"]]
+                if run == "ch5_creep"
+                else stats["max error [µm]"]
+            )
             assert row["total max error [µm]"] == pytest.approx(table, rel=1e-9), run
             stroke = stats["stroke [µm]"]
         at_max = sum(row[f"{s} at total max [µm]"] for s in SOURCES)
         assert at_max == pytest.approx(row["total at max [µm]"], rel=1e-8), run
-        shares = sum(row[f"{s} share of mean square"] for s in SOURCES) + row["cross terms share of mean square"]
+        shares = (
+            sum(row[f"{s} share of mean square"] for s in SOURCES)
+            + row["cross terms share of mean square"]
+        )
         assert shares == pytest.approx(1.0, rel=1e-8)
         assert row["max |sum of sources − total| [µm]"] <= 1e-9 * stroke
     charge = pd.read_csv(res / "twin/charge_budget.csv").set_index("frequency [Hz]")
-    table = pd.read_csv(res / "ch5/charge_sensing.csv").set_index("frequency [Hz]")["max error [µm]"]
+    table = pd.read_csv(res / "ch5/charge_sensing.csv").set_index("frequency [Hz]")[
+        "max error [µm]"
+    ]
     assert list(charge.index) == list(table.index)
     # the same series and the same fit: equal but for the CSV's 10 significant digits
     assert charge["total max error [µm]"].to_numpy() == pytest.approx(table.to_numpy(), rel=1e-9)
     assert (charge["max |sum of sources − total| [µm]"] <= 1e-9 * 30).all()
     assert (smoke_run / "figures/pi_p885/fig_5_error_budget.png").exists()
-    assert not (smoke_run / "results/tokin_nb40/twin/error_budget.csv").exists()  # no observer runs there
+    assert not (
+        smoke_run / "results/tokin_nb40/twin/error_budget.csv"
+    ).exists()  # no observer runs there
     # the scorecard's note of each number the budget splits names its measured sources
     card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
-    caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY))
-              if e.cause and e.model == "stack" and e.cause.table == BUDGET_TABLE]
+    caused = [
+        (e.source, e.quantity)
+        for e in parse_registry(load_yaml(REGISTRY))
+        if e.cause and e.model == "stack" and e.cause.table == BUDGET_TABLE
+    ]
     # Table 5.4, the creep run's phases, P1's ε_OCL (Table 6.1, its σ over the tests, the summary); P2's quote rule loop_leak
     assert len(caused) == 39
-    left_out = card.loc[caused, "note"].str.startswith(LEFT_OUT)  # the smoke run's creep has no steady state
-    assert list(card.loc[caused][left_out].index.get_level_values("quantity")) == ["HPO error in steady state"]
-    assert card.loc[caused][~left_out]["note"].str.contains("Measured cause (twin/error_budget.csv", regex=False).all()
-    charged = [(e.source, e.quantity) for e in parse_registry(load_yaml(REGISTRY))
-               if e.cause and e.cause.table == "twin/charge_budget.csv"]
+    left_out = card.loc[caused, "note"].str.startswith(
+        LEFT_OUT
+    )  # the smoke run's creep has no steady state
+    assert list(card.loc[caused][left_out].index.get_level_values("quantity")) == [
+        "HPO error in steady state"
+    ]
+    assert (
+        card.loc[caused][~left_out]["note"]
+        .str.contains("Measured cause (twin/error_budget.csv", regex=False)
+        .all()
+    )
+    charged = [
+        (e.source, e.quantity)
+        for e in parse_registry(load_yaml(REGISTRY))
+        if e.cause and e.cause.table == "twin/charge_budget.csv"
+    ]
     assert len(charged) == 8
-    assert card.loc[charged, "note"].str.contains("at the charge–position error's max", regex=False).all()
+    assert (
+        card.loc[charged, "note"]
+        .str.contains("at the charge–position error's max", regex=False)
+        .all()
+    )

@@ -14,30 +14,56 @@ import numpy as np
 import pytest
 import yaml
 
-from selfsense.io.capture import FILL, CaptureError, CaptureWriter, channel_spec, open_capture, scan_capture
+from selfsense.io.capture import (
+    FILL,
+    CaptureError,
+    CaptureWriter,
+    channel_spec,
+    open_capture,
+    scan_capture,
+)
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml, validate_config
 from selfsense.io.provenance import script_logging
 
 from .conftest import ROOT, copy_repo
-from .test_reliability import (CH3, assert_same_capture, bench_manifest, error_line, leftovers,
-                               manifest, one_line, run_snakemake, script, synthetic, write_config)
-
+from .test_reliability import (
+    CH3,
+    assert_same_capture,
+    bench_manifest,
+    error_line,
+    leftovers,
+    manifest,
+    one_line,
+    run_snakemake,
+    script,
+    synthetic,
+    write_config,
+)
 
 # -- packing attributes and all-NaN channels (capture level, fast) -------------------------------
+
 
 def _packing(attr, value):
     def make(path):
         with netCDF4.Dataset(path, "a") as nc:
             nc["U"].setncattr(attr, value)
+
     return make
 
 
-@pytest.mark.parametrize("attr,value,shown", [
-    ("scale_factor", -0.006, "scale_factor -0.006"),  # silently mirrored U before (Fig 3.12 from −100 to 0 V)
-    ("scale_factor", 0.0, "scale_factor 0"),          # a traceback (empty reduction) before
-    ("scale_factor", float("nan"), "scale_factor nan"),
-    ("add_offset", float("inf"), "add_offset inf"),
-])
+@pytest.mark.parametrize(
+    "attr,value,shown",
+    [
+        (
+            "scale_factor",
+            -0.006,
+            "scale_factor -0.006",
+        ),  # silently mirrored U before (Fig 3.12 from −100 to 0 V)
+        ("scale_factor", 0.0, "scale_factor 0"),  # a traceback (empty reduction) before
+        ("scale_factor", float("nan"), "scale_factor nan"),
+        ("add_offset", float("inf"), "add_offset inf"),
+    ],
+)
 def test_packing_attributes_are_checked_on_open(tmp_path, attr, value, shown):
     capture = synthetic(tmp_path / "ch3_sine_10hz.nc")
     _packing(attr, value)(capture)
@@ -80,6 +106,7 @@ def test_all_nan_is_judged_per_required_channel_on_whole_reads(tmp_path):
 
 # -- manifests: physical bounds, names, depth (fast) ----------------------------------------------
 
+
 def _bench(tmp_path, edit):
     folder = tmp_path / "bench"
     folder.mkdir(exist_ok=True)
@@ -97,28 +124,62 @@ def _set(*keys, value):
         for k in keys[:-1]:
             node = node[k]
         node[keys[-1]] = value
+
     return edit
 
 
 MANIFEST_FAULTS = [  # (edit, fragments of the one line)
-    pytest.param(_set("actuator", "moving_mass_kg", value=0.0), ["key actuator.moving_mass_kg", "less than or equal to"],
-                 id="moving mass 0"),
-    pytest.param(_set("actuator", "moving_mass_kg", value=-0.1), ["key actuator.moving_mass_kg"], id="moving mass < 0"),
-    pytest.param(_set("actuator", "moving_mass_kg", value=float("nan")), ["key actuator.moving_mass_kg", "nan is not a finite"],
-                 id="moving mass NaN"),
-    pytest.param(_set("actuator", "layer_thickness_um", value=-55.0), ["key actuator.layer_thickness_um"],
-                 id="negative layer thickness"),
-    pytest.param(_set("actuator", "dimensions_mm", value=[0, 0, 36]), ["key actuator.dimensions_mm.", "less than or equal to the minimum of 0"],
-                 id="zero dimensions"),
-    pytest.param(_set("daq", "ranges", "U", value=[0.0, 0.0]), ["key daq.ranges.U", "low < high"], id="range [0, 0]"),
-    pytest.param(_set("daq", "ranges", "U", value=[200.0, -200.0]), ["key daq.ranges.U", "low < high"],
-                 id="reversed range"),
-    pytest.param(_set("daq", "fs", value=float("nan")), ["key daq.fs", "not a finite number"], id="fs NaN"),
-    pytest.param(_set("daq", "fs", value=float("inf")), ["key daq.fs", "not a finite number"], id="fs inf"),
-    pytest.param(_set("daq", "ripple", "fr_nominal", value=float("nan")), ["key daq.ripple.fr_nominal", "not a finite"],
-                 id="fr_nominal NaN"),
-    pytest.param(_set("experiments", value=["ch3-sine-10hz"]), ["key experiments", "'ch3-sine-10hz'", "letters, digits"],
-                 id="experiment name with '-'"),
+    pytest.param(
+        _set("actuator", "moving_mass_kg", value=0.0),
+        ["key actuator.moving_mass_kg", "less than or equal to"],
+        id="moving mass 0",
+    ),
+    pytest.param(
+        _set("actuator", "moving_mass_kg", value=-0.1),
+        ["key actuator.moving_mass_kg"],
+        id="moving mass < 0",
+    ),
+    pytest.param(
+        _set("actuator", "moving_mass_kg", value=float("nan")),
+        ["key actuator.moving_mass_kg", "nan is not a finite"],
+        id="moving mass NaN",
+    ),
+    pytest.param(
+        _set("actuator", "layer_thickness_um", value=-55.0),
+        ["key actuator.layer_thickness_um"],
+        id="negative layer thickness",
+    ),
+    pytest.param(
+        _set("actuator", "dimensions_mm", value=[0, 0, 36]),
+        ["key actuator.dimensions_mm.", "less than or equal to the minimum of 0"],
+        id="zero dimensions",
+    ),
+    pytest.param(
+        _set("daq", "ranges", "U", value=[0.0, 0.0]),
+        ["key daq.ranges.U", "low < high"],
+        id="range [0, 0]",
+    ),
+    pytest.param(
+        _set("daq", "ranges", "U", value=[200.0, -200.0]),
+        ["key daq.ranges.U", "low < high"],
+        id="reversed range",
+    ),
+    pytest.param(
+        _set("daq", "fs", value=float("nan")), ["key daq.fs", "not a finite number"], id="fs NaN"
+    ),
+    pytest.param(
+        _set("daq", "fs", value=float("inf")), ["key daq.fs", "not a finite number"], id="fs inf"
+    ),
+    pytest.param(
+        _set("daq", "ripple", "fr_nominal", value=float("nan")),
+        ["key daq.ripple.fr_nominal", "not a finite"],
+        id="fr_nominal NaN",
+    ),
+    pytest.param(
+        _set("experiments", value=["ch3-sine-10hz"]),
+        ["key experiments", "'ch3-sine-10hz'", "letters, digits"],
+        id="experiment name with '-'",
+    ),
 ]
 
 
@@ -167,7 +228,9 @@ except ManifestError as err:
 def test_deeply_nested_yaml_is_refused_with_one_line_not_a_crash(tmp_path, depth):
     path = tmp_path / "dataset.yaml"
     path.write_text("name: " + "[" * depth + "]" * depth + "\n")
-    run = subprocess.run([sys.executable, "-c", DEEP, str(path)], capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-c", DEEP, str(path)], capture_output=True, text=True, timeout=120
+    )
     assert run.returncode == 0, f"exit {run.returncode}: {run.stderr[-500:]}"  # SIGSEGV before: -11
     one_line(run.stdout.strip(), path, "nested deeper than 100 levels")
 
@@ -185,8 +248,12 @@ open_capture(sys.argv[1])
 
 def test_a_failing_scripts_log_holds_its_one_line_reason(tmp_path):
     log = tmp_path / "rule.log"
-    run = subprocess.run([sys.executable, "-c", FAIL_IN_SCRIPT, str(tmp_path / "gone.nc"), str(log)],
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-c", FAIL_IN_SCRIPT, str(tmp_path / "gone.nc"), str(log)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode != 0 and "Traceback" in run.stderr
     assert log.read_text().strip() == f"ERROR {tmp_path / 'gone.nc'}: no such capture"
 
@@ -207,6 +274,7 @@ def test_long_writes_log_progress_while_they_run(tmp_path):
 
 # -- two runs at once (slow) ----------------------------------------------------------------------
 
+
 @pytest.mark.slow
 def test_two_runs_at_once_never_damage_a_capture_and_a_damaged_one_is_found(smoke_run, tmp_path):
     """Two Snakemake processes simulate the same captures at the same time (--nolock: what a
@@ -219,10 +287,20 @@ def test_two_runs_at_once_never_damage_a_capture_and_a_damaged_one_is_found(smok
     config = write_config(repo, "pi", ["pi_p885"])
     captures = [f"raw/pi_p885/{e}.nc" for e in CH3]
     cmd = [sys.executable, "-m", "snakemake", "--cores", "1", "--nolock"]
-    a = subprocess.Popen([*cmd, *captures, "--configfile", config], cwd=repo, stdout=subprocess.PIPE,
-                         stderr=subprocess.STDOUT, text=True)
-    b = subprocess.Popen([*cmd, *reversed(captures), "--configfile", config], cwd=repo, stdout=subprocess.PIPE,
-                         stderr=subprocess.STDOUT, text=True)
+    a = subprocess.Popen(
+        [*cmd, *captures, "--configfile", config],
+        cwd=repo,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    b = subprocess.Popen(
+        [*cmd, *reversed(captures), "--configfile", config],
+        cwd=repo,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     out_a, out_b = a.communicate(timeout=1200), b.communicate(timeout=1200)
     assert a.returncode == 0, out_a[0][-3000:]
     assert b.returncode == 0, out_b[0][-3000:]
@@ -236,21 +314,28 @@ def test_two_runs_at_once_never_damage_a_capture_and_a_damaged_one_is_found(smok
     damaged = repo / "raw" / "pi_p885" / "ch3_sine_1hz.nc"
     data = bytearray(damaged.read_bytes())
     # a hole over the middle half: the writer interleaves the variables' chunks, so it hits every one
-    data[len(data) // 4: 3 * len(data) // 4] = bytes(3 * len(data) // 4 - len(data) // 4)
+    data[len(data) // 4 : 3 * len(data) // 4] = bytes(3 * len(data) // 4 - len(data) // 4)
     damaged.write_bytes(bytes(data))
     run = run_snakemake(repo, config, series)
     assert run.returncode != 0 and "Nothing to be done" not in run.stdout + run.stderr
     line = error_line(run, "CaptureError: raw/pi_p885/ch3_sine_1hz.nc: ")
     assert "unreadable capture" in line or "not a readable" in line or "time axis" in line, line
-    assert "ERROR raw/pi_p885/ch3_sine_1hz.nc: " in (repo / "logs" / "pi_p885" / "extract_ripple" /
-                                                      "ch3_sine_1hz.log").read_text()
+    assert (
+        "ERROR raw/pi_p885/ch3_sine_1hz.nc: "
+        in (repo / "logs" / "pi_p885" / "extract_ripple" / "ch3_sine_1hz.log").read_text()
+    )
 
 
 @pytest.mark.slow
 def test_a_dash_dash_config_fault_is_blamed_on_it_by_snakemake(tmp_path):
     repo = copy_repo(tmp_path / "repo")
-    run = subprocess.run([sys.executable, "-m", "snakemake", "-n", "--cores", "1", "--config", "campain=smoke"],
-                         cwd=repo, capture_output=True, text=True, timeout=600)
+    run = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-n", "--cores", "1", "--config", "campain=smoke"],
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert run.returncode != 0
     line = error_line(run, "unknown key campain")
     assert "--config: unknown key campain" in line and "config.yaml" not in line, line

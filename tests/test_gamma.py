@@ -9,7 +9,14 @@ from hypothesis import strategies as st
 from numpy.polynomial import polynomial as P
 from scipy import stats
 
-from selfsense.methods.gamma import anova_table, coefficient_table, fit_gamma, fit_log_gamma, gamma_t_table, model_selection_table
+from selfsense.methods.gamma import (
+    anova_table,
+    coefficient_table,
+    fit_gamma,
+    fit_log_gamma,
+    gamma_t_table,
+    model_selection_table,
+)
 
 from .tolerances import CLOSED_FORM, rtol, sums
 
@@ -48,7 +55,10 @@ def _thesis_like_t(n=8000, noise_um=0.39, g_ct=0.0, seed=0):
     c_uf = _capacitance_uf(n, rng)
     t = 23 + 37 * (1 - np.exp(-np.linspace(0, 4, n))) + rng.normal(0, 0.3, n)
     x_um = (
-        P.polyval(c_uf, B_TABLE_7_3) + G_TABLE_7_3 * t + g_ct * c_uf * t + rng.normal(0, noise_um, n)
+        P.polyval(c_uf, B_TABLE_7_3)
+        + G_TABLE_7_3 * t
+        + g_ct * c_uf * t
+        + rng.normal(0, noise_um, n)
     )
     return c_uf * 1e-6, x_um * 1e-6, t, c_uf, x_um
 
@@ -85,7 +95,9 @@ def test_recovers_polynomial_from_noisy_data(coef):
     assert np.all(np.abs(z) < 4)
     assert np.all((table["Lower 95%"] < coef) | (np.abs(z) > 1.96))
     # standard errors match an independent raw-basis fit, so the test above has teeth
-    np.testing.assert_allclose(table["Standard Error"], _raw_ols(c_uf, x_um, coef.size - 1).bse, rtol=1e-6)
+    np.testing.assert_allclose(
+        table["Standard Error"], _raw_ols(c_uf, x_um, coef.size - 1).bse, rtol=1e-6
+    )
     assert fit.std_error_um == pytest.approx(0.4, rel=0.03)
 
 
@@ -96,8 +108,12 @@ def test_log_model_recovers_a_and_b():
     fit = fit_log_gamma(c_uf * 1e-6, x_um * 1e-6)
     assert list(fit.coefficients.index) == ["a", "b"]
     # exact data: least squares returns them to cond(design)·ε (cond < 100, asserted below)
-    np.testing.assert_allclose(fit.coefficients.to_numpy(), [97.0, -85.0], rtol=rtol(fit.condition_number))
-    np.testing.assert_allclose(fit.predict(2.5e-6), (97.0 - 85.0 * np.log(2.5)) * 1e-6, rtol=rtol(fit.condition_number))
+    np.testing.assert_allclose(
+        fit.coefficients.to_numpy(), [97.0, -85.0], rtol=rtol(fit.condition_number)
+    )
+    np.testing.assert_allclose(
+        fit.predict(2.5e-6), (97.0 - 85.0 * np.log(2.5)) * 1e-6, rtol=rtol(fit.condition_number)
+    )
     assert fit.condition_number < 100
 
 
@@ -128,13 +144,21 @@ def test_anova_identities(n, order, with_t, dfs):
     kappa = np.max(np.abs(x_um)) / np.sqrt(ss_res / x_um.size)
     np.testing.assert_allclose(a["SS"], [ss_reg, ss_res, ss_tot], rtol=sums(x_um.size) * kappa)
     ss = a["SS"]
-    assert ss["Regression"] + ss["Residual"] == pytest.approx(ss["Total"], rel=sums(x_um.size) * kappa)
-    np.testing.assert_allclose(a["MS"].iloc[:2], a["SS"].iloc[:2] / a["df"].iloc[:2], rtol=CLOSED_FORM)
+    assert ss["Regression"] + ss["Residual"] == pytest.approx(
+        ss["Total"], rel=sums(x_um.size) * kappa
+    )
+    np.testing.assert_allclose(
+        a["MS"].iloc[:2], a["SS"].iloc[:2] / a["df"].iloc[:2], rtol=CLOSED_FORM
+    )
     f_stat = a.loc["Regression", "MS"] / a.loc["Residual", "MS"]
     assert a.loc["Regression", "F"] == pytest.approx(f_stat, rel=CLOSED_FORM)
-    assert a.loc["Regression", "Significance F"] == pytest.approx(stats.f.sf(f_stat, *dfs[:2]), abs=1e-300)
+    assert a.loc["Regression", "Significance F"] == pytest.approx(
+        stats.f.sf(f_stat, *dfs[:2]), abs=1e-300
+    )
     assert fit.r2 == pytest.approx(ss_reg / ss_tot, rel=sums(x_um.size) * kappa)
-    assert fit.r2_adj == pytest.approx(1 - (ss_res / dfs[1]) / (ss_tot / dfs[2]), rel=sums(x_um.size) * kappa)
+    assert fit.r2_adj == pytest.approx(
+        1 - (ss_res / dfs[1]) / (ss_tot / dfs[2]), rel=sums(x_um.size) * kappa
+    )
     assert fit.std_error_um == pytest.approx(np.sqrt(ss_res / dfs[1]), rel=sums(x_um.size) * kappa)
     assert a[["MS", "F", "Significance F"]].loc["Total"].isna().all()
 
@@ -154,7 +178,12 @@ def test_coefficient_table(interaction):
     names = [f"b{i}" for i in range(6)] + ["g"] + ["g_CT"] * interaction
     assert list(table.index) == names
     assert list(table.columns) == [
-        "Coefficients", "Standard Error", "t Stat", "P-value", "Lower 95%", "Upper 95%"
+        "Coefficients",
+        "Standard Error",
+        "t Stat",
+        "P-value",
+        "Lower 95%",
+        "Upper 95%",
     ]
     coef, se, tstat = table["Coefficients"], table["Standard Error"], table["t Stat"]
     df = fit.results.df_resid
@@ -162,11 +191,24 @@ def test_coefficient_table(interaction):
     # the t distribution's tail is relatively accurate to ~1e-14 (scipy's incomplete beta) but a
     # p-value amplifies an error in t by |t|·f(t)/sf(t) ≈ t² for large |t|
     kappa_p = 1 + np.asarray(tstat, float) ** 2
-    np.testing.assert_allclose(table["P-value"], 2 * stats.t.sf(np.abs(tstat), df), rtol=rtol(kappa_p.max(), 100), atol=1e-300)
+    np.testing.assert_allclose(
+        table["P-value"],
+        2 * stats.t.sf(np.abs(tstat), df),
+        rtol=rtol(kappa_p.max(), 100),
+        atol=1e-300,
+    )
     half = stats.t.ppf(0.975, df) * se
     # coef ± half cancels when the interval straddles zero: κ = (|coef| + half)/|coef ± half|
-    np.testing.assert_allclose(table["Lower 95%"], coef - half, rtol=CLOSED_FORM * np.max((np.abs(coef) + half) / np.abs(coef - half)))
-    np.testing.assert_allclose(table["Upper 95%"], coef + half, rtol=CLOSED_FORM * np.max((np.abs(coef) + half) / np.abs(coef + half)))
+    np.testing.assert_allclose(
+        table["Lower 95%"],
+        coef - half,
+        rtol=CLOSED_FORM * np.max((np.abs(coef) + half) / np.abs(coef - half)),
+    )
+    np.testing.assert_allclose(
+        table["Upper 95%"],
+        coef + half,
+        rtol=CLOSED_FORM * np.max((np.abs(coef) + half) / np.abs(coef + half)),
+    )
 
     ref = _raw_ols(c_uf, x_um, 5, t, interaction)
     np.testing.assert_allclose(coef, ref.params, rtol=1e-6)
@@ -186,13 +228,19 @@ def test_scaled_basis_matches_raw_basis(order):
     np.testing.assert_allclose(scaled.coefficients, raw.coefficients, rtol=1e-6)
     # the raw basis's fitted values are good to cond·ε of |x|; its sums of squares, relative to
     # the residual's: κ = cond·max|x|/rms(r)
-    kappa = raw.condition_number * np.max(np.abs(raw.fitted_um)) / np.sqrt(raw.results.ssr / raw.results.nobs)
+    kappa = (
+        raw.condition_number
+        * np.max(np.abs(raw.fitted_um))
+        / np.sqrt(raw.results.ssr / raw.results.nobs)
+    )
     pd.testing.assert_frame_equal(anova_table(scaled), anova_table(raw), rtol=float(rtol(kappa)))
 
     expected_raw_cond = np.linalg.cond(np.vander(c_uf, order + 1, increasing=True))
     # both are the ratio of extreme singular values of one matrix: SVD is backward stable, and
     # the smallest singular value is relatively accurate to cond·ε
-    assert scaled.condition_number == pytest.approx(expected_raw_cond, rel=float(rtol(scaled.condition_number)))
+    assert scaled.condition_number == pytest.approx(
+        expected_raw_cond, rel=float(rtol(scaled.condition_number))
+    )
     assert raw.condition_number == scaled.condition_number
     assert scaled.condition_number > 10**order  # raw power basis: ill-conditioned
     assert scaled.condition_number_scaled < 10  # Legendre on the scaled domain
@@ -227,7 +275,9 @@ def test_fitted_values_invariant_to_basis(order, coef, lo, width, n, noise, seed
     tol = 100 * np.finfo(float).eps * raw.condition_number * (1 + np.max(np.abs(x_um)))
     np.testing.assert_allclose(scaled.fitted_um, raw.fitted_um, rtol=0, atol=tol)
     c_new = rng.uniform(lo, lo + width, 10) * 1e-6
-    np.testing.assert_allclose(scaled.predict(c_new) * 1e6, raw.predict(c_new) * 1e6, rtol=0, atol=tol)
+    np.testing.assert_allclose(
+        scaled.predict(c_new) * 1e6, raw.predict(c_new) * 1e6, rtol=0, atol=tol
+    )
     ssr_tol = 2 * tol * np.sqrt(n * raw.results.ssr) + n * tol**2
     assert scaled.results.ssr == pytest.approx(raw.results.ssr, abs=ssr_tol)
     # Legendre P_0..P_m on the data's range: the continuous Gram matrix is diag(1/(2k + 1)), so the
@@ -243,11 +293,15 @@ def test_predict_is_si_and_matches_raw_coefficients():
     c, x, t, c_uf, _ = _thesis_like_t(n=2000)
     fit = fit_gamma(c, x, 5, temperature=t)
     # same design matrix and coefficients: a few roundings of |x| ≤ 40 µm
-    np.testing.assert_allclose(fit.predict(c, t), fit.fitted_um * 1e-6, rtol=0, atol=CLOSED_FORM * 40e-6)
+    np.testing.assert_allclose(
+        fit.predict(c, t), fit.fitted_um * 1e-6, rtol=0, atol=CLOSED_FORM * 40e-6
+    )
     b = fit.coefficients
     by_hand_um = P.polyval(2.5, b[[f"b{i}" for i in range(6)]].to_numpy()) + b["g"] * 40.0
     # by hand in the raw power basis: good to cond(raw)·ε of the terms' size
-    assert fit.predict(2.5e-6, 40.0) == pytest.approx(by_hand_um * 1e-6, rel=float(rtol(fit.condition_number)))
+    assert fit.predict(2.5e-6, 40.0) == pytest.approx(
+        by_hand_um * 1e-6, rel=float(rtol(fit.condition_number))
+    )
     assert fit.predict(np.full((2, 3), 2.5e-6), 40.0).shape == (2, 3)
 
 
@@ -278,7 +332,11 @@ def test_gamma_t_table_layout():
     table = gamma_t_table(c, x, t)
     assert list(table["model"]) == ["n=4", "n=5", "n=6", "n=5 + C·T"]
     assert list(table.columns) == [
-        "model", "R²", "adjusted R²", "standard error [µm]", "interaction p-value"
+        "model",
+        "R²",
+        "adjusted R²",
+        "standard error [µm]",
+        "interaction p-value",
     ]
     assert table["interaction p-value"].iloc[:3].isna().all()
     inter = fit_gamma(c, x, 5, temperature=t, interaction=True)
@@ -321,7 +379,10 @@ _T = 23 + 37 * np.sin(np.linspace(0, 3, 20)) ** 2  # not collinear with C
         ({"temperature": np.r_[_T[:-1], np.inf]}, "temperature contains NaN"),
         ({"temperature": _T[:-1]}, "same length"),
         ({"C": _C[:6], "x": _X[:6]}, "6 coefficients need more than 6 points, got 6"),
-        ({"C": _C[:7], "x": _X[:7], "temperature": _T[:7]}, "7 coefficients need more than 7 points"),
+        (
+            {"C": _C[:7], "x": _X[:7], "temperature": _T[:7]},
+            "7 coefficients need more than 7 points",
+        ),
         ({"order": 0}, "order must be an integer"),
         ({"order": 2.5}, "order must be an integer"),
         ({"interaction": True}, "needs a temperature"),

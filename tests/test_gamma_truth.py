@@ -5,10 +5,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.methods.gamma import fit_gamma
-from selfsense.verify.gamma_truth import ALL_TRUE, DISTANCE, INTERACTION, MEASURED, RESIDUAL, SLOPE_T_T, curve_rows, variants
 from selfsense.io.manifest import load_yaml
+from selfsense.methods.gamma import fit_gamma
 from selfsense.scorecard.registry import parse_registry, printed_gamma
+from selfsense.verify.gamma_truth import (
+    ALL_TRUE,
+    DISTANCE,
+    INTERACTION,
+    MEASURED,
+    RESIDUAL,
+    SLOPE_T_T,
+    curve_rows,
+    variants,
+)
 
 from .conftest import ROOT
 from .tolerances import rtol
@@ -21,7 +30,11 @@ def test_variants_replace_every_subset_of_the_inputs_by_the_truth():
     true = {n: np.array([1.0]) for n in measured}
     out = variants(measured, true)
     assert len(out) == 8 and list(out)[0] == MEASURED and list(out)[-1] == ALL_TRUE
-    assert {n: float(v[0]) for n, v in out["true C_e + T"].items()} == {"C_e": 1.0, "x": 0.0, "T": 1.0}
+    assert {n: float(v[0]) for n, v in out["true C_e + T"].items()} == {
+        "C_e": 1.0,
+        "x": 0.0,
+        "T": 1.0,
+    }
     assert all(float(v[0]) == 1.0 for v in out[ALL_TRUE].values())
 
 
@@ -43,8 +56,13 @@ def test_the_fit_on_noiseless_data_is_the_relation_it_was_made_with():
     rng = np.random.default_rng(1)
     C = _stroke_of(printed, stroke, 4000, rng)
     x = printed.predict(C) + 0.5e-6
-    measured = {"C_e": C + rng.normal(0, 0.01 * np.ptp(C), C.size), "x": x + rng.normal(0, 0.3e-6, C.size)}
-    rows = curve_rows(variants(measured, {"C_e": C, "x": x}), {"thesis order": 5}, printed, stroke).iloc[0]
+    measured = {
+        "C_e": C + rng.normal(0, 0.01 * np.ptp(C), C.size),
+        "x": x + rng.normal(0, 0.3e-6, C.size),
+    }
+    rows = curve_rows(
+        variants(measured, {"C_e": C, "x": x}), {"thesis order": 5}, printed, stroke
+    ).iloc[0]
     kappa = fit_gamma(C, x, 5).condition_number
     assert rows[f"{DISTANCE}, {ALL_TRUE}"] == pytest.approx(0.5, abs=rtol(kappa) * stroke)
     assert rows[f"{DISTANCE}, {MEASURED}"] > 0.5 + 10 * rtol(kappa) * stroke
@@ -55,7 +73,9 @@ def test_the_fit_on_noiseless_data_is_the_relation_it_was_made_with():
 def test_the_interaction_of_a_noiseless_relation_is_its_own():
     """Γ_T with a C·T term of 0.2 µm/(µF·K) on noiseless data: the interaction fit gives it back (to
     the raw basis's conditioning); without it the fitted coefficient is zero to the same bound."""
-    printed, stroke = printed_gamma(ENTRIES, "Table 7.3", [f"bT{i}" for i in range(6)], "g (temperature coefficient)")
+    printed, stroke = printed_gamma(
+        ENTRIES, "Table 7.3", [f"bT{i}" for i in range(6)], "g (temperature coefficient)"
+    )
     rng = np.random.default_rng(2)
     C = _stroke_of(printed, stroke, 4000, rng)
     T = 23 + 15 * rng.uniform(0, 1, C.size)
@@ -76,9 +96,17 @@ def test_smoke_refits_with_the_measured_inputs_are_the_pipelines_own(smoke_run):
         ours = pd.read_csv(res / folder / f"{fit}_vs_thesis.csv").set_index("fit")
         truth = pd.read_csv(res / "twin" / f"{fit}_truth.csv").set_index("fit")
         for name in ours.index:
-            assert truth.loc[name, f"{DISTANCE}, {MEASURED}"] == pytest.approx(ours.loc[name, DISTANCE], rel=1e-9)
+            assert truth.loc[name, f"{DISTANCE}, {MEASURED}"] == pytest.approx(
+                ours.loc[name, DISTANCE], rel=1e-9
+            )
     n5 = truth.loc["thesis order"]
     assert n5[f"{RESIDUAL}, {MEASURED}"] == pytest.approx(
-        pd.read_csv(res / "ch7/table_7_2.csv").set_index("model").loc["n=5", "standard error [µm]"], rel=1e-9)
+        pd.read_csv(res / "ch7/table_7_2.csv").set_index("model").loc["n=5", "standard error [µm]"],
+        rel=1e-9,
+    )
     assert n5[f"{SLOPE_T_T}, {MEASURED}"] == pytest.approx(
-        pd.read_csv(res / "ch7/table_7_3_coefficients.csv").set_index("coefficient").loc["g", "t Stat"], rel=1e-9)
+        pd.read_csv(res / "ch7/table_7_3_coefficients.csv")
+        .set_index("coefficient")
+        .loc["g", "t Stat"],
+        rel=1e-9,
+    )

@@ -4,12 +4,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.io.capture import CaptureWriter, channel_spec, open_capture
 from selfsense.chapters import ronkanen
+from selfsense.io.capture import CaptureWriter, channel_spec, open_capture
+from selfsense.io.provenance import provenance, write_json, write_table
 from selfsense.methods.electromech import MODEL_KEYS, load_k_over_alpha, model_record
 from selfsense.methods.gamma import GammaPolynomial, fit_gamma, load_gamma
 from selfsense.methods.observer import HPOGains, load_gains
-from selfsense.io.provenance import provenance, write_json, write_table
 from selfsense.methods.ripple import SamplingPlan, plan_from_capture
 
 
@@ -33,7 +33,10 @@ def test_gains_round_trip(tmp_path):
 
 
 def test_k_over_alpha_round_trip(tmp_path):
-    case2 = pd.DataFrame({key: [1.0 + i, 2.0 + i] for i, key in enumerate(MODEL_KEYS)} | {"frequency [Hz]": [10, 100]})
+    case2 = pd.DataFrame(
+        {key: [1.0 + i, 2.0 + i] for i, key in enumerate(MODEL_KEYS)}
+        | {"frequency [Hz]": [10, 100]}
+    )
     record = model_record(case2)
     assert record["b"] == case2["b"].iloc[1]  # damping from the fast sets only, where b·ẋ shows
     write_json(record | {"provenance": provenance([])}, tmp_path / "model.json")
@@ -51,7 +54,9 @@ def test_plan_from_capture_is_the_plan_the_capture_was_sampled_with(tmp_path, nf
 
 
 def test_identified_constants_round_trip(tmp_path):
-    identified = pd.DataFrame([{"key": "R", "value": 2e9, "unit": "Ohm"}, {"key": "a_cmd", "value": 16.7, "unit": "m/C"}])
+    identified = pd.DataFrame(
+        [{"key": "R", "value": 2e9, "unit": "Ohm"}, {"key": "a_cmd", "value": 16.7, "unit": "m/C"}]
+    )
     write_table(identified, tmp_path / "identified.csv")
     assert ronkanen.load_identified(tmp_path / "identified.csv", "a_cmd") == 16.7
     assert ronkanen.load_identified(tmp_path / "identified.csv", "R") == 2e9

@@ -18,9 +18,13 @@ from .tolerances import CLOSED_FORM, assert_close, sums
 @pytest.mark.parametrize("fs", [10e3, 48e3])
 def test_tustin_is_cont2discrete_bilinear(gains, fs):
     A, B, C, D = _state_matrices(gains)
-    for ours, theirs in zip(tustin(A, B, C, D, 1 / fs), scipy.signal.cont2discrete((A, B, C, D), 1 / fs, "bilinear")):
+    for ours, theirs in zip(
+        tustin(A, B, C, D, 1 / fs), scipy.signal.cont2discrete((A, B, C, D), 1 / fs, "bilinear")
+    ):
         # a 2x2 solve: κ of I − A·dt/2 times a few roundings
-        assert_close(ours, theirs, CLOSED_FORM * np.linalg.cond(np.eye(2) - A / (2 * fs)), atol=1e-300)
+        assert_close(
+            ours, theirs, CLOSED_FORM * np.linalg.cond(np.eye(2) - A / (2 * fs)), atol=1e-300
+        )
 
 
 @pytest.mark.parametrize("cutoff", [33.3, 1e3, 18e3])
@@ -57,15 +61,21 @@ def test_two_processes_compiling_at_once_leave_a_cache_both_later_load(tmp_path)
     import subprocess
     import sys
 
-    code = ("import numpy as np; from selfsense.methods.lti import filter_run; y = np.empty(4); "
-            "filter_run(np.array([1.0, -1.0]), np.array([1.0, -0.5]), np.ones(4), np.zeros(1), y); "
-            "print(list(y), len(filter_run.stats.cache_hits), len(filter_run.stats.cache_misses))")
+    code = (
+        "import numpy as np; from selfsense.methods.lti import filter_run; y = np.empty(4); "
+        "filter_run(np.array([1.0, -1.0]), np.array([1.0, -0.5]), np.ones(4), np.zeros(1), y); "
+        "print(list(y), len(filter_run.stats.cache_hits), len(filter_run.stats.cache_misses))"
+    )
     env = os.environ | {"NUMBA_CACHE_DIR": str(tmp_path)}
-    both = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, text=True)
-            for _ in range(2)]
+    both = [
+        subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
     outputs = [p.communicate(timeout=300)[0] for p in both]
     assert all(p.returncode == 0 for p in both)
-    third = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    third = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
     values, hits, misses = third.stdout.rsplit(" ", 2)
     assert (int(hits), int(misses)) == (1, 0)
     y = np.empty(4)

@@ -76,7 +76,9 @@ def test_unknown_dataset(tmp_path):
 
 
 def test_manifest_with_a_wrong_type(tmp_path):
-    shutil.copytree(ROOT / "raw" / "pi_p885", tmp_path / "pi_p885", ignore=shutil.ignore_patterns("*.nc"))
+    shutil.copytree(
+        ROOT / "raw" / "pi_p885", tmp_path / "pi_p885", ignore=shutil.ignore_patterns("*.nc")
+    )
     path = tmp_path / "pi_p885" / "dataset.yaml"
     path.write_text(path.read_text().replace("fs: 48000.0", "fs: fast"))
     with pytest.raises(ManifestError) as e:
@@ -85,7 +87,9 @@ def test_manifest_with_a_wrong_type(tmp_path):
 
 
 def test_manifest_name_must_match_folder(tmp_path):
-    shutil.copytree(ROOT / "raw" / "pi_p885", tmp_path / "other", ignore=shutil.ignore_patterns("*.nc"))
+    shutil.copytree(
+        ROOT / "raw" / "pi_p885", tmp_path / "other", ignore=shutil.ignore_patterns("*.nc")
+    )
     with pytest.raises(ManifestError) as e:
         load_dataset(tmp_path, "other")
     assert_one_line(e, "does not match its folder")
@@ -94,8 +98,13 @@ def test_manifest_name_must_match_folder(tmp_path):
 def test_catalogue_expands_sets_and_applies_smoke():
     thesis = expand_protocols(["ch4"], "thesis")
     smoke = expand_protocols(["ch4"], "smoke")
-    assert [f"ch4_sine_10hz_s{k}" for k in range(1, 6)] == [n for n in thesis if n.startswith("ch4_sine_10hz")]
-    assert [n for n in smoke if n.startswith("ch4_sine_10hz")] == ["ch4_sine_10hz_s1", "ch4_sine_10hz_s2"]
+    assert [f"ch4_sine_10hz_s{k}" for k in range(1, 6)] == [
+        n for n in thesis if n.startswith("ch4_sine_10hz")
+    ]
+    assert [n for n in smoke if n.startswith("ch4_sine_10hz")] == [
+        "ch4_sine_10hz_s1",
+        "ch4_sine_10hz_s2",
+    ]
     assert thesis["ch4_static_blocked"].load_stiffness == 1.05e9
 
 

@@ -9,9 +9,24 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from .tolerances import CLOSED_FORM, assert_close, rational_condition, resolvent_condition, rtol
+from selfsense.methods.observer import (
+    THESIS_A0,
+    THESIS_OMEGA_S,
+    HPOGains,
+    HybridPositionObserver,
+    continuous_state_space,
+    discretize,
+    equilibrium_state,
+    hpo_run,
+    hpo_update,
+    magnitude_response,
+    peak_offset_gain,
+    reference_simulate,
+    sample_and_hold,
+    transfer_functions,
+)
 
-from selfsense.methods.observer import THESIS_A0, THESIS_OMEGA_S, HPOGains, HybridPositionObserver, continuous_state_space, discretize, equilibrium_state, hpo_run, hpo_update, magnitude_response, peak_offset_gain, reference_simulate, sample_and_hold, transfer_functions
+from .tolerances import CLOSED_FORM, assert_close, rational_condition, resolvent_condition, rtol
 
 FS = 48_000.0  # stack DAQ rate (docs/sources.md, Table 3.2)
 XCP_EVERY = 12  # one new capacitance-PSS value per 12 samples
@@ -64,7 +79,9 @@ def test_gains_zeta_enters_LP_only():
     assert g.LI == pytest.approx(9.0 * 10.0)
 
 
-@pytest.mark.parametrize("bad", [dict(a0=0.0), dict(a0=-1.0), dict(omega_s=np.nan), dict(zeta_s=-1)])
+@pytest.mark.parametrize(
+    "bad", [dict(a0=0.0), dict(a0=-1.0), dict(omega_s=np.nan), dict(zeta_s=-1)]
+)
 def test_gains_reject_invalid(bad):
     with pytest.raises(ValueError):
         HPOGains(**bad)
@@ -109,7 +126,10 @@ def test_complementary_sum_is_one_on_grid(gains):
     s = 2j * np.pi * f
     parts = [tfs[name](s) for name in ("xhat/x_I", "xhat/x_CP")]
     # each term is exact to κ·ε of its own size; their sum cancels to 1
-    tol = sum(rtol(rational_condition(tfs[name], s)) * np.abs(h) for name, h in zip(("xhat/x_I", "xhat/x_CP"), parts))
+    tol = sum(
+        rtol(rational_condition(tfs[name], s)) * np.abs(h)
+        for name, h in zip(("xhat/x_I", "xhat/x_CP"), parts)
+    )
     assert_close(parts[0] + parts[1], 1.0, rtol=0, atol=tol)
     tol_sum = tol + rtol(rational_condition(tfs["xhat/x"], s))
     assert_close(tfs["xhat/x"](s), 1.0, rtol=0, atol=tol_sum)
@@ -189,9 +209,16 @@ def test_state_space_matches_block_algebra(gains):
     k_ss = resolvent_condition(sys_c.A, s)
     k_L = rational_condition(L, s)
     # x̂/I = (x̂/x_I)·(1/(a0 s)); x̂/x_CP (Eq 5.8)
-    assert_close(resp[:, 0, 0], tfs["xhat/x_I"](s) / (gains.a0 * s),
-                 rtol=rtol(k_ss + rational_condition(tfs["xhat/x_I"], s)))
-    assert_close(resp[:, 0, 1], tfs["xhat/x_CP"](s), rtol=rtol(k_ss + rational_condition(tfs["xhat/x_CP"], s)))
+    assert_close(
+        resp[:, 0, 0],
+        tfs["xhat/x_I"](s) / (gains.a0 * s),
+        rtol=rtol(k_ss + rational_condition(tfs["xhat/x_I"], s)),
+    )
+    assert_close(
+        resp[:, 0, 1],
+        tfs["xhat/x_CP"](s),
+        rtol=rtol(k_ss + rational_condition(tfs["xhat/x_CP"], s)),
+    )
     # Î0 = L(x̂ − x_CP)
     Ls = L(s)
     assert_close(resp[:, 1, 0], Ls * resp[:, 0, 0], rtol=rtol(2 * k_ss + k_L))
@@ -199,7 +226,9 @@ def test_state_space_matches_block_algebra(gains):
     cancel = np.abs(resp[:, 0, 1]) / np.abs(resp[:, 0, 1] - 1.0)
     assert_close(resp[:, 1, 1], Ls * (resp[:, 0, 1] - 1.0), rtol=rtol(k_ss * (1 + cancel) + k_L))
     # Offset path: I0 enters like I, so x̂/I0 = x̂/I (Eq 5.7)
-    assert_close(resp[:, 0, 0], tfs["xhat/I0"](s), rtol=rtol(k_ss + rational_condition(tfs["xhat/I0"], s)))
+    assert_close(
+        resp[:, 0, 0], tfs["xhat/I0"](s), rtol=rtol(k_ss + rational_condition(tfs["xhat/I0"], s))
+    )
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -232,7 +261,9 @@ def test_tustin_discrete_complementarity(gains):
         trapz_integrator = T / 2 * (z + 1) / (z - 1)  # q/I
         # x̂/x_I = (x̂/I) / (x_I/I) with x_I = q/a0
         h_xi = h[0, 0] / (trapz_integrator / gains.a0)
-        assert abs(h_xi + h[0, 1] - 1.0) < rtol(1 / abs(z - 1))  # exact but for z − 1's cancellation
+        assert abs(h_xi + h[0, 1] - 1.0) < rtol(
+            1 / abs(z - 1)
+        )  # exact but for z − 1's cancellation
 
 
 def test_discretize_rejects_bad_input(gains):
@@ -249,8 +280,9 @@ def _random_inputs(n, seed):
     rng = np.random.default_rng(seed)
     t = np.arange(n) / FS
     current = 3e-3 * np.sin(2 * np.pi * 37 * t) + 1e-4 + 1e-4 * rng.standard_normal(n)
-    xcp = sample_and_hold(15e-6 + 10e-6 * np.sin(2 * np.pi * 3 * t) + 2e-7 * rng.standard_normal(n),
-                          XCP_EVERY)
+    xcp = sample_and_hold(
+        15e-6 + 10e-6 * np.sin(2 * np.pi * 3 * t) + 2e-7 * rng.standard_normal(n), XCP_EVERY
+    )
     return current, xcp
 
 
@@ -286,7 +318,9 @@ def test_reference_detects_wrong_matrices(gains):
     assert not np.allclose(xo, xr, rtol=tol, atol=tol * np.max(np.abs(xr)))
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(
     cuts=st.lists(st.integers(min_value=0, max_value=3000), min_size=0, max_size=12),
     method=st.sampled_from(METHODS),
@@ -392,7 +426,9 @@ def test_constant_offset_current_is_rejected(gains, method):
     # Step response of Eq 5.7 is I0·t·exp(−ωS t)/a0 (ζS = 1): peak I0/(a0 ωS e) at t = 1/ωS,
     # then it dies out entirely (zero at s = 0) ...
     offset_effect = xhat - xhat_no_offset
-    assert np.max(np.abs(offset_effect)) == pytest.approx(i0 / (gains.a0 * gains.omega_s * np.e), rel=0.01)
+    assert np.max(np.abs(offset_effect)) == pytest.approx(
+        i0 / (gains.a0 * gains.omega_s * np.e), rel=0.01
+    )
     # decayed below what rounding leaves of a 15 µm state (ε/(1 − ρ) of it: ≈ 2.5e-14 m)
     assert np.max(np.abs(offset_effect[last])) < 1e-12
     # ... leaving an estimate limited only by the filtered x_CP noise.

@@ -314,7 +314,8 @@ def test_compensation_properties(i_c, V, R, c):
     i_l = pl.leakage_current(i_c, V, R, c)
     # Eq. (15) is i_c + i_l; where they cancel, the sum is good to ε of |i_c| + |i_l| only
     assert pl.compensated_current(i_c, V, R, c) == pytest.approx(
-        i_c + i_l, rel=CLOSED_FORM, abs=CLOSED_FORM * (abs(i_c) + abs(i_l)) + 1e-300)
+        i_c + i_l, rel=CLOSED_FORM, abs=CLOSED_FORM * (abs(i_c) + abs(i_l)) + 1e-300
+    )
     # loss current flows with V and is at least the static leakage V/R
     assert abs(i_l) >= abs(V) / R * (1 - 1e-9)
     if V != 0 and i_l != 0:
@@ -433,7 +434,9 @@ def test_constant_stretches_and_charging_current():
 def test_ramp_velocity_and_its_spread():
     t = np.arange(0, 60, 0.01)
     steady = 5e-6 * t
-    np.testing.assert_allclose(pl.ramp_velocity(t, steady, 2.0), 5e-6, rtol=float(rtol(np.linalg.cond(np.vander(t, 2)))))
+    np.testing.assert_allclose(
+        pl.ramp_velocity(t, steady, 2.0), 5e-6, rtol=float(rtol(np.linalg.cond(np.vander(t, 2))))
+    )
     command = np.full_like(t, 300e-9)
     assert pl.velocity_spread(t, steady, command, 2.0) < 1e-6
     slowing = 5e-6 * t - 0.02e-6 * t**2  # 5 -> 2.6 um/s
@@ -452,7 +455,9 @@ def test_turning_points_follow_the_ramps_not_the_noise():
     y = _triangle(t, 1.0) + 0.01 * np.random.default_rng(0).standard_normal(t.size)
     tp = pl.turning_points(y, 0.2)
     assert tp[0] == 0 and tp[-1] == t.size - 1
-    np.testing.assert_allclose(t[tp[1:-1]], [0.25, 0.75, 1.25, 1.75, 2.25, 2.75, 3.25, 3.75], atol=0.03)
+    np.testing.assert_allclose(
+        t[tp[1:-1]], [0.25, 0.75, 1.25, 1.75, 2.25, 2.75, 3.25, 3.75], atol=0.03
+    )
     assert len(pl.turning_points(np.r_[0, 0.1, 0, 0.1, 1.0], 0.5)) == 2  # wiggles below the swing
 
 

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.verify.powerloss_truth import SENSOR, performance_truth
 from selfsense.chapters.ronkanen import CONTROLS, Record, performance
+from selfsense.verify.powerloss_truth import SENSOR, performance_truth
 
 FS, A_CMD = 100.0, 1.0e3
 HOLD_START, HOLD = 20.0, 120.0
@@ -38,9 +38,14 @@ def test_a_perfect_sensor_has_no_share_and_a_drifting_one_its_own():
     true_x = {r.name: r.x for recs in true.values() for r in recs.values()}
     clean = performance_truth(true, true_x, A_CMD, HOLD_START, HOLD)
     assert (clean[SENSOR] == 0).all()
-    assert clean["measured"].tolist() == performance(*true.values(), A_CMD, HOLD_START, HOLD)["value"].tolist()
+    assert (
+        clean["measured"].tolist()
+        == performance(*true.values(), A_CMD, HOLD_START, HOLD)["value"].tolist()
+    )
     d = 1e-9
-    drifting = performance_truth(runs(drift=d), true_x, A_CMD, HOLD_START, HOLD).set_index(["measure", "control"])
+    drifting = performance_truth(runs(drift=d), true_x, A_CMD, HOLD_START, HOLD).set_index(
+        ["measure", "control"]
+    )
     # the hold's position from 20.5 s to 139.5 s (1 s means) against the held stroke above the
     # zero's: the sensor moves it by 119 s·d, and its held position by 20 s·d; a window's mean time
     # is off by at most half a sample (0.005 s) of those

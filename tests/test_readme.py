@@ -13,9 +13,13 @@ def test_ci_runs_exactly_the_readme_test_command():
 
 
 def test_every_dependency_is_pinned():
-    pins = {line.split("==")[0].lower().replace("_", "-")
-            for line in (ROOT / "constraints.txt").read_text().splitlines() if "==" in line}
+    pins = {
+        line.split("==")[0].lower().replace("_", "-")
+        for line in (ROOT / "constraints.txt").read_text().splitlines()
+        if "==" in line
+    }
     import tomllib
+
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     wanted = project["dependencies"] + project["optional-dependencies"]["test"]
     missing = [d for d in wanted if d.lower().replace("_", "-") not in pins]

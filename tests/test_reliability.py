@@ -29,7 +29,16 @@ import pandas as pd
 import pytest
 import yaml
 
-from selfsense.io.capture import FILL, INT16_FULL, CaptureError, CaptureWriter, channel_spec, open_capture, read_series, scan_capture
+from selfsense.io.capture import (
+    FILL,
+    INT16_FULL,
+    CaptureError,
+    CaptureWriter,
+    channel_spec,
+    open_capture,
+    read_series,
+    scan_capture,
+)
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
 
 from .conftest import ROOT, copy_repo
@@ -42,9 +51,12 @@ RANGES = PI["daq"]["ranges"]
 
 # -- helpers -------------------------------------------------------------------------------------
 
+
 def script(name):
     """A rule's script from workflow/scripts, imported as a module (its main() is the rule)."""
-    spec = importlib.util.spec_from_file_location(f"rule_{name}", ROOT / "workflow" / "scripts" / f"{name}.py")
+    spec = importlib.util.spec_from_file_location(
+        f"rule_{name}", ROOT / "workflow" / "scripts" / f"{name}.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -53,11 +65,23 @@ def script(name):
 def synthetic(path, n=9600, channels=("U", "I", "Ur", "Ir", "x_laser")):
     """A small capture in the contract: a 10 Hz drive and a ripple folded to 4 kHz."""
     t = np.arange(n) / FS
-    values = {"U": 50 - 50 * np.cos(2 * np.pi * 10 * t), "I": 0.05 * np.sin(2 * np.pi * 10 * t),
-              "Ur": 0.1 * np.sin(2 * np.pi * 4000 * t), "Ir": 0.05 * np.cos(2 * np.pi * 4000 * t),
-              "x_laser": 1.5e-5 * (1 - np.cos(2 * np.pi * 10 * t))}
-    attrs = {"fs": FS, "fr_nominal": 1e5, "ns": 12, "nf": 4, "warmup_s": 0.0, "dataset": "bench",
-             "experiment": Path(path).stem, "source": "measured"}
+    values = {
+        "U": 50 - 50 * np.cos(2 * np.pi * 10 * t),
+        "I": 0.05 * np.sin(2 * np.pi * 10 * t),
+        "Ur": 0.1 * np.sin(2 * np.pi * 4000 * t),
+        "Ir": 0.05 * np.cos(2 * np.pi * 4000 * t),
+        "x_laser": 1.5e-5 * (1 - np.cos(2 * np.pi * 10 * t)),
+    }
+    attrs = {
+        "fs": FS,
+        "fr_nominal": 1e5,
+        "ns": 12,
+        "nf": 4,
+        "warmup_s": 0.0,
+        "dataset": "bench",
+        "experiment": Path(path).stem,
+        "source": "measured",
+    }
     with CaptureWriter(path, attrs, [channel_spec(c, *RANGES[c]) for c in channels], n) as w:
         w.write({c: values[c] for c in channels})
     return Path(path)
@@ -68,8 +92,9 @@ def bench_manifest(tmp_path, **changes):
     a capture with its manifest); its path as text."""
     folder = tmp_path / "manifests" / "bench"
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "dataset.yaml").write_text(yaml.safe_dump(manifest("bench", []) | changes, sort_keys=False,
-                                                         allow_unicode=True))
+    (folder / "dataset.yaml").write_text(
+        yaml.safe_dump(manifest("bench", []) | changes, sort_keys=False, allow_unicode=True)
+    )
     return str(folder / "dataset.yaml")
 
 
@@ -78,7 +103,7 @@ def set_codes(path, channel, start, n, code):
     with netCDF4.Dataset(path, "a") as nc:
         var = nc[channel]
         var.set_auto_maskandscale(False)
-        var[start:start + n] = np.full(n, code, dtype=np.int16)
+        var[start : start + n] = np.full(n, code, dtype=np.int16)
 
 
 def edit_time(path, fn):
@@ -96,13 +121,20 @@ def one_line(message, path, *fragments):
 
 def run_snakemake(repo, config, *args):
     """Snakemake in a scratch copy; targets go before --configfile (which takes several values)."""
-    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", *args, "--configfile", config],
-                          cwd=repo, capture_output=True, text=True, timeout=1800)
+    return subprocess.run(
+        [sys.executable, "-m", "snakemake", "--cores", "2", *args, "--configfile", config],
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
 
 
 def error_line(run, *fragments):
     """The one line of Snakemake's output that carries all fragments (the error, whole)."""
-    lines = [line for line in (run.stdout + run.stderr).splitlines() if all(f in line for f in fragments)]
+    lines = [
+        line for line in (run.stdout + run.stderr).splitlines() if all(f in line for f in fragments)
+    ]
     assert lines, f"no line with {fragments}:\n{run.stderr[-4000:]}"
     return lines[0]
 
@@ -112,14 +144,23 @@ def leftovers(folder):
     folder = Path(folder)
     if not folder.exists():
         return []
-    return sorted(str(p) for p in folder.rglob("*")
-                  if p.is_file() and (p.name.endswith(".part") or p.name.startswith(".")))
+    return sorted(
+        str(p)
+        for p in folder.rglob("*")
+        if p.is_file() and (p.name.endswith(".part") or p.name.startswith("."))
+    )
 
 
 def fingerprint(folder):
     """{file: (mode, mtime_ns, sha256)} of every file in a folder."""
-    return {p.name: (p.stat().st_mode & 0o777, p.stat().st_mtime_ns, hashlib.sha256(p.read_bytes()).hexdigest())
-            for p in sorted(Path(folder).iterdir())}
+    return {
+        p.name: (
+            p.stat().st_mode & 0o777,
+            p.stat().st_mtime_ns,
+            hashlib.sha256(p.read_bytes()).hexdigest(),
+        )
+        for p in sorted(Path(folder).iterdir())
+    }
 
 
 def write_config(repo, name, datasets, **changes):
@@ -133,9 +174,16 @@ def write_config(repo, name, datasets, **changes):
 def manifest(name, experiments, channels=None, **changes):
     channels = list(channels or PI["daq"]["channels"])
     daq = dict(PI["daq"], channels=channels, ranges={c: RANGES[c] for c in channels})
-    doc = {"name": name, "description": f"{name}: a measured bench dataset made for the fault tests",
-           "source": "measured", "model": "stack", "actuator": PI["actuator"], "daq": daq,
-           "protocols": ["ch3"], "experiments": list(experiments)}
+    doc = {
+        "name": name,
+        "description": f"{name}: a measured bench dataset made for the fault tests",
+        "source": "measured",
+        "model": "stack",
+        "actuator": PI["actuator"],
+        "daq": daq,
+        "protocols": ["ch3"],
+        "experiments": list(experiments),
+    }
     return doc | changes
 
 
@@ -152,9 +200,17 @@ def add_measured(repo, smoke, name, experiments, channels=None):
         else:  # a DAQ that records fewer channels
             with open_capture(src) as cap:
                 data, n = cap.read(list(channels)), cap.n
-                attrs = {k: v for k, v in cap.attrs.items() if k not in ("Conventions", "clipped_samples")}
-            with CaptureWriter(dst, attrs | {"dataset": name, "source": "measured"},
-                               [channel_spec(c, *RANGES[c]) for c in channels], n) as w:
+                attrs = {
+                    k: v
+                    for k, v in cap.attrs.items()
+                    if k not in ("Conventions", "clipped_samples")
+                }
+            with CaptureWriter(
+                dst,
+                attrs | {"dataset": name, "source": "measured"},
+                [channel_spec(c, *RANGES[c]) for c in channels],
+                n,
+            ) as w:
                 w.write(data)
     doc = manifest(name, experiments, channels)
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
@@ -184,6 +240,7 @@ def assert_same_capture(a, b):
 
 # -- capture faults, at the rule-script level (fast) ---------------------------------------------
 
+
 def _truncate(p):
     data = p.read_bytes()
     p.write_bytes(data[: len(data) // 2])
@@ -210,7 +267,9 @@ def _folding(p):
 
 def _empty(p):
     p.unlink()
-    with CaptureWriter(p, {"fs": FS, "fr_nominal": 1e5, "ns": 12, "nf": 4}, [channel_spec("U", -200, 200)], 0):
+    with CaptureWriter(
+        p, {"fs": FS, "fr_nominal": 1e5, "ns": 12, "nf": 4}, [channel_spec("U", -200, 200)], 0
+    ):
         pass
 
 
@@ -219,7 +278,9 @@ def _gap_end(p):
 
 
 def _gap_middle(p):
-    edit_time(p, lambda t: np.where((np.arange(len(t)) >= 4000) & (np.arange(len(t)) < 4100), t + 0.5, t))
+    edit_time(
+        p, lambda t: np.where((np.arange(len(t)) >= 4000) & (np.arange(len(t)) < 4100), t + 0.5, t)
+    )
 
 
 CAPTURE_FAULTS = {  # fault: (make it, what the one line must say)
@@ -299,14 +360,21 @@ def test_writer_killed_mid_write_never_leaves_a_complete_looking_file(tmp_path, 
     if kind == "table":
         out.write_text("experiment,NaN samples\nch3_sine_10hz,0\n")  # the previous complete table
     before = out.read_bytes() if out.exists() else None
-    run = subprocess.run([sys.executable, "-c", KILL_MID_WRITE, kind, str(out)], capture_output=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, "-c", KILL_MID_WRITE, kind, str(out)], capture_output=True, timeout=300
+    )
     assert run.returncode == -signal.SIGKILL, run.stderr
-    assert (out.read_bytes() if out.exists() else None) == before  # absent, or the old complete file
+    assert (
+        out.read_bytes() if out.exists() else None
+    ) == before  # absent, or the old complete file
     # what is left is under a name no rule reads: <name>.part, or atomic_path's hidden temporary
-    assert all(p.name.endswith(".part") or p.name.startswith(".") for p in tmp_path.iterdir() if p != out)
+    assert all(
+        p.name.endswith(".part") or p.name.startswith(".") for p in tmp_path.iterdir() if p != out
+    )
 
 
 # -- manifest and config faults ------------------------------------------------------------------
+
 
 def _manifest_dir(tmp_path, **changes):
     folder = tmp_path / "bench"
@@ -318,12 +386,23 @@ def _manifest_dir(tmp_path, **changes):
     return folder / "dataset.yaml"
 
 
-@pytest.mark.parametrize("change,fragments", [
-    pytest.param({"experiment": ["ch3_sine_10hz"]}, ["unknown key experiment"], id="unknown key"),
-    pytest.param({"daq": None}, ["'daq' is a required property"], id="missing required field"),
-    pytest.param({"experiments": "ch3_sine_10hz"}, ["key experiments", "not of type 'array'"], id="wrong type"),
-    pytest.param({"source": "measurd"}, ["key source", "is not one of"], id="value not allowed"),
-])
+@pytest.mark.parametrize(
+    "change,fragments",
+    [
+        pytest.param(
+            {"experiment": ["ch3_sine_10hz"]}, ["unknown key experiment"], id="unknown key"
+        ),
+        pytest.param({"daq": None}, ["'daq' is a required property"], id="missing required field"),
+        pytest.param(
+            {"experiments": "ch3_sine_10hz"},
+            ["key experiments", "not of type 'array'"],
+            id="wrong type",
+        ),
+        pytest.param(
+            {"source": "measurd"}, ["key source", "is not one of"], id="value not allowed"
+        ),
+    ],
+)
 def test_bad_manifest_is_one_line_naming_file_and_key(tmp_path, change, fragments):
     path = _manifest_dir(tmp_path, **change)
     with pytest.raises(ManifestError) as e:
@@ -344,8 +423,12 @@ def parse_repo(tmp_path_factory):
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc))
     folder = repo / "raw" / "bench_hyphen"
     folder.mkdir()
-    (folder / "dataset.yaml").write_text(yaml.safe_dump(manifest("bench_hyphen", ["ch3-sine-10hz"])))
-    folder = repo / "raw" / "bench_nomass"  # the Chapter 4 runs, an actuator without its moving mass
+    (folder / "dataset.yaml").write_text(
+        yaml.safe_dump(manifest("bench_hyphen", ["ch3-sine-10hz"]))
+    )
+    folder = (
+        repo / "raw" / "bench_nomass"
+    )  # the Chapter 4 runs, an actuator without its moving mass
     folder.mkdir()
     runs = ["ch4_sine_10hz_s1", "ch4_static_free", "ch4_static_blocked"]
     actuator = {k: v for k, v in PI["actuator"].items() if k != "moving_mass_kg"}
@@ -357,24 +440,57 @@ def parse_repo(tmp_path_factory):
 
 
 PIPELINE_FAULTS = [  # config changes, the file the line must name, what it must say
-    pytest.param({"datasets": ["bench_gone"]}, "raw/bench_gone/dataset.yaml",
-                 ["experiment ch3_sine_10hz is listed without a capture raw/bench_gone/ch3_sine_10hz.nc"],
-                 id="experiment listed without its capture"),
-    pytest.param({"datasets": ["bench_typo"]}, "raw/bench_typo/dataset.yaml", ["unknown key experimnts"],
-                 id="unknown key in a manifest"),
-    pytest.param({"datasets": ["nope"]}, "raw/nope/dataset.yaml", ["unknown dataset 'nope'"], id="unknown dataset"),
-    pytest.param({"datasets": ["bench_hyphen"]}, "raw/bench_hyphen/dataset.yaml",
-                 ["experiment name 'ch3-sine-10hz' must be letters, digits or '_'"], id="hyphenated experiment name"),
-    pytest.param({"datasets": ["bench_nomass"]}, "raw/bench_nomass/dataset.yaml",
-                 ["key actuator.moving_mass_kg is missing: the identify (Ch. 4) stage computes with it"],
-                 id="a key an analysis computes with"),
-    pytest.param({"datasets": ["../pi_p885"]}, "fault.yaml", ["dataset name '../pi_p885'", "no path separators"],
-                 id="dataset name with '..'"),
-    pytest.param({"datasets": ["raw/pi_p885"]}, "fault.yaml", ["dataset name 'raw/pi_p885'", "no path separators"],
-                 id="dataset name with a path separator"),
-    pytest.param({"campain": "smoke"}, "fault.yaml", ["unknown key campain"], id="unknown config key"),
-    pytest.param({"ripple": {"n_periods": "four"}}, "fault.yaml", ["key ripple.n_periods", "not of type 'integer'"],
-                 id="wrong type in config"),
+    pytest.param(
+        {"datasets": ["bench_gone"]},
+        "raw/bench_gone/dataset.yaml",
+        ["experiment ch3_sine_10hz is listed without a capture raw/bench_gone/ch3_sine_10hz.nc"],
+        id="experiment listed without its capture",
+    ),
+    pytest.param(
+        {"datasets": ["bench_typo"]},
+        "raw/bench_typo/dataset.yaml",
+        ["unknown key experimnts"],
+        id="unknown key in a manifest",
+    ),
+    pytest.param(
+        {"datasets": ["nope"]},
+        "raw/nope/dataset.yaml",
+        ["unknown dataset 'nope'"],
+        id="unknown dataset",
+    ),
+    pytest.param(
+        {"datasets": ["bench_hyphen"]},
+        "raw/bench_hyphen/dataset.yaml",
+        ["experiment name 'ch3-sine-10hz' must be letters, digits or '_'"],
+        id="hyphenated experiment name",
+    ),
+    pytest.param(
+        {"datasets": ["bench_nomass"]},
+        "raw/bench_nomass/dataset.yaml",
+        ["key actuator.moving_mass_kg is missing: the identify (Ch. 4) stage computes with it"],
+        id="a key an analysis computes with",
+    ),
+    pytest.param(
+        {"datasets": ["../pi_p885"]},
+        "fault.yaml",
+        ["dataset name '../pi_p885'", "no path separators"],
+        id="dataset name with '..'",
+    ),
+    pytest.param(
+        {"datasets": ["raw/pi_p885"]},
+        "fault.yaml",
+        ["dataset name 'raw/pi_p885'", "no path separators"],
+        id="dataset name with a path separator",
+    ),
+    pytest.param(
+        {"campain": "smoke"}, "fault.yaml", ["unknown key campain"], id="unknown config key"
+    ),
+    pytest.param(
+        {"ripple": {"n_periods": "four"}},
+        "fault.yaml",
+        ["key ripple.n_periods", "not of type 'integer'"],
+        id="wrong type in config",
+    ),
 ]
 
 
@@ -428,7 +544,10 @@ def test_measured_short_nan_burst_runs_masks_and_counts(bench):
     assert clipped["I"] >= CLIP_N
     table = pd.read_csv(res / "qc" / "captures.csv").set_index("experiment")
     assert table.loc["ch3_sine_10hz", "NaN samples"] == 2 * NAN_N
-    assert table.loc["ch3_sine_1hz", "NaN samples"] == 0 and table.loc["ch3_sine_1hz", "clipped samples"] >= CLIP_N
+    assert (
+        table.loc["ch3_sine_1hz", "NaN samples"] == 0
+        and table.loc["ch3_sine_1hz", "clipped samples"] >= CLIP_N
+    )
     ce = read_series(res / "ripple" / "ch3_sine_10hz.nc", ["C_e"])["C_e"]
     assert 1 <= np.count_nonzero(~np.isfinite(ce)) <= 10  # masked windows, the rest kept
     # the loop widths are those of the clean capture to well within a percentage point
@@ -449,7 +568,9 @@ def test_measured_dataset_with_fewer_channels_skips_with_a_reason(bench):
     stages = pd.read_csv(res / "stages.csv").set_index("stage")
     assert stages.loc["characterise", "status"] == "runs"  # U and x are all it needs
     thesis = stages.drop("characterise")
-    assert thesis["status"].str.startswith("skipped").all()  # every other analysis needs more channels
+    assert (
+        thesis["status"].str.startswith("skipped").all()
+    )  # every other analysis needs more channels
     assert thesis["needs"].str.contains("this dataset lacks: ").all()
     assert len(pd.read_csv(res / "characterise" / "summary.csv")) == len(CH3)
     assert "runs" in set(pd.read_csv(bench.repo / "results" / "bench_nan" / "stages.csv")["status"])
@@ -471,7 +592,9 @@ def test_measured_truncated_capture_stops_with_one_line(smoke_run, tmp_path):
     repo = copy_repo(tmp_path / "repo")
     folder = add_measured(repo, smoke_run, "bench_cut", CH3)
     _truncate(folder / "ch3_sine_1hz.nc")
-    run = run_snakemake(repo, write_config(repo, "cut", ["bench_cut"]), "results/bench_cut/qc/captures.csv")
+    run = run_snakemake(
+        repo, write_config(repo, "cut", ["bench_cut"]), "results/bench_cut/qc/captures.csv"
+    )
     assert run.returncode != 0
     line = error_line(run, "CaptureError: raw/bench_cut/ch3_sine_1hz.nc: ")
     assert "not a readable netCDF4 capture" in line or "unreadable capture" in line
@@ -489,8 +612,14 @@ def test_observer_masks_a_nan_burst_and_records_it(smoke_run, tmp_path):
         start = int(cap.n * 0.7)  # after the warm-up
     set_codes(capture, "Ur", start, NAN_N, FILL)
     stats = tmp_path / "stats.json"
-    script("observe").main(str(capture), str(res / "ch5" / "gamma.json"), str(res / "ch5" / "observer.json"),
-                           str(tmp_path / "traces.nc"), str(stats), 4)
+    script("observe").main(
+        str(capture),
+        str(res / "ch5" / "gamma.json"),
+        str(res / "ch5" / "observer.json"),
+        str(tmp_path / "traces.nc"),
+        str(stats),
+        4,
+    )
     hurt = json.loads(stats.read_text())
     clean = json.loads((res / "observer" / "ch5_sine_10hz.json").read_text())
     assert hurt["NaN samples"]["Ur"] == NAN_N and clean["masked ripple windows"] == 0
@@ -501,10 +630,16 @@ def test_observer_masks_a_nan_burst_and_records_it(smoke_run, tmp_path):
 
 # -- interruption and determinism (slow) ---------------------------------------------------------
 
+
 def start_snakemake(repo, config, *targets):
     log = open(repo / "killed-run.log", "a")
-    return subprocess.Popen([sys.executable, "-m", "snakemake", "--cores", "2", *targets, "--configfile", config],
-                            cwd=repo, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "snakemake", "--cores", "2", *targets, "--configfile", config],
+        cwd=repo,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
 
 
 class WriterTemporary:
@@ -559,7 +694,9 @@ def test_killed_run_resumes_and_never_takes_a_half_written_file(smoke_run, tmp_p
     # 2. resumed (Snakemake's lock outlives a SIGKILL: --unlock first), killed in an analysis rule
     assert run_snakemake(repo, config, "--unlock").returncode == 0
     proc = start_snakemake(repo, config, target)
-    seen = kill_when_any_exists(proc, [WriterTemporary(series), repo / "logs" / "pi_p885" / "ch3_hysteresis.log"])
+    seen = kill_when_any_exists(
+        proc, [WriterTemporary(series), repo / "logs" / "pi_p885" / "ch3_hysteresis.log"]
+    )
     assert seen is not None, "the analysis finished before it could be killed"
     assert capture.exists() and not table.exists()
     assert incomplete_markers(repo)
@@ -586,10 +723,16 @@ def test_resimulating_from_scratch_gives_identical_captures_and_tables(smoke_run
     run = run_snakemake(repo, write_config(repo, "pi", ["pi_p885"]), *tables)
     assert run.returncode == 0, run.stderr[-4000:]
     for e in CH3:
-        assert_same_capture(repo / "raw" / "pi_p885" / f"{e}.nc", smoke_run / "raw" / "pi_p885" / f"{e}.nc")
-        qc = [json.loads((r / "results" / "pi_p885" / "qc" / f"{e}.json").read_text()) for r in (repo, smoke_run)]
+        assert_same_capture(
+            repo / "raw" / "pi_p885" / f"{e}.nc", smoke_run / "raw" / "pi_p885" / f"{e}.nc"
+        )
+        qc = [
+            json.loads((r / "results" / "pi_p885" / "qc" / f"{e}.json").read_text())
+            for r in (repo, smoke_run)
+        ]
         assert [{k: q[k] for k in ("n_samples", "nan", "clipped")} for q in qc] == 2 * [
-            {k: qc[1][k] for k in ("n_samples", "nan", "clipped")}]
+            {k: qc[1][k] for k in ("n_samples", "nan", "clipped")}
+        ]
     for t in tables:
         assert (repo / t).read_bytes() == (smoke_run / t).read_bytes(), t
 
@@ -607,15 +750,36 @@ def test_a_bad_capture_stops_everything_made_from_it_even_with_keep_going(smoke_
     _gap_middle(folder / "ch4_static_free.nc")
     run = run_snakemake(repo, write_config(repo, "k", ["bench_k"]), "--keep-going")
     assert run.returncode != 0
-    one_line(error_line(run, "CaptureError: ").split("CaptureError: ", 1)[1], "raw/bench_k/ch4_static_free.nc",
-             "time axis breaks at sample 4000")
+    one_line(
+        error_line(run, "CaptureError: ").split("CaptureError: ", 1)[1],
+        "raw/bench_k/ch4_static_free.nc",
+        "time axis breaks at sample 4000",
+    )
     res, figs = repo / "results" / "bench_k", repo / "figures" / "bench_k"
-    unmade = [res / "ch4" / f"{t}.csv" for t in ("static_stiffness", "sets", "table_4_1", "table_4_2", "table_4_3",
-                                                   "hysteresis_voltage")]
-    unmade += [res / "ch4" / "model.json", res / "scorecard.csv", repo / "results" / "scorecard_summary.rst",
-               res / "qc" / "ch4_static_free.json", res / "qc" / "captures.csv"]
+    unmade = [
+        res / "ch4" / f"{t}.csv"
+        for t in (
+            "static_stiffness",
+            "sets",
+            "table_4_1",
+            "table_4_2",
+            "table_4_3",
+            "hysteresis_voltage",
+        )
+    ]
+    unmade += [
+        res / "ch4" / "model.json",
+        res / "scorecard.csv",
+        repo / "results" / "scorecard_summary.rst",
+        res / "qc" / "ch4_static_free.json",
+        res / "qc" / "captures.csv",
+    ]
     assert [p for p in unmade if p.exists()] == []
     assert not list(figs.glob("fig_4_*.png"))
-    made = [res / "qc" / "ch4_static_blocked.json", res / "ripple" / "ch4_sine_10hz_s1.nc",
-            res / "ch3" / "table_3_1.csv", res / "stages.csv"]
+    made = [
+        res / "qc" / "ch4_static_blocked.json",
+        res / "ripple" / "ch4_sine_10hz_s1.nc",
+        res / "ch3" / "table_3_1.csv",
+        res / "stages.csv",
+    ]
     assert [p for p in made if not p.exists()] == []

@@ -20,7 +20,16 @@ import yaml
 from selfsense.io.capture import open_capture
 from selfsense.io.manifest import load_dataset, load_yaml
 from selfsense.io.provenance import sha256
-from selfsense.scorecard.registry import INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, WITHIN, applicable, parse_registry
+from selfsense.scorecard.registry import (
+    INFORMATION,
+    LEFT_OUT,
+    MISSING,
+    NOT_YET,
+    OUT,
+    WITHIN,
+    applicable,
+    parse_registry,
+)
 
 from .conftest import measured_copy_remakes, snakemake
 
@@ -59,6 +68,7 @@ def embedded(report, path):
 
 # --- the report -----------------------------------------------------------------------------------
 
+
 def test_report_is_one_self_contained_page(smoke_run, report):
     page = (smoke_run / "report.html").read_text(encoding="utf-8")
     # every result is embedded as a data URI: nothing points back at the results folder
@@ -70,7 +80,9 @@ def test_every_table_and_figure_is_in_the_report_with_a_caption(smoke_run, repor
     made = outputs(smoke_run)
     absent = [p for p in made if p not in report["results"]]
     assert not absent
-    uncaptioned = [p for p in made if len(re.sub("<[^>]+>", "", report["results"][p]["caption"]).strip()) < 40]
+    uncaptioned = [
+        p for p in made if len(re.sub("<[^>]+>", "", report["results"][p]["caption"]).strip()) < 40
+    ]
     assert not uncaptioned
 
 
@@ -78,7 +90,12 @@ def test_results_are_grouped_by_dataset_then_chapter(smoke_run, report):
     for dataset in datasets(smoke_run):
         for path in outputs(smoke_run):
             if path.split("/")[1] == dataset:
-                placed = [(c, s) for c, subs in report["categories"].items() for s, ps in subs.items() if path in ps]
+                placed = [
+                    (c, s)
+                    for c, subs in report["categories"].items()
+                    for s, ps in subs.items()
+                    if path in ps
+                ]
                 assert len(placed) == 1 and placed[0][0] == dataset, (path, placed)
     subcategories = set(report["categories"]["pi_p885"])
     assert {"Captures", "Chapter 3", "Twin validation", "Scorecard"} <= subcategories
@@ -102,7 +119,9 @@ def test_report_opens_with_the_scorecard_summary(smoke_run, report):
         for source in card.loc[card["verdict"] == NOT_YET, "source"]:
             assert source in not_yet
     # the long lists are report items of their own, linked from the opening, not part of it
-    assert "Out of band, by source" not in description and "by chapter and source (" not in description
+    assert (
+        "Out of band, by source" not in description and "by chapter and source (" not in description
+    )
     for page in ("results/scorecard_out_of_band.html", "results/scorecard_not_yet.html"):
         assert report["results"][page]["caption"]
         assert f"app.showResultInfo('{page}')" in description, page
@@ -116,8 +135,16 @@ DOCUTILS_MESSAGE = re.compile(r"\((?:WARNING/2|ERROR/3|SEVERE/4)\)")
 def docutils_messages(text):
     """Every docutils warning or error of rendering reStructuredText, as the report renders it."""
     stream = io.StringIO()
-    docutils.core.publish_parts(text, writer="html", settings_overrides={
-        "report_level": 2, "halt_level": 5, "warning_stream": stream, "_disable_config": True})
+    docutils.core.publish_parts(
+        text,
+        writer="html",
+        settings_overrides={
+            "report_level": 2,
+            "halt_level": 5,
+            "warning_stream": stream,
+            "_disable_config": True,
+        },
+    )
     return stream.getvalue()
 
 
@@ -127,14 +154,21 @@ def test_every_caption_and_the_landing_text_render_without_a_docutils_message(sm
     Category = namedtuple("Category", "name")
     categories = {Category(c): subs for c, subs in report["categories"].items()}
     files = [SimpleNamespace(name=Path(p).name, path=smoke_run / p) for p in report["results"]]
-    targets = ["Workflow", "Statistics", *report["categories"], *dict.fromkeys(f.name for f in files)]
+    targets = [
+        "Workflow",
+        "Statistics",
+        *report["categories"],
+        *dict.fromkeys(f.name for f in files),
+    ]
     links = "\n\n" + "\n".join(f".. _{t}: javascript:void(0)" for t in targets) + "\n"
     config = load_yaml(smoke_run / SMOKE) | {"campaign": "smoke"}
     snake = SimpleNamespace(config=config, wildcards=SimpleNamespace(dataset="pi_p885"))
     env = jinja2.Environment(trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined)
     failures = {}
     for caption in sorted((smoke_run / "workflow/report").glob("*.rst")):
-        text = env.from_string(caption.read_text() + links).render(snakemake=snake, categories=categories, files=files)
+        text = env.from_string(caption.read_text() + links).render(
+            snakemake=snake, categories=categories, files=files
+        )
         if messages := docutils_messages(text):
             failures[caption.name] = messages
     assert not failures, failures
@@ -150,8 +184,14 @@ MARKER = re.compile(r'class=\\?"(?:problematic|system-message)|System Message:')
 def test_built_report_shows_no_docutils_message(smoke_run, report):
     page = (smoke_run / "report.html").read_text(encoding="utf-8")
     assert not MARKER.search(page)  # the landing text and every caption (JSON-escaped)
-    rendered = [html.unescape(report["workflow-desc"]), *(r["caption"] for r in report["results"].values())]
-    rendered += [embedded(report, p) for p in ("results/scorecard_out_of_band.html", "results/scorecard_not_yet.html")]
+    rendered = [
+        html.unescape(report["workflow-desc"]),
+        *(r["caption"] for r in report["results"].values()),
+    ]
+    rendered += [
+        embedded(report, p)
+        for p in ("results/scorecard_out_of_band.html", "results/scorecard_not_yet.html")
+    ]
     assert not [text for text in rendered if MARKER.search(text)]
 
 
@@ -160,6 +200,7 @@ def test_report_build_prints_no_docutils_message(report):
 
 
 # --- the scorecard --------------------------------------------------------------------------------
+
 
 def test_scorecard_reproduces_every_entry_whose_table_exists(smoke_run):
     """A reproduced value that goes missing (renamed column, table no longer made) fails here, and
@@ -170,15 +211,28 @@ def test_scorecard_reproduces_every_entry_whose_table_exists(smoke_run):
         mine = applicable(entries, load_dataset(smoke_run / "raw", dataset))
         card = pd.read_csv(results / "scorecard.csv")
         assert len(card) == len(mine)  # nothing dropped
-        expected = {(e.source, e.quantity) for e in mine if e.locate and (results / e.locate.table).exists()}
+        expected = {
+            (e.source, e.quantity) for e in mine if e.locate and (results / e.locate.table).exists()
+        }
         # a stage may leave a number out (and say why): shown as not reproduced yet, with its reason
-        scored = card["verdict"].isin([WITHIN, OUT, INFORMATION]) | card["note"].str.startswith(LEFT_OUT, na=False)
+        scored = card["verdict"].isin([WITHIN, OUT, INFORMATION]) | card["note"].str.startswith(
+            LEFT_OUT, na=False
+        )
         reproduced = set(zip(card.loc[scored, "source"], card.loc[scored, "quantity"]))
-        assert reproduced == expected, card.loc[card["verdict"] == MISSING, ["quantity", "note"]].to_string()
+        assert reproduced == expected, card.loc[
+            card["verdict"] == MISSING, ["quantity", "note"]
+        ].to_string()
         assert set(card["verdict"]) <= {WITHIN, OUT, NOT_YET, INFORMATION}
-        pending = card[(card["verdict"] == NOT_YET) & ~card["note"].str.startswith(LEFT_OUT, na=False)]
-        made = [(src, q) for src, q, table in zip(pending["source"], pending["quantity"], pending["read from"].fillna(""))
-                if table and (results / table.split(" ")[0]).exists()]
+        pending = card[
+            (card["verdict"] == NOT_YET) & ~card["note"].str.startswith(LEFT_OUT, na=False)
+        ]
+        made = [
+            (src, q)
+            for src, q, table in zip(
+                pending["source"], pending["quantity"], pending["read from"].fillna("")
+            )
+            if table and (results / table.split(" ")[0]).exists()
+        ]
         assert not made, f"{dataset}: not reproduced yet although their table exists: {made}"
 
 
@@ -192,20 +246,31 @@ def test_every_results_folder_is_read_by_the_scorecard(smoke_run):
         read = {src.split("/")[0] for src in scored["read from"].dropna()}
         # qc/ and characterise/ describe the captures (validation; stroke, gain, loop width whatever
         # the protocol), not numbers of the sources; a dataset's own reference values read the latter
-        folders = {d.name for d in results.iterdir() if d.is_dir() and any(d.glob("*.csv"))} - {"qc", "characterise"}
+        folders = {d.name for d in results.iterdir() if d.is_dir() and any(d.glob("*.csv"))} - {
+            "qc",
+            "characterise",
+        }
         unread = sorted(folders - read)
-        assert not unread, f"results/{dataset}/{unread}: no scorecard entry reads them; give their entries a locate: in workflow/scorecard.yaml"
+        assert not unread, (
+            f"results/{dataset}/{unread}: no scorecard entry reads them; give their entries a locate: in workflow/scorecard.yaml"
+        )
     stack = pd.read_csv(smoke_run / "results/pi_p885/scorecard.csv")
-    assert {"published", "twin recovery"} <= set(stack.loc[stack["verdict"].isin([WITHIN, OUT]), "section"])
+    assert {"published", "twin recovery"} <= set(
+        stack.loc[stack["verdict"].isin([WITHIN, OUT]), "section"]
+    )
 
 
 # --- provenance -----------------------------------------------------------------------------------
+
 
 def test_every_table_and_figure_has_a_provenance_sidecar_matching_its_inputs(smoke_run):
     for path in outputs(smoke_run):
         side = json.loads((smoke_run / f"{path}.json").read_text())
         assert {"inputs", "config", "config_sha256", "code", "seed"} <= set(side), path
-        assert side["code"]["git_describe"] and side["code"]["packages"]["selfsense"] != "not installed"
+        assert (
+            side["code"]["git_describe"]
+            and side["code"]["packages"]["selfsense"] != "not installed"
+        )
         for source, digest in side["inputs"].items():
             assert sha256(smoke_run / source) == digest, (path, source)
 
@@ -237,10 +302,13 @@ def test_the_seed_of_every_capture_an_output_hashes_is_the_datasets(smoke_run):
 
 # --- re-runs --------------------------------------------------------------------------------------
 
+
 def jobs(dry_run_output):
     """{rule: [reasons]} of a dry run's job list."""
     found = {}
-    for rule, body in re.findall(r"^(?:local)?rule (\w+):\n((?:[ \t]+.*\n)*)", dry_run_output, re.M):
+    for rule, body in re.findall(
+        r"^(?:local)?rule (\w+):\n((?:[ \t]+.*\n)*)", dry_run_output, re.M
+    ):
         found.setdefault(rule, []).append(re.search(r"reason: (.*)", body).group(1))
     return found
 
@@ -257,7 +325,10 @@ def test_changing_one_parameter_reruns_only_what_depends_on_it(smoke_tree, tmp_p
     assert any(r.startswith("Params have changed") for r in planned["extract_ripple"])
     # everything else runs only because an upstream job does: no mtime, code or input-hash reruns
     for rule, reasons in planned.items():
-        assert all(r.startswith(("Params have changed", "Input files updated by another job")) for r in reasons), rule
+        assert all(
+            r.startswith(("Params have changed", "Input files updated by another job"))
+            for r in reasons
+        ), rule
     # open-loop captures and what depends only on them or on the manifest (closed-loop captures do
     # depend on the identified Γ, so they, their checks and the capture table rightly rerun)
     untouched = {"simulate", "ch3_tables", "ch3_model_figure", "ce_np_study", "static_stiffness"}

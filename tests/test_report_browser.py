@@ -23,7 +23,6 @@ import subprocess
 
 import pytest
 
-
 pytestmark = pytest.mark.slow
 
 WIDTH, HEIGHT = 1400, 2000
@@ -63,25 +62,47 @@ def chromium():
     if path := find_chromium():
         return path
     if os.geteuid() != 0 or not shutil.which("apt-get"):
-        pytest.skip("Chromium not available: not on the PATH, and installing it needs root and apt-get")
+        pytest.skip(
+            "Chromium not available: not on the PATH, and installing it needs root and apt-get"
+        )
     env = os.environ | {"DEBIAN_FRONTEND": "noninteractive"}
-    for step in (["apt-get", "update"], ["apt-get", "install", "-y", "--no-install-recommends", "chromium"]):
+    for step in (
+        ["apt-get", "update"],
+        ["apt-get", "install", "-y", "--no-install-recommends", "chromium"],
+    ):
         try:
             done = subprocess.run(step, capture_output=True, text=True, timeout=1200, env=env)
         except subprocess.TimeoutExpired:
             pytest.skip(f"Chromium not available: `{' '.join(step)}` timed out")
         if done.returncode != 0:
-            pytest.skip(f"Chromium not available: `{' '.join(step)}` failed: "
-                        f"{(done.stderr.strip().splitlines() or ['?'])[-1]}")
-    return find_chromium() or pytest.skip("Chromium not available: apt-get installed no chromium executable")
+            pytest.skip(
+                f"Chromium not available: `{' '.join(step)}` failed: "
+                f"{(done.stderr.strip().splitlines() or ['?'])[-1]}"
+            )
+    return find_chromium() or pytest.skip(
+        "Chromium not available: apt-get installed no chromium executable"
+    )
 
 
 def headless(chromium, profile, *args):
     """Chromium headless at WIDTH×HEIGHT, with enough virtual time for the report's app to render."""
     return subprocess.run(
-        [chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", "--hide-scrollbars",
-         f"--user-data-dir={profile}", f"--window-size={WIDTH},{HEIGHT}", "--virtual-time-budget=15000", *args],
-        capture_output=True, text=True, timeout=300)
+        [
+            chromium,
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--hide-scrollbars",
+            f"--user-data-dir={profile}",
+            f"--window-size={WIDTH},{HEIGHT}",
+            "--virtual-time-budget=15000",
+            *args,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 def test_title_and_scorecard_summary_are_on_the_first_screen(chromium, smoke_report, tmp_path):
@@ -89,7 +110,9 @@ def test_title_and_scorecard_summary_are_on_the_first_screen(chromium, smoke_rep
     page = built_report.read_text(encoding="utf-8")
     probed = tmp_path / "probed.html"
     head, body_end, tail = page.rpartition("</body>")
-    probed.write_text(head + PROBE + body_end + tail if body_end else page + PROBE, encoding="utf-8")
+    probed.write_text(
+        head + PROBE + body_end + tail if body_end else page + PROBE, encoding="utf-8"
+    )
     dump = headless(chromium, tmp_path / "profile", "--dump-dom", probed.as_uri())
     found = re.search(r'<pre id="layout-probe">(.*?)</pre>', dump.stdout, re.S)
     assert found, f"no layout from Chromium: {dump.stderr[-2000:]}"
@@ -103,5 +126,7 @@ def test_title_and_scorecard_summary_are_on_the_first_screen(chromium, smoke_rep
     screen = layout["height"]
     assert 0.9 * HEIGHT <= screen <= HEIGHT and layout["width"] == WIDTH, layout
     assert 0 <= layout["title"]["top"] < screen, layout  # the title is on the first screen ...
-    assert 0 <= layout["table"]["top"] and layout["table"]["bottom"] <= screen, layout  # ... and the whole summary
+    assert 0 <= layout["table"]["top"] and layout["table"]["bottom"] <= screen, (
+        layout
+    )  # ... and the whole summary
     assert layout["title"]["bottom"] <= layout["table"]["top"], layout

@@ -8,7 +8,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.methods.ripple import RippleBlocks, RippleExtractor, SamplingPlan, extract_impedance, impedance_from_coefficients, plan_from_fs, table_3_1, table_3_2
+from selfsense.methods.ripple import (
+    RippleBlocks,
+    RippleExtractor,
+    SamplingPlan,
+    extract_impedance,
+    impedance_from_coefficients,
+    plan_from_fs,
+    table_3_1,
+    table_3_2,
+)
 
 from .tolerances import CLOSED_FORM, rtol
 
@@ -31,7 +40,9 @@ def analytic_tol(fs, n):
     """The analytic ripple's phase 2π·fr·t is rounded to ε of itself, up to 2π·fr·n/fs rad; every
     estimate built from it inherits that relative error (R_e, the small in-phase part, 1/tan(65°)
     more), then sums of n terms."""
-    return float(rtol((1 + 2 * math.pi * FR * n / fs) / math.tan(PHASE_LEAD), roundings=10 + n // 100))
+    return float(
+        rtol((1 + 2 * math.pi * FR * n / fs) / math.tan(PHASE_LEAD), roundings=10 + n // 100)
+    )
 
 
 def ripple_pair(fs, n, C, R, amplitude=0.1, phase=0.3):
@@ -47,7 +58,13 @@ def ripple_pair(fs, n, C, R, amplitude=0.1, phase=0.3):
 
 
 def test_table_3_1_matches_thesis():
-    expected = [(4, 0, 400, 100), (4, 2, 80, 20), (4, 12, 16, 4), (12, 0, 1200, 100), (12, 4, 48, 4)]
+    expected = [
+        (4, 0, 400, 100),
+        (4, 2, 80, 20),
+        (4, 12, 16, 4),
+        (12, 0, 1200, 100),
+        (12, 4, 48, 4),
+    ]
     table = table_3_1()
     assert list(table.columns) == ["ns", "nf", "fs [kHz]", "fr_folded [kHz]"]
     assert len(table) == len(expected)
@@ -76,7 +93,9 @@ def test_table_3_2_matches_thesis_rounding():
     table = table_3_2()
     assert list(table.columns) == ["np", "passband [kHz]", "bandwidth [kHz]"]
     assert len(table) == len(TABLE_3_2_PRINTED)
-    for row, (n_periods, passband, bandwidth) in zip(table.itertuples(index=False), TABLE_3_2_PRINTED):
+    for row, (n_periods, passband, bandwidth) in zip(
+        table.itertuples(index=False), TABLE_3_2_PRINTED
+    ):
         assert row[0] == n_periods
         assert round(row[1], _decimals(passband)) == float(passband)
         assert round(row[2], _decimals(bandwidth)) == float(bandwidth)
@@ -195,14 +214,20 @@ def test_analytic_series_rc_with_low_frequency_drive(n_periods, leak_phase):
     np.testing.assert_allclose(blocks.R_e, R, rtol=1e-3)
 
 
-@pytest.mark.parametrize(("ns", "nf"), [(12, 0), (12, 1), (12, 3), (12, 4), (12, 5), (4, 2), (4, 3)])
+@pytest.mark.parametrize(
+    ("ns", "nf"), [(12, 0), (12, 1), (12, 3), (12, 4), (12, 5), (4, 2), (4, 3)]
+)
 def test_coefficients_follow_documented_phase_reference(ns, nf):
     plan = SamplingPlan(FR, ns, nf, 3)
     amplitude, phase = 0.1, 0.9
     ur = amplitude * np.cos(2 * math.pi * FR * np.arange(10 * ns) / plan.fs + phase)
     blocks = extract_impedance(ur, ur, plan)
-    np.testing.assert_allclose(blocks.A_V, -ns / 4 * amplitude * math.sin(phase), rtol=analytic_tol(plan.fs, 10 * ns))
-    np.testing.assert_allclose(blocks.B_V, ns / 4 * amplitude * math.cos(phase), rtol=analytic_tol(plan.fs, 10 * ns))
+    np.testing.assert_allclose(
+        blocks.A_V, -ns / 4 * amplitude * math.sin(phase), rtol=analytic_tol(plan.fs, 10 * ns)
+    )
+    np.testing.assert_allclose(
+        blocks.B_V, ns / 4 * amplitude * math.cos(phase), rtol=analytic_tol(plan.fs, 10 * ns)
+    )
 
 
 def test_coefficients_satisfy_eq_3_10_and_3_11():
@@ -266,7 +291,15 @@ def test_windows_are_aligned_to_folded_periods():
 
 
 def _fields(blocks):
-    return [blocks.sample_index, blocks.C_e, blocks.R_e, blocks.A_V, blocks.B_V, blocks.A_I, blocks.B_I]
+    return [
+        blocks.sample_index,
+        blocks.C_e,
+        blocks.R_e,
+        blocks.A_V,
+        blocks.B_V,
+        blocks.A_I,
+        blocks.B_I,
+    ]
 
 
 def _noisy_capture(plan, n, seed):

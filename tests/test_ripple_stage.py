@@ -2,7 +2,8 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from selfsense.methods.metrics import direction, hysteresis_percent
 from selfsense.methods.ripple import SamplingPlan, WindowMeans, extract_impedance, impedance_series
@@ -24,7 +25,7 @@ def test_window_means_match_the_impedance_windows():
 def _chunks(data, sizes):
     start = 0
     for size in sizes:
-        yield start, {k: v[start:start + size] for k, v in data.items()}
+        yield start, {k: v[start : start + size] for k, v in data.items()}
         start += size
 
 
@@ -34,8 +35,12 @@ def test_impedance_series_is_chunk_invariant_and_integrates_charge(sizes):
     n = sum(sizes)
     rng = np.random.default_rng(n)
     k = np.arange(n)
-    data = {"Ur": 0.1 * np.cos(2 * np.pi * 1e5 * k / FS), "Ir": 0.2 * np.cos(2 * np.pi * 1e5 * k / FS + 1.1),
-            "U": rng.normal(size=n), "I": np.full(n, 2e-3)}
+    data = {
+        "Ur": 0.1 * np.cos(2 * np.pi * 1e5 * k / FS),
+        "Ir": 0.2 * np.cos(2 * np.pi * 1e5 * k / FS + 1.1),
+        "U": rng.normal(size=n),
+        "I": np.full(n, 2e-3),
+    }
     whole = list(impedance_series(_chunks(data, [n]), PLAN, FS, ("U", "I")))
     parts = list(impedance_series(_chunks(data, sizes), PLAN, FS, ("U", "I")))
     for key in whole[0]:
@@ -69,4 +74,4 @@ def test_ce_tracks_the_twins_clamped_capacitance(stack_params, stack_daq):
     blocks = extract_impedance(measured["Ur"], measured["Ir"], PLAN)
     centre = blocks.sample_index - (PLAN.block_len - 1) / 2
     err = blocks.C_e / np.interp(centre, np.arange(len(t)), truth["C_e"]) - 1
-    assert np.sqrt(np.mean(err ** 2)) < 0.01
+    assert np.sqrt(np.mean(err**2)) < 0.01

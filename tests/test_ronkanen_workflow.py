@@ -18,7 +18,9 @@ def read(run, name):
 
 def test_every_table_and_figure_is_made_with_provenance(smoke_run):
     for name in TABLES:
-        sidecar = json.loads((smoke_run / f"results/tokin_nb40/powerloss/{name}.csv.json").read_text())
+        sidecar = json.loads(
+            (smoke_run / f"results/tokin_nb40/powerloss/{name}.csv.json").read_text()
+        )
         assert sidecar["inputs"] and sidecar["code"]["git_describe"]
     for n in range(2, 12):
         for ext in ("png", "pdf", "png.json"):
@@ -41,13 +43,20 @@ def test_table_2_both_ways_picks_model_10(smoke_run):
     assert twin["best"].idxmax() == paper["best"].idxmax() == "(10)"
     # the twin is built with the paper's c: recovered within the scorecard's twin-input rule (±2 %)
     assert twin.loc["(10)", "c"] == pytest.approx(twin.loc["(10)", "paper c"], rel=0.02)
-    assert twin.loc["(10)", "SSE [GOhm^2]"] < twin.loc["(9)", "SSE [GOhm^2]"] < twin.loc["(7)", "SSE [GOhm^2]"]
+    assert (
+        twin.loc["(10)", "SSE [GOhm^2]"]
+        < twin.loc["(9)", "SSE [GOhm^2]"]
+        < twin.loc["(7)", "SSE [GOhm^2]"]
+    )
 
 
 def test_table_1_and_the_hold_are_sane(smoke_run):
     table_1 = read(smoke_run, "table_1").set_index("current [nA]")
     assert sorted(table_1.index.round()) == [100, 300]
-    assert table_1.loc[table_1.index.max(), "identified X [GOhm]"] < table_1.loc[table_1.index.min(), "identified X [GOhm]"]
+    assert (
+        table_1.loc[table_1.index.max(), "identified X [GOhm]"]
+        < table_1.loc[table_1.index.min(), "identified X [GOhm]"]
+    )
     identified = read(smoke_run, "identified").set_index("key")["value"]
     assert 90.0 < identified["V_hold"] < 115.0 and 4e-9 < identified["I_hold"] < 8e-9
 
@@ -63,6 +72,11 @@ def test_current_control_beats_voltage_control(smoke_run):
     value = perf["value"]
     for measure in ("hysteresis [%]", "drift over the hold [%]"):
         assert abs(value[measure, "current"]) < abs(value[measure, "voltage"]) / 5
-    assert value["decaying-ramp max error [um]", "current"] < value["decaying-ramp max error [um]", "voltage"] / 5
+    assert (
+        value["decaying-ramp max error [um]", "current"]
+        < value["decaying-ramp max error [um]", "voltage"] / 5
+    )
     cycles = read(smoke_run, "repeatability")
-    assert set(cycles["control"]) == {"current", "voltage"} and (cycles["peak-to-peak [m]"] > 0).all()
+    assert (
+        set(cycles["control"]) == {"current", "voltage"} and (cycles["peak-to-peak [m]"] > 0).all()
+    )

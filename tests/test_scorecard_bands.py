@@ -6,10 +6,10 @@ import re
 
 import pytest
 
-from selfsense.scorecard.calibration import load_targets
 from selfsense.io.manifest import load_yaml
-from selfsense.scorecard.scoring import band
+from selfsense.scorecard.calibration import load_targets
 from selfsense.scorecard.registry import last_digit, parse_registry
+from selfsense.scorecard.scoring import band
 
 from .conftest import ROOT
 
@@ -33,9 +33,15 @@ def numbers(registry, *, where):
 def test_no_positive_quantity_gets_a_band_reaching_zero_or_below(registry):
     """A position error of 0.42 µm cannot be compared as 0.42 ± 0.6 µm: the band would admit an
     error of zero or below. Stated bounds ("< 3 %") are open on one side by nature."""
-    bad = [(e.source, e.quantity, band(e.published, e)) for e in registry
-           if e.published is not None and e.published > 0 and e.tolerance is not None and not e.bound
-           and band(e.published, e)[0] <= 0]
+    bad = [
+        (e.source, e.quantity, band(e.published, e))
+        for e in registry
+        if e.published is not None
+        and e.published > 0
+        and e.tolerance is not None
+        and not e.bound
+        and band(e.published, e)[0] <= 0
+    ]
     assert not bad
 
 
@@ -44,28 +50,44 @@ def test_goodness_of_fit_is_compared_on_one_minus_r2(registry):
     assert len(fits) == 17 and {e.band.name for e in fits} == {"goodness of fit"}
     for e in fits:  # a factor of two on the unexplained share, as the justification says
         lo, hi = band(e.published, e)
-        assert (1 - lo) / (1 - e.published) == pytest.approx(2) and (1 - e.published) / (1 - hi) == pytest.approx(2)
+        assert (1 - lo) / (1 - e.published) == pytest.approx(2) and (1 - e.published) / (
+            1 - hi
+        ) == pytest.approx(2)
 
 
 def test_ill_conditioned_coefficients_get_no_verdict_and_the_curves_are_compared(registry):
     coefficient = re.compile(r"^(t Stat of )?bT?[0-5]$")
     rows = numbers(registry, where=lambda e: coefficient.match(e.quantity))
     assert len(rows) == 24 and all(e.tolerance is None and e.locate for e in rows)
-    curves = numbers(registry, where=lambda e: e.band.name == "fitted curve against the printed one")
-    assert {e.source for e in curves} == {"Table 5.2, the fitted curve", "Table 7.3, the fitted curve"}
+    curves = numbers(
+        registry, where=lambda e: e.band.name == "fitted curve against the printed one"
+    )
+    assert {e.source for e in curves} == {
+        "Table 5.2, the fitted curve",
+        "Table 7.3, the fitted curve",
+    }
     assert all(e.locate and e.kind == "emergent" for e in curves)
 
 
-@pytest.mark.parametrize("rule, unit, pattern", [
-    ("position error", "µm", r"error|ε"),
-    ("error in % of stroke", "%", r"(error|ε).*% of stroke"),
-    ("temperature error", "K", r"temperature error"),
-])
+@pytest.mark.parametrize(
+    "rule, unit, pattern",
+    [
+        ("position error", "µm", r"error|ε"),
+        ("error in % of stroke", "%", r"(error|ε).*% of stroke"),
+        ("temperature error", "K", r"temperature error"),
+    ],
+)
 def test_errors_are_held_to_their_instruments_rule(registry, rule, unit, pattern):
     """Every error of its kind uses the one rule, or the source's own stated bound."""
-    errors = numbers(registry, where=lambda e: e.unit == unit and re.search(pattern, e.quantity)
-                     and "standard error" not in e.quantity
-                     and not e.quantity.startswith("σ"))
+    errors = numbers(
+        registry,
+        where=lambda e: (
+            e.unit == unit
+            and re.search(pattern, e.quantity)
+            and "standard error" not in e.quantity
+            and not e.quantity.startswith("σ")
+        ),
+    )
     assert errors and {e.band.name for e in errors} <= {rule, "stated bound"}
     assert any(e.band.name == rule for e in errors)
 
@@ -81,23 +103,35 @@ def test_every_rule_is_used_and_every_own_band_is_for_one_reason(registry, rules
     used = {e.band.name for e in registry}
     assert set(rules) <= used, set(rules) - used
     own = {e.band for e in registry if e.band.name not in rules}
-    assert len(own) == len({b.name for b in own})  # a band of its own is not a rule applied unevenly
+    assert len(own) == len(
+        {b.name for b in own}
+    )  # a band of its own is not a rule applied unevenly
 
 
 def test_only_emergent_numbers_are_counted_as_reproductions(registry):
     """Numbers that hold by construction are labelled so: every closed-form band is of a closed
     form, the twin's inputs are recovery, and every number a calibration signature of the twin
     reads (workflow/twin_calibration.yaml) is calibration, with the strokes and k/α they set."""
-    assert {e.kind for e in registry if e.band.name in ("twin input", "model on truth")} == {"recovery"}
+    assert {e.kind for e in registry if e.band.name in ("twin input", "model on truth")} == {
+        "recovery"
+    }
     assert {e.band.name for e in registry if e.centre} == {"model on truth"}
     calibration = {e.locate for e in registry if e.kind == "calibration" and e.model == "stack"}
-    signatures = {t.locate for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets}
+    signatures = {
+        t.locate for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets
+    }
     assert signatures <= calibration, signatures - calibration
     stack = [e for e in registry if e.model == "stack"]
-    assert {e.kind for e in stack if e.source == "Table 5.4" and e.quantity.startswith("max stroke")} == {"calibration"}
+    assert {
+        e.kind for e in stack if e.source == "Table 5.4" and e.quantity.startswith("max stroke")
+    } == {"calibration"}
     assert {e.kind for e in stack if e.quantity == "k/α"} == {"calibration"}
     # the bender twin's manifest sets its hysteresis and creep to the open-loop voltage results
-    assert {e.kind for e in registry if e.model == "bender" and "open-loop voltage control" in e.quantity} == {"calibration"}
+    assert {
+        e.kind
+        for e in registry
+        if e.model == "bender" and "open-loop voltage control" in e.quantity
+    } == {"calibration"}
     assert all(e.section == "twin recovery" or e.published is not None for e in registry)
     assert not [e for e in registry if e.section == "twin recovery" and e.kind != "recovery"]
 

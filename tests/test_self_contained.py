@@ -16,13 +16,13 @@ from .conftest import ROOT
 # Paths that only exist outside a clone. Each alternative is written so that this file's own
 # source does not match it (the sanity test below checks that every one of them does fire).
 OUTSIDE = re.compile(
-    r"\.\./+shared\b"                                  # the team's notes next to the repository
-    r"|(?<![\w.-])shared/+seeds\b"                     # the source texts kept beside them
-    r"|\b(?:DESIGN|REFERENCE)\.md\b"                   # their file names (the repo has docs/design.md)
-    r"|\b\d{3}_[0-9a-f]{16}\.txt\b"                    # the extracted source texts
-    r"|(?<![\w.~-])/(?:work|home|Users|root|mnt|srv|scratch)/"   # a machine's workspace or home
-    r"|(?<![\w])[~]/"                                  # someone's home directory
-    r"|\bfile:/{2}"                                    # a local URL
+    r"\.\./+shared\b"  # the team's notes next to the repository
+    r"|(?<![\w.-])shared/+seeds\b"  # the source texts kept beside them
+    r"|\b(?:DESIGN|REFERENCE)\.md\b"  # their file names (the repo has docs/design.md)
+    r"|\b\d{3}_[0-9a-f]{16}\.txt\b"  # the extracted source texts
+    r"|(?<![\w.~-])/(?:work|home|Users|root|mnt|srv|scratch)/"  # a machine's workspace or home
+    r"|(?<![\w])[~]/"  # someone's home directory
+    r"|\bfile:/{2}"  # a local URL
 )
 
 MD_LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
@@ -31,16 +31,18 @@ DOC_CITATION = re.compile(r"\bdocs/([\w-]+\.md)(?:,\s*\"([^\"]+)\")?")
 
 def tracked_text_files():
     try:
-        out = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+        out = subprocess.run(
+            ["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True
+        ).stdout
     except (OSError, subprocess.CalledProcessError):
         pytest.skip("not a git checkout: the tracked files are unknown")
     files = {}
     for name in filter(None, out.decode().split("\0")):
         path = ROOT / name
-        if not path.is_file():                         # deleted in the working tree
+        if not path.is_file():  # deleted in the working tree
             continue
         data = path.read_bytes()
-        if b"\0" in data[:8192]:                       # binary (pictures, captures)
+        if b"\0" in data[:8192]:  # binary (pictures, captures)
             continue
         try:
             files[name] = data.decode("utf-8")
@@ -51,7 +53,9 @@ def tracked_text_files():
 
 
 def tracked_names():
-    out = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+    out = subprocess.run(
+        ["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True
+    ).stdout
     return set(filter(None, out.decode().split("\0")))
 
 
@@ -70,24 +74,47 @@ def headings(text):
 
 def test_the_pattern_catches_outside_references_and_spares_inside_ones():
     notes = "REFERENCE" + ".md"
-    for bad in ["see ../" + f"shared/{notes}", f"({notes}, known inconsistencies)", "DESIGN" + ".md",
-                "../../" + "shared/" + "seeds/README.md", "/work" + "/shared/x", "/home" + "/me/notes.md",
-                "~" + "/notes.md", "000_a2a510d427dc5c56" + ".txt", "file:" + "//tmp/x"]:
+    for bad in [
+        "see ../" + f"shared/{notes}",
+        f"({notes}, known inconsistencies)",
+        "DESIGN" + ".md",
+        "../../" + "shared/" + "seeds/README.md",
+        "/work" + "/shared/x",
+        "/home" + "/me/notes.md",
+        "~" + "/notes.md",
+        "000_a2a510d427dc5c56" + ".txt",
+        "file:" + "//tmp/x",
+    ]:
         assert outside_references(bad), bad
-    for good in ["docs/design.md", "[design](design.md#the-digital-twin)", "docs/sources.md",
-                 "../scripts/simulate.py", "/tmp/before.csv", "/var/tmp/selfsense-slurm",
-                 "raw/pi_p885/dataset.yaml", "dataset name '../pi_p885'", "benchmarks/README.md",
-                 "results/data/x.csv", "https://json-schema.org/draft/2020-12/schema"]:
+    for good in [
+        "docs/design.md",
+        "[design](design.md#the-digital-twin)",
+        "docs/sources.md",
+        "../scripts/simulate.py",
+        "/tmp/before.csv",
+        "/var/tmp/selfsense-slurm",
+        "raw/pi_p885/dataset.yaml",
+        "dataset name '../pi_p885'",
+        "benchmarks/README.md",
+        "results/data/x.csv",
+        "https://json-schema.org/draft/2020-12/schema",
+    ]:
         assert not outside_references(good), good
 
 
 def test_no_tracked_file_names_a_path_outside_the_repository():
     files = tracked_text_files()
-    assert "README.md" in files and "workflow/scorecard.yaml" in files and "src/selfsense/io/capture.py" in files
-    found = [f"{name}:{n}: {hit}"
-             for name, text in files.items()
-             for n, line in enumerate(text.splitlines(), 1)
-             for hit in outside_references(line)]
+    assert (
+        "README.md" in files
+        and "workflow/scorecard.yaml" in files
+        and "src/selfsense/io/capture.py" in files
+    )
+    found = [
+        f"{name}:{n}: {hit}"
+        for name, text in files.items()
+        for n, line in enumerate(text.splitlines(), 1)
+        for hit in outside_references(line)
+    ]
     assert not found, "names a path outside the repository:\n" + "\n".join(found)
 
 
@@ -101,7 +128,7 @@ def test_every_relative_link_of_the_readme_and_docs_resolves_inside_the_reposito
         base = (ROOT / page).parent
         for n, line in enumerate(files[page].splitlines(), 1):
             for target in MD_LINK.findall(line):
-                if re.match(r"[a-z]+:", target):       # http(s), mailto: not a file
+                if re.match(r"[a-z]+:", target):  # http(s), mailto: not a file
                     continue
                 checked += 1
                 path, _, anchor = target.partition("#")
@@ -129,8 +156,9 @@ def test_every_citation_of_a_docs_page_names_a_page_and_section_that_exist():
                 target = f"docs/{page}"
                 if target not in files:
                     broken.append(f"{name}:{n}: {target} does not exist")
-                elif section and not any(h.lower().startswith(section.lower())
-                                         for h in headings(files[target])):
+                elif section and not any(
+                    h.lower().startswith(section.lower()) for h in headings(files[target])
+                ):
                     broken.append(f'{name}:{n}: {target} has no section "{section}"')
     assert checked >= 5, checked
     assert not broken, "\n".join(broken)

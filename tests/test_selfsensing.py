@@ -4,7 +4,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from selfsense.chapters.ch5 import charge_estimate_figure, choose_order, creep_errors, creep_phases, run_observer, table_5_3
+from selfsense.chapters.ch5 import (
+    charge_estimate_figure,
+    choose_order,
+    creep_errors,
+    creep_phases,
+    run_observer,
+    table_5_3,
+)
 from selfsense.methods.gamma import GammaPolynomial, fit_gamma
 from selfsense.methods.observer import HPOGains
 from selfsense.methods.ripple import SamplingPlan, extract_impedance
@@ -59,8 +66,13 @@ def test_the_creep_tables_phases_count_every_sample_not_the_figures_traces(bench
     error after the warm-up, so the larger of their maxima is the run's, and each is at least the
     traces' max over the same times."""
     t, measured, gamma = bench_run
-    chunks = [(s, {k: measured[k][s:s + 40_000] for k in ("Ur", "Ir", "I", "x_laser")}) for s in range(0, len(t), 40_000)]
-    stats, traces = run_observer(iter(chunks), PLAN, gamma, HPOGains(16.4), FS, 4.0, phases=creep_phases(4.0, 0.5))
+    chunks = [
+        (s, {k: measured[k][s : s + 40_000] for k in ("Ur", "Ir", "I", "x_laser")})
+        for s in range(0, len(t), 40_000)
+    ]
+    stats, traces = run_observer(
+        iter(chunks), PLAN, gamma, HPOGains(16.4), FS, 4.0, phases=creep_phases(4.0, 0.5)
+    )
     phases = stats["max error by phase [µm]"]
     assert max(phases.values()) == stats["max error [µm]"]
     err = np.abs(traces["x_hat"] - traces["x_laser"]) * 1e6
@@ -68,7 +80,8 @@ def test_the_creep_tables_phases_count_every_sample_not_the_figures_traces(bench
         assert phases[label] >= err[(traces["time"] >= begin) & (traces["time"] < end)].max()
     table = creep_errors(stats, traces, 4.0).set_index("phase")
     assert table.loc["steady state", "max error [% of stroke]"] == pytest.approx(
-        100 * phases["steady state"] / stats["stroke [µm]"])
+        100 * phases["steady state"] / stats["stroke [µm]"]
+    )
 
 
 def test_nan_burst_is_masked_and_counted(bench_run):
@@ -82,8 +95,12 @@ def test_nan_burst_is_masked_and_counted(bench_run):
 
 
 def test_order_choice_stops_where_adjusted_r2_stops_rising():
-    table = pd.DataFrame({"model": ["j=3", "j=4", "j=5", "j=6", "ln"],
-                          "adjusted R²": [0.99881, 0.99886, 0.99889, 0.998890001, 0.997]})
+    table = pd.DataFrame(
+        {
+            "model": ["j=3", "j=4", "j=5", "j=6", "ln"],
+            "adjusted R²": [0.99881, 0.99886, 0.99889, 0.998890001, 0.997],
+        }
+    )
     assert choose_order(table) == 5
 
 

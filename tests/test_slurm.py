@@ -23,19 +23,28 @@ from .conftest import ROOT, copy_repo, snakemake
 pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
 SCRIPT = str(ROOT / "scripts" / "slurm_local.sh")
-TABLES = [f"results/pi_p885/{t}.csv" for t in (
-    "ch3/table_3_1", "ch3/table_3_2", "ch3/hysteresis", "ch3/phases", "twin/ce_recovery")]
+TABLES = [
+    f"results/pi_p885/{t}.csv"
+    for t in ("ch3/table_3_1", "ch3/table_3_2", "ch3/hysteresis", "ch3/phases", "twin/ce_recovery")
+]
 # A bare cluster has no accounting database, so job states come from squeue (finished jobs stay
 # there for slurm.conf's MinJobAge); the first status check after 1 s, not the default 40 s,
 # because these jobs take seconds. No account is given: the plugin then submits without one.
-BARE_CLUSTER = ["--slurm-status-command", "squeue", "--slurm-init-seconds-before-status-checks", "1"]
+BARE_CLUSTER = [
+    "--slurm-status-command",
+    "squeue",
+    "--slurm-init-seconds-before-status-checks",
+    "1",
+]
 
 
 @pytest.fixture(scope="module")
 def slurm_cluster():
     """The local cluster, up; stopped afterwards if this fixture started it."""
-    pytest.importorskip("snakemake_executor_plugin_slurm",
-                        reason="SLURM not available: the plugin is not installed (pip install -e '.[slurm]')")
+    pytest.importorskip(
+        "snakemake_executor_plugin_slurm",
+        reason="SLURM not available: the plugin is not installed (pip install -e '.[slurm]')",
+    )
     was_up = subprocess.run(["bash", SCRIPT, "status"], capture_output=True).returncode == 0
     start = subprocess.run(["bash", SCRIPT, "start"], capture_output=True, text=True, timeout=900)
     if start.returncode != 0:
@@ -50,7 +59,9 @@ def test_chapter_3_tables_via_slurm_equal_the_local_run(slurm_cluster, smoke_run
     run = snakemake(repo, "--workflow-profile", "profiles/slurm", *BARE_CLUSTER, *TABLES)
     assert run.returncode == 0, run.stderr[-3000:]
     done = re.search(r"(\d+) of \1 steps \(100%\) done", run.stderr)
-    assert done and run.stderr.count("has been submitted with SLURM jobid") == int(done[1]), run.stderr[-3000:]
+    assert done and run.stderr.count("has been submitted with SLURM jobid") == int(done[1]), (
+        run.stderr[-3000:]
+    )
     made = sorted(str(p.relative_to(repo)) for p in (repo / "results").rglob("*.csv"))
     assert made == sorted(TABLES)
     for table in TABLES:

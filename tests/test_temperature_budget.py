@@ -7,11 +7,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.io.capture import CaptureWriter, channel_spec
 from selfsense.chapters.ch7 import against_measured
-from selfsense.verify.truth import Truth
-from selfsense.verify.temperature_budget import ESTIMATORS, HEAT_STATES, SOURCES, TRUTH_STATES, budget_row, capture_temperature_budget, split, temperature_budget, true_heat
+from selfsense.io.capture import CaptureWriter, channel_spec
 from selfsense.methods.thermal import ThermalModel
+from selfsense.verify.temperature_budget import (
+    ESTIMATORS,
+    HEAT_STATES,
+    SOURCES,
+    TRUTH_STATES,
+    budget_row,
+    capture_temperature_budget,
+    split,
+    temperature_budget,
+    true_heat,
+)
+from selfsense.verify.truth import Truth
 
 from .tolerances import CLOSED_FORM, rtol, sums
 
@@ -49,14 +59,18 @@ def synthetic_traces():
 
 def test_each_source_is_its_closed_form_and_they_add_up():
     states, traces = synthetic_truth(), synthetic_traces()
-    P_true = true_heat(Truth(states, DECIMATION, N_SAMPLES, names=HEAT_STATES), FS, INTERVAL, INTERVALS)
+    P_true = true_heat(
+        Truth(states, DECIMATION, N_SAMPLES, names=HEAT_STATES), FS, INTERVAL, INTERVALS
+    )
     # the last interval ends past the last stored value (true_heat); its power acts on no trace sample
     np.testing.assert_allclose(P_true[:-1], P0, rtol=sums(N), atol=0)
     t = traces["time"]
     T_true = Truth(states, DECIMATION, N_SAMPLES, names=("T",)).at(np.rint(t * FS))["T"]
     budget = temperature_budget(traces, P_true, T_true, MODEL, MODEL_T_AMB).set_index("estimator")
     assert list(budget.index) == list(ESTIMATORS)
-    tol = sums(INTERVALS) * 100.0  # kelvin: sums of the steps, relative to temperatures below 100 °C
+    tol = (
+        sums(INTERVALS) * 100.0
+    )  # kelvin: sums of the steps, relative to temperatures below 100 °C
     model_part = MODEL_T_AMB + MODEL.step_response(t, P0) - (T_AMB + TWIN.step_response(t, P0))
     for name, row in budget.iterrows():
         power_part = POWER_ERROR[name] * MODEL.step_response(t, P0)
@@ -70,7 +84,9 @@ def test_each_source_is_its_closed_form_and_they_add_up():
         assert row["power estimate max [K]"] == pytest.approx(np.max(np.abs(power_part)), abs=tol)
         assert row["thermal model max [K]"] == pytest.approx(np.max(np.abs(model_part)), abs=tol)
         assert row["thermometer rms [K]"] == pytest.approx(-THERMOMETER, abs=tol)
-        assert row["total at max [K]"] == pytest.approx(sum(row[f"{s} at max [K]"] for s in SOURCES), abs=tol)
+        assert row["total at max [K]"] == pytest.approx(
+            sum(row[f"{s} at max [K]"] for s in SOURCES), abs=tol
+        )
         assert row["max |sum of sources − total| [K]"] <= tol
 
 
@@ -84,7 +100,9 @@ def test_the_sources_add_up_to_the_error_and_its_max_is_the_coupled_stats(seed, 
     for key in ESTIMATORS.values():
         total, parts = split(T[key], T["T_mid"], T["model"], T["true"])
         assert list(parts) == list(SOURCES)
-        np.testing.assert_allclose(sum(parts.values()), total, rtol=0, atol=64.0 * CLOSED_FORM)  # below 64 °C
+        np.testing.assert_allclose(
+            sum(parts.values()), total, rtol=0, atol=64.0 * CLOSED_FORM
+        )  # below 64 °C
     traces = {"time": np.arange(n) * INTERVAL} | {k: T[k] for k in ("T_SH_PS", "T_SH_HPO")}
     _, stats = against_measured(traces, {}, {"time": traces["time"], "T_mid": T["T_mid"]})
     for key in ESTIMATORS.values():
@@ -101,12 +119,20 @@ def test_the_true_heat_is_the_kernels_per_sample_sum_of_states_cubic_between_sto
     q = 1e-4 * (1 + 2 * s - 3 * s**2 + 4 * s**3)
     u = 5.0 - 8 * s + 6 * s**2 - 9 * s**3
     stored = slice(1, None, DECIMATION)  # sample 0 on
-    truth = Truth({"q": q[stored], "U_P": 1 - u[stored], "U_drive": np.ones_like(u[stored])}, DECIMATION, N_SAMPLES,
-                  names=HEAT_STATES)
+    truth = Truth(
+        {"q": q[stored], "U_P": 1 - u[stored], "U_drive": np.ones_like(u[stored])},
+        DECIMATION,
+        N_SAMPLES,
+        names=HEAT_STATES,
+    )
     exact = (u[1:] * np.diff(q) * FS).reshape(INTERVALS, N).mean(axis=1)
-    inner = slice(1, -1)  # the first and last stored values' neighbours are the nearest, not the cubic's
+    inner = slice(
+        1, -1
+    )  # the first and last stored values' neighbours are the nearest, not the cubic's
     got = true_heat(truth, FS, INTERVAL, INTERVALS)
-    kappa = np.max(np.abs(q)) / np.min(np.abs(np.diff(q)))  # a step of q is a difference of two values
+    kappa = np.max(np.abs(q)) / np.min(
+        np.abs(np.diff(q))
+    )  # a step of q is a difference of two values
     np.testing.assert_allclose(got[inner], exact[inner], rtol=rtol(kappa, roundings=N), atol=0)
     assert np.array_equal(true_heat(truth, FS, INTERVAL, INTERVALS, block=7), got)
     with pytest.raises(ValueError, match="need 14640 samples, the capture has 14400"):
@@ -114,8 +140,14 @@ def test_the_true_heat_is_the_kernels_per_sample_sum_of_states_cubic_between_sto
 
 
 def write_capture(path, states):
-    with CaptureWriter(path, {"fs": FS}, [channel_spec("U", -200.0, 200.0)], N_SAMPLES, truth=TRUTH_STATES,
-                       truth_decimation=DECIMATION) as w:
+    with CaptureWriter(
+        path,
+        {"fs": FS},
+        [channel_spec("U", -200.0, 200.0)],
+        N_SAMPLES,
+        truth=TRUTH_STATES,
+        truth_decimation=DECIMATION,
+    ) as w:
         w.write({"U": np.zeros(N_SAMPLES)})
         w.write({k: states[k] for k in TRUTH_STATES}, dim="time_truth")
     return path
@@ -127,15 +159,28 @@ def test_a_captures_budget_reads_its_truth_and_checks_the_coupled_stats(tmp_path
     states, traces = synthetic_truth(), synthetic_traces()
     path = write_capture(tmp_path / "run.nc", states)
     stored = {k: v.astype(np.float32) for k, v in states.items()}
-    P_true = true_heat(Truth(stored, DECIMATION, N_SAMPLES, names=HEAT_STATES), FS, INTERVAL, INTERVALS)
+    P_true = true_heat(
+        Truth(stored, DECIMATION, N_SAMPLES, names=HEAT_STATES), FS, INTERVAL, INTERVALS
+    )
     T_true = stored["T"][np.arange(INTERVALS) * (N // DECIMATION)].astype(float)
     expected = temperature_budget(traces, P_true, T_true, MODEL, MODEL_T_AMB)
-    stats = {f"max |{key} − T| [K]": v for key, v in zip(ESTIMATORS.values(), expected["total max error [K]"])}
+    stats = {
+        f"max |{key} − T| [K]": v
+        for key, v in zip(ESTIMATORS.values(), expected["total max error [K]"])
+    }
     got = capture_temperature_budget(path, traces, MODEL, MODEL_T_AMB, INTERVAL, stats=stats)
     assert got.drop(columns="stats max error [K]").equals(expected)
     assert list(got["stats max error [K]"]) == list(expected["total max error [K]"])
     with pytest.raises(ValueError, match="traces and stats are not of one run"):
-        capture_temperature_budget(path, traces, MODEL, MODEL_T_AMB, INTERVAL,
-                                   stats={k: v + 0.01 for k, v in stats.items()})
+        capture_temperature_budget(
+            path,
+            traces,
+            MODEL,
+            MODEL_T_AMB,
+            INTERVAL,
+            stats={k: v + 0.01 for k, v in stats.items()},
+        )
     with pytest.raises(ValueError, match="not on the estimator's grid"):
-        capture_temperature_budget(path, traces | {"time": traces["time"] + 0.05}, MODEL, MODEL_T_AMB, INTERVAL)
+        capture_temperature_budget(
+            path, traces | {"time": traces["time"] + 0.05}, MODEL, MODEL_T_AMB, INTERVAL
+        )

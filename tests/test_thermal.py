@@ -9,7 +9,26 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
-from selfsense.methods.thermal import K_T_TABLE_7_1, P885_PROPERTIES, TABLE_7_1, PowerAverager, SelfHeatingEstimator, ThermalModel, ThermalProperties, average_power, identify_series, identify_step, k_over_alpha_from_stroke, k_T_from_gamma, k_T_from_tau, linear_fit, power_loss, predict_temperature, steady_state_rise, zoh_coefficients
+from selfsense.methods.thermal import (
+    K_T_TABLE_7_1,
+    P885_PROPERTIES,
+    TABLE_7_1,
+    PowerAverager,
+    SelfHeatingEstimator,
+    ThermalModel,
+    ThermalProperties,
+    average_power,
+    identify_series,
+    identify_step,
+    k_over_alpha_from_stroke,
+    k_T_from_gamma,
+    k_T_from_tau,
+    linear_fit,
+    power_loss,
+    predict_temperature,
+    steady_state_rise,
+    zoh_coefficients,
+)
 
 from .tolerances import CLOSED_FORM, rtol, sums
 
@@ -70,7 +89,9 @@ def test_zoh_coefficients_match_scipy_and_control(dt):
     kappa_b = MODEL_28.tau / dt + 1
     assert -den[1] == pytest.approx(a, rel=CLOSED_FORM)
     assert np.ravel(num)[-1] == pytest.approx(b, rel=rtol(kappa_b))
-    sysd = control.sample_system(control.tf([MODEL_28.gamma], [MODEL_28.tau, 1.0]), dt, method="zoh")
+    sysd = control.sample_system(
+        control.tf([MODEL_28.gamma], [MODEL_28.tau, 1.0]), dt, method="zoh"
+    )
     assert -sysd.den[0][0][1] / sysd.den[0][0][0] == pytest.approx(a, rel=CLOSED_FORM)
     assert sysd.num[0][0][-1] / sysd.den[0][0][0] == pytest.approx(b, rel=rtol(kappa_b))
 
@@ -94,7 +115,11 @@ def test_step_matches_analytic_solution_even_on_coarse_grid(dt):
 def test_cooling_from_initial_temperature_and_steady_state():
     t = np.arange(0.0, 600.0, 0.5)
     T = predict_temperature(t, 0.0, MODEL_28, T0=60.0, T_amb=23.0)
-    np.testing.assert_allclose(T, 23.0 + 37.0 * np.exp(-t / MODEL_28.tau), atol=float(rtol(1 / (1 - np.exp(-0.5 / MODEL_28.tau)))) * 60.0)
+    np.testing.assert_allclose(
+        T,
+        23.0 + 37.0 * np.exp(-t / MODEL_28.tau),
+        atol=float(rtol(1 / (1 - np.exp(-0.5 / MODEL_28.tau)))) * 60.0,
+    )
     assert MODEL_28.steady_state_rise(1.2) == pytest.approx(1.2 * MODEL_28.gamma)
     t = np.arange(0.0, 5000.0, 1.0)
     assert predict_temperature(t, 1.2, MODEL_28)[-1] - 23.0 == pytest.approx(
@@ -122,7 +147,9 @@ def test_capacitor_with_linear_position_has_no_loss():
     I = Cp * dU
     x = U / k_over_alpha  # x = (alpha/k) U: no hysteresis voltage
     p = power_loss(U, x, I, k_over_alpha)
-    assert np.max(np.abs(p)) < CLOSED_FORM * np.max(np.abs(U)) * np.max(np.abs(I))  # U − U: roundings only
+    assert np.max(np.abs(p)) < CLOSED_FORM * np.max(np.abs(U)) * np.max(
+        np.abs(I)
+    )  # U − U: roundings only
     # a mis-scaled position leaves a purely capacitive U_H: instantaneous
     # power is non-zero but averages to zero over whole cycles (reactive)
     p2 = power_loss(U, 0.8 * x, I, k_over_alpha)
@@ -155,7 +182,9 @@ def test_power_averager_is_chunk_invariant(n, n_per, cuts, seed):
     ref = PowerAverager(fs, n_per / fs)
     whole = ref.update(p)
     m = n // n_per
-    np.testing.assert_allclose(whole, p[: m * n_per].reshape(m, n_per).mean(axis=1), rtol=sums(n_per))
+    np.testing.assert_allclose(
+        whole, p[: m * n_per].reshape(m, n_per).mean(axis=1), rtol=sums(n_per)
+    )
 
     avg = PowerAverager(fs, n_per / fs)
     edges = [0, *sorted(c for c in cuts if c <= n), n]
@@ -213,7 +242,9 @@ def test_self_heating_stream_equals_batch_and_is_chunk_invariant():
     est.update(U, x, I)
     # the state after the last complete interval is the next ZOH step
     a, b = zoh_coefficients(model, 0.1)
-    assert est.temperature == pytest.approx(23.0 + a * (out.T[-1] - 23.0) + b * out.P[-1], abs=t_tol)
+    assert est.temperature == pytest.approx(
+        23.0 + a * (out.T[-1] - 23.0) + b * out.P[-1], abs=t_tol
+    )
 
 
 # ------------------------------------------------------------ identification
@@ -308,7 +339,9 @@ def test_linear_fit_exact_data():
     fv = linear_fit(V**2, 6e-3 * V**2)
     assert fv.slope == pytest.approx(6e-3, rel=CLOSED_FORM)
     # an intercept of 0 is judged against the data's size (≤ 60): least squares leaves cond·ε of it
-    assert fv.intercept == pytest.approx(0.0, abs=float(rtol(np.linalg.cond(np.vander(V**2, 2)))) * 60.0)
+    assert fv.intercept == pytest.approx(
+        0.0, abs=float(rtol(np.linalg.cond(np.vander(V**2, 2)))) * 60.0
+    )
 
 
 def test_linear_fit_noisy_r2_below_one():
@@ -317,6 +350,8 @@ def test_linear_fit_noisy_r2_below_one():
     y = 2 * x + 3 * rng.normal(size=x.size)
     fit = linear_fit(x, y)
     resid = y - fit(x)
-    assert fit.r_squared == pytest.approx(1 - resid @ resid / np.sum((y - y.mean()) ** 2), rel=CLOSED_FORM)
+    assert fit.r_squared == pytest.approx(
+        1 - resid @ resid / np.sum((y - y.mean()) ** 2), rel=CLOSED_FORM
+    )
     assert 0.5 < fit.r_squared < 0.95
     assert fit.slope == pytest.approx(2.0, abs=5 * fit.slope_stderr)

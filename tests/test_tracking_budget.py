@@ -9,7 +9,14 @@ from hypothesis import strategies as st
 
 from selfsense.io.manifest import load_yaml
 from selfsense.scorecard.registry import parse_registry
-from selfsense.verify.tracking_budget import CLOSED_SOURCES, CONTROLLER_SOURCES, OPEN_SOURCES, controller_split, loop_sensitivity, split
+from selfsense.verify.tracking_budget import (
+    CLOSED_SOURCES,
+    CONTROLLER_SOURCES,
+    OPEN_SOURCES,
+    controller_split,
+    loop_sensitivity,
+    split,
+)
 
 from .conftest import ROOT
 from .tolerances import CLOSED_FORM
@@ -18,7 +25,13 @@ ALPHA_OVER_K = 9.36 / 25.1e6  # Table 4.2–4.3's α and k [m/V]
 
 
 @settings(max_examples=50, deadline=None)
-@given(st.floats(0, 100), st.floats(-5, 5), st.floats(-1, 1), st.floats(-1e-7, 1e-7), st.floats(-1e-7, 1e-7))
+@given(
+    st.floats(0, 100),
+    st.floats(-5, 5),
+    st.floats(-1, 1),
+    st.floats(-1e-7, 1e-7),
+    st.floats(-1e-7, 1e-7),
+)
 def test_each_open_loop_source_is_its_term_of_the_voltage_balance(U, U_H, U_c, lag, laser):
     """U = U_P + U_H + U_c (Eq 1.6), x = (α/k)·U_P − lag, x_laser = x + laser: the budget gives each
     term back, and they add up to x_R − x_laser."""
@@ -26,11 +39,21 @@ def test_each_open_loop_source_is_its_term_of_the_voltage_balance(U, U_H, U_c, l
     x = ALPHA_OVER_K * U_P - lag
     x_ref = ALPHA_OVER_K * U + 2e-8  # a feedforward that misses x_R by 20 nm
     run = {"x_ref": np.array([x_ref]), "x_laser": np.array([x + laser])}
-    true = {"x": np.array([x]), "U_P": np.array([U_P]), "U_H": np.array([U_H]), "U_drive": np.array([U])}
+    true = {
+        "x": np.array([x]),
+        "U_P": np.array([U_P]),
+        "U_H": np.array([U_H]),
+        "U_drive": np.array([U]),
+    }
     total, parts = split(run, true, ALPHA_OVER_K, closed=False)
     scale = ALPHA_OVER_K * 100 * CLOSED_FORM
-    expected = {"feedforward": 2e-8, "hysteresis": ALPHA_OVER_K * U_H, "creep": ALPHA_OVER_K * U_c,
-                "stack dynamics": lag, "laser": -laser}
+    expected = {
+        "feedforward": 2e-8,
+        "hysteresis": ALPHA_OVER_K * U_H,
+        "creep": ALPHA_OVER_K * U_c,
+        "stack dynamics": lag,
+        "laser": -laser,
+    }
     assert list(parts) == list(OPEN_SOURCES)
     for name, value in expected.items():
         assert parts[name][0] == pytest.approx(value, abs=scale), name
@@ -45,7 +68,11 @@ def test_a_closed_loop_splits_into_controller_observer_and_laser():
     assert total[0] == pytest.approx(2e-6, rel=CLOSED_FORM)
 
 
-OMEGA_C, FS, NS = 2 * np.pi * 250, 48_000.0, 12  # Chapter 6's crossover, the bench's DAQ and ripple plan
+OMEGA_C, FS, NS = (
+    2 * np.pi * 250,
+    48_000.0,
+    12,
+)  # Chapter 6's crossover, the bench's DAQ and ripple plan
 
 
 def test_the_loop_sensitivity_is_python_controls_closed_loop_of_the_delayed_integrator():
@@ -71,10 +98,10 @@ def _delayed_integral_loop(x_ref, U_H, alpha_over_k):
     K_I, u, e = OMEGA_C / alpha_over_k, np.zeros(len(x_ref)), np.zeros(len(x_ref))
     start = 0.0
     for b in range(0, len(x_ref), NS):
-        steps = K_I / FS * e[b - NS:b] if b else np.zeros(NS)
-        u[b:b + NS] = start + np.cumsum(steps)
+        steps = K_I / FS * e[b - NS : b] if b else np.zeros(NS)
+        u[b : b + NS] = start + np.cumsum(steps)
         start = u[b + NS - 1]
-        e[b:b + NS] = x_ref[b:b + NS] - alpha_over_k * (u[b:b + NS] - U_H[b:b + NS])
+        e[b : b + NS] = x_ref[b : b + NS] - alpha_over_k * (u[b : b + NS] - U_H[b : b + NS])
     return u
 
 
@@ -93,12 +120,21 @@ def test_the_controller_split_finds_the_loops_lag_and_the_hysteresis_it_rejects(
     x_ref = 15e-6 * (1 - np.cos(2 * np.pi * frequency * t))
     U_H = 1.5e-6 / ALPHA_OVER_K * np.sin(2 * np.pi * frequency * t + 1.0)
     u = _delayed_integral_loop(x_ref, U_H, ALPHA_OVER_K)
-    means = {name: v.reshape(-1, NS).mean(axis=1) for name, v in
-             {"x_ref": x_ref, "u": u, "U_H": U_H, "x": ALPHA_OVER_K * (u - U_H)}.items()}
+    means = {
+        name: v.reshape(-1, NS).mean(axis=1)
+        for name, v in {"x_ref": x_ref, "u": u, "U_H": U_H, "x": ALPHA_OVER_K * (u - U_H)}.items()
+    }
     run = {"x_ref": means["x_ref"], "x_hat": means["x"], "u_cmd": means["u"]}
-    true = {"x": means["x"], "U_P": means["u"] - means["U_H"], "U_H": means["U_H"], "U_drive": means["u"]}
+    true = {
+        "x": means["x"],
+        "U_P": means["u"] - means["U_H"],
+        "U_H": means["U_H"],
+        "U_drive": means["u"],
+    }
     sensitivity = loop_sensitivity(OMEGA_C, FS, NS)
-    total, parts = controller_split(run, true, ALPHA_OVER_K, sensitivity, np.ones(len(total := run["x_ref"]), bool))
+    total, parts = controller_split(
+        run, true, ALPHA_OVER_K, sensitivity, np.ones(len(total := run["x_ref"]), bool)
+    )
     assert list(parts) == list(CONTROLLER_SOURCES)
     assert np.abs(sum(parts.values()) - total).max() <= CLOSED_FORM * 30e-6
     for name in ("creep", "stack dynamics", "observer", "drive"):
@@ -125,8 +161,9 @@ def test_smoke_tracking_budget_totals_are_tables_6_1_and_6_2s_errors(smoke_run):
     budget = pd.read_csv(res / "twin/tracking_budget.csv")
     t61 = pd.read_csv(res / "ch6/table_6_1.csv").set_index(["error", "statistic"])
     t62 = pd.read_csv(res / "ch6/table_6_2.csv").set_index(["profile", "error"])
-    assert sorted(budget["run"].unique()) == sorted(f"ch6_p{p}_{loop}" for p in ("1", "2a", "2b", "2c", "2d")
-                                                     for loop in ("open", "closed"))
+    assert sorted(budget["run"].unique()) == sorted(
+        f"ch6_p{p}_{loop}" for p in ("1", "2a", "2b", "2c", "2d") for loop in ("open", "closed")
+    )
     for _, row in budget.iterrows():
         closed = row["run"].endswith("_closed")
         error, sources = ("e_TCL", CLOSED_SOURCES) if closed else ("e_TOL", OPEN_SOURCES)
@@ -134,12 +171,16 @@ def test_smoke_tracking_budget_totals_are_tables_6_1_and_6_2s_errors(smoke_run):
             table = t61.loc[(error, "max"), f"{row['segment']} [µm]"]
             # Table 6.1's σ is over the tests (the smoke run has 2) of each test's max
             assert row["tests"] == t61.loc[(error, "σ"), "tests"] == 2
-            assert row["total max σ over tests [µm]"] == pytest.approx(t61.loc[(error, "σ"), f"{row['segment']} [µm]"],
-                                                                       rel=1e-9, abs=1e-12)
+            assert row["total max σ over tests [µm]"] == pytest.approx(
+                t61.loc[(error, "σ"), f"{row['segment']} [µm]"], rel=1e-9, abs=1e-12
+            )
         else:
             table = t62.loc[("P" + row["run"].split("_")[1][1:], error), "max [µm]"]
         # the same 4 kHz means of the same run: equal but for the CSV's 10 significant digits
-        assert row["total max error [µm]"] == pytest.approx(table, rel=1e-9), (row["run"], row["segment"])
+        assert row["total max error [µm]"] == pytest.approx(table, rel=1e-9), (
+            row["run"],
+            row["segment"],
+        )
         at_max = sum(row[f"{s} at total max [µm]"] for s in sources)
         assert at_max == pytest.approx(row["total at max [µm]"], rel=1e-8)
         assert row["max |sum of sources − total| [µm]"] <= 1e-9 * 30  # a 30 µm stroke
@@ -148,14 +189,33 @@ def test_smoke_tracking_budget_totals_are_tables_6_1_and_6_2s_errors(smoke_run):
         if not closed:  # the twin's open loop drives U = x_R·k/α with its own α/k: only the drive's hold is left
             assert abs(row["feedforward at total max [µm]"]) < 0.1
     controller = pd.read_csv(res / "twin/controller_budget.csv")
-    assert sorted(controller["run"].unique()) == sorted(f"ch6_p{p}_closed" for p in ("1", "2a", "2b", "2c", "2d"))
-    for _, row in controller[controller["run"] != "ch6_p1_closed"].iterrows():  # Table 6.1 has no ε_CCL
+    assert sorted(controller["run"].unique()) == sorted(
+        f"ch6_p{p}_closed" for p in ("1", "2a", "2b", "2c", "2d")
+    )
+    for _, row in controller[
+        controller["run"] != "ch6_p1_closed"
+    ].iterrows():  # Table 6.1 has no ε_CCL
         profile = "P" + row["run"].split("_")[1][1:]
-        assert row["total max error [µm]"] == pytest.approx(t62.loc[(profile, "e_CCL"), "max [µm]"], rel=1e-9)
-        assert sum(row[f"{s} at total max [µm]"] for s in CONTROLLER_SOURCES) == pytest.approx(row["total at max [µm]"], rel=1e-8)
-    assert not (smoke_run / "results/tokin_nb40/twin/tracking_budget.csv").exists()  # no Chapter 6 there
+        assert row["total max error [µm]"] == pytest.approx(
+            t62.loc[(profile, "e_CCL"), "max [µm]"], rel=1e-9
+        )
+        assert sum(row[f"{s} at total max [µm]"] for s in CONTROLLER_SOURCES) == pytest.approx(
+            row["total at max [µm]"], rel=1e-8
+        )
+    assert not (
+        smoke_run / "results/tokin_nb40/twin/tracking_budget.csv"
+    ).exists()  # no Chapter 6 there
     card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
-    caused = [(e.source, e.quantity) for e in parse_registry(load_yaml(ROOT / "workflow" / "scorecard.yaml"))
-              if e.cause and e.cause.table == "twin/tracking_budget.csv"]
-    assert len(caused) == 65  # Tables 6.1–6.2's ε_TOL and ε_TCL, Table 6.1's σ of them over the tests, P1's summary
-    assert card.loc[caused, "note"].str.contains(r"(?:at|σ over the tests of) the tracking error's max").all()
+    caused = [
+        (e.source, e.quantity)
+        for e in parse_registry(load_yaml(ROOT / "workflow" / "scorecard.yaml"))
+        if e.cause and e.cause.table == "twin/tracking_budget.csv"
+    ]
+    assert (
+        len(caused) == 65
+    )  # Tables 6.1–6.2's ε_TOL and ε_TCL, Table 6.1's σ of them over the tests, P1's summary
+    assert (
+        card.loc[caused, "note"]
+        .str.contains(r"(?:at|σ over the tests of) the tracking error's max")
+        .all()
+    )

@@ -11,18 +11,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.scorecard.calibration import load_targets
 from selfsense.io.capture import open_capture
+from selfsense.methods.drive import Drive, Segment
 from selfsense.methods.ripple import SamplingPlan, extract_impedance
-from selfsense.methods.drive import Drive
-from selfsense.twin.bench import simulate_capture
+from selfsense.scorecard.calibration import load_targets
 from selfsense.twin import kernel as K
-from selfsense.twin.bench import Bench, experiment_seed
-from selfsense.methods.drive import Segment
+from selfsense.twin.bench import Bench, experiment_seed, simulate_capture
 from selfsense.twin.instruments import SlowProcess
 
 from .conftest import ROOT, raised_sine
-
 from .tolerances import rtol
 
 FS = 48000.0
@@ -86,7 +83,9 @@ def test_the_laser_records_position_rounded_to_its_resolution(stack_params, stac
     within half a resolution step (plus half an ADC step of the packed channel) and, over a 1 Hz
     stroke crossing ≈ 100 steps, spreads as the rectangular r/√12, not as a noise of its own."""
     ins = stack_params.instruments
-    params = dataclasses.replace(stack_params, instruments=dataclasses.replace(ins, laser_drift=0.0))
+    params = dataclasses.replace(
+        stack_params, instruments=dataclasses.replace(ins, laser_drift=0.0)
+    )
     bench = Bench(params, stack_daq, experiment_seed(1, "laser"))
     t, U = raised_sine(1.0, 1.0)
     measured, truth = bench.step(t, U)
@@ -98,7 +97,11 @@ def test_the_laser_records_position_rounded_to_its_resolution(stack_params, stac
 
 def calibrated(target_id):
     """The band the twin is calibrated to for one signature (workflow/twin_calibration.yaml)."""
-    return next(t for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets if t.id == target_id)
+    return next(
+        t
+        for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets
+        if t.id == target_id
+    )
 
 
 def test_self_heating_at_100V_100Hz_comes_from_hysteresis_loss(stack_params):
@@ -108,19 +111,25 @@ def test_self_heating_at_100V_100Hz_comes_from_hysteresis_loss(stack_params):
     every = int(FS)  # one point per second
     tt, dT = t[::every], rise[::every]
     from scipy.optimize import curve_fit
+
     (steady, tau), _ = curve_fit(lambda s, a, tau: a * (1 - np.exp(-s / tau)), tt, dT, p0=(40, 100))
     assert calibrated("steady_temperature").within(stack_params.thermal.T_amb + steady)
     # the model's τ = ρcv/(k_T A), lengthened a little as C_P (and with it the loss) grows with T
     assert stack_params.thermal.tau <= tau <= 1.1 * stack_params.thermal.tau
     # the heat is the hysteresis loss ∮U_H dq: zero hysteresis, no heating
-    cold = dataclasses.replace(stack_params, hysteresis=dataclasses.replace(stack_params.hysteresis, v_total=1e-9),
-                               creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)))
+    cold = dataclasses.replace(
+        stack_params,
+        hysteresis=dataclasses.replace(stack_params.hysteresis, v_total=1e-9),
+        creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)),
+    )
     t2, U2 = raised_sine(100.0, 5.0)
     assert run(cold, U2)["T"].max() - stack_params.thermal.T_amb < 0.01
 
 
 def viscous(params, R_visc):
-    return dataclasses.replace(params, hysteresis=dataclasses.replace(params.hysteresis, R_visc=R_visc))
+    return dataclasses.replace(
+        params, hysteresis=dataclasses.replace(params.hysteresis, R_visc=R_visc)
+    )
 
 
 def test_the_viscous_drop_dissipates_its_analytic_loss_growing_with_frequency(stack_params):
@@ -128,9 +137,11 @@ def test_the_viscous_drop_dissipates_its_analytic_loss_growing_with_frequency(st
     R∮I²dt/(1 + ω²τ²) per cycle of a sinusoidal current at ω, so at a given charge swing its loss
     per cycle grows ∝ f: the loop widens with the rate, where the rate-independent loop does not."""
     R = 5.0
-    alone = dataclasses.replace(stack_params,
-                                hysteresis=dataclasses.replace(stack_params.hysteresis, R_visc=R, v_total=1e-9),
-                                creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)))
+    alone = dataclasses.replace(
+        stack_params,
+        hysteresis=dataclasses.replace(stack_params.hysteresis, R_visc=R, v_total=1e-9),
+        creep=dataclasses.replace(stack_params.creep, C=(1e3,), tau=(1.0,)),
+    )
     per_cycle = {}
     for f in (10.0, 100.0):
         t, U = raised_sine(f, 6 / f)
@@ -138,8 +149,10 @@ def test_the_viscous_drop_dissipates_its_analytic_loss_growing_with_frequency(st
         last = t >= 4 / f  # two steady cycles
         loss = np.sum(out["U_H"][last] * out["I"][last]) / FS / 2
         omega_tau = 2 * np.pi * f * alone.hysteresis.tau_visc
-        assert loss == pytest.approx(R * np.sum(out["I"][last] ** 2) / FS / 2 / (1 + omega_tau ** 2), rel=0.01)
-        per_cycle[f] = loss * (1 + omega_tau ** 2)
+        assert loss == pytest.approx(
+            R * np.sum(out["I"][last] ** 2) / FS / 2 / (1 + omega_tau**2), rel=0.01
+        )
+        per_cycle[f] = loss * (1 + omega_tau**2)
     assert per_cycle[100.0] == pytest.approx(10 * per_cycle[10.0], rel=0.01)
 
 
@@ -167,14 +180,18 @@ def test_kernel_is_chunk_invariant(stack_params):
     kc = K.kernel_constants(stack_params, FS)
     whole = K.run(U, 0 * U, 0 * U + 23, kc, K.initial_state(kc, 23.0))
     state = K.initial_state(kc, 23.0)
-    parts = [K.run(U[i:i + 333], 0 * U[i:i + 333], 0 * U[i:i + 333] + 23, kc, state)
-             for i in range(0, len(U), 333)]
+    parts = [
+        K.run(U[i : i + 333], 0 * U[i : i + 333], 0 * U[i : i + 333] + 23, kc, state)
+        for i in range(0, len(U), 333)
+    ]
     np.testing.assert_array_equal(np.vstack(parts), whole)
 
 
 def _capture(tmp_path, name, params, daq, seed, chunk_len=4096):
     drive = Drive("voltage", (Segment(0.1, 10.0, 0.0, 100.0),))
-    return simulate_capture(tmp_path / name, params, daq, drive, {}, seed, "det", chunk_len=chunk_len).path
+    return simulate_capture(
+        tmp_path / name, params, daq, drive, {}, seed, "det", chunk_len=chunk_len
+    ).path
 
 
 def test_same_seed_gives_identical_capture_data(tmp_path, stack_params, stack_daq):
@@ -200,8 +217,15 @@ def test_capture_carries_truth_and_contract_attributes(tmp_path, stack_params, s
 
 
 @settings(max_examples=20, deadline=None)
-@given(n=st.integers(1, 3000), every=st.integers(1, 30), first=st.integers(0, 29), seed=st.integers(0, 2**32 - 1))
-def test_compiled_instruments_follow_the_numpy_reference(stack_params, stack_daq, n, every, first, seed):
+@given(
+    n=st.integers(1, 3000),
+    every=st.integers(1, 30),
+    first=st.integers(0, 29),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_compiled_instruments_follow_the_numpy_reference(
+    stack_params, stack_daq, n, every, first, seed
+):
     """record.record_block against Bench._instruments, over two chunks (the high-pass states carry).
 
     Both do the same IEEE operations in the same order; a rounding-level difference (another
@@ -214,16 +238,21 @@ def test_compiled_instruments_follow_the_numpy_reference(stack_params, stack_daq
         U = 50 - 50 * np.cos(2 * np.pi * 230 * t) + 20 * (t > 0.01)  # a step: the high-pass leaks
         (fast, fast_truth), (ref, ref_truth) = (
             b.step(t, U, truth_every=every, truth_first=first, compiled=compiled)
-            for b, compiled in zip(benches, (True, False)))
+            for b, compiled in zip(benches, (True, False))
+        )
         for c, values in ref.items():
             step = benches[1].adc[c].scale_factor if c in benches[1].adc else 0.0
             np.testing.assert_allclose(fast[c], values, rtol=0, atol=step, err_msg=c)
         for k, values in ref_truth.items():
-            np.testing.assert_allclose(fast_truth[k], values, rtol=rtol(1.0, roundings=40), atol=0, err_msg=k)
+            np.testing.assert_allclose(
+                fast_truth[k], values, rtol=rtol(1.0, roundings=40), atol=0, err_msg=k
+            )
     np.testing.assert_array_equal(benches[0].hp_i.zi, benches[1].hp_i.zi)
 
 
-def test_truth_and_thermometers_keep_their_samples_whatever_the_truth_decimation(tmp_path, stack_params, stack_daq):
+def test_truth_and_thermometers_keep_their_samples_whatever_the_truth_decimation(
+    tmp_path, stack_params, stack_daq
+):
     """The states are recorded on a grid that holds the truth's and the 10 Hz thermometers'
     samples: with a decimation that does not divide the thermometers' period (7 against 4800),
     the thermometers and the channels are those of the usual 12, and each truth is the kernel's
@@ -231,11 +260,23 @@ def test_truth_and_thermometers_keep_their_samples_whatever_the_truth_decimation
     drive = Drive("voltage", (Segment(0.25, 10.0, 0.0, 100.0),))
     runs = {}
     for dec in (12, 7):
-        path = simulate_capture(tmp_path / f"{dec}.nc", stack_params, stack_daq, drive, {}, 5, "grid",
-                                chunk_len=1000, truth_decimation=dec).path
+        path = simulate_capture(
+            tmp_path / f"{dec}.nc",
+            stack_params,
+            stack_daq,
+            drive,
+            {},
+            5,
+            "grid",
+            chunk_len=1000,
+            truth_decimation=dec,
+        ).path
         with open_capture(path) as cap:
-            runs[dec] = (cap.read(list(stack_daq.channels[:6])), cap.read(["T_mid"], dim="time_slow"),
-                         cap.read_truth()[1])
+            runs[dec] = (
+                cap.read(list(stack_daq.channels[:6])),
+                cap.read(["T_mid"], dim="time_slow"),
+                cap.read_truth()[1],
+            )
             n = cap.n
     U = drive(np.arange(n) / FS)
     x = run(stack_params, U)["x"]
@@ -262,14 +303,27 @@ class Hold:
 
     def observe(self, t, measured):
         self.seen += len(t)
-        return {"x_ref": np.zeros(len(t)), "x_hpo_rt": measured["x_laser"], "u_cmd": np.full(len(t), 40.0)}
+        return {
+            "x_ref": np.zeros(len(t)),
+            "x_hpo_rt": measured["x_laser"],
+            "u_cmd": np.full(len(t), 40.0),
+        }
 
 
 def test_controller_hook_drives_the_bench_and_logs(tmp_path, stack_params, stack_daq):
     ctl = Hold()
     drive = Drive("position", (Segment(0.05, 0.0, 0.0, 0.0),))
-    path = simulate_capture(tmp_path / "cl.nc", stack_params, stack_daq, drive, {}, 1, "cl",
-                            controller=ctl, chunk_len=1000).path
+    path = simulate_capture(
+        tmp_path / "cl.nc",
+        stack_params,
+        stack_daq,
+        drive,
+        {},
+        1,
+        "cl",
+        controller=ctl,
+        chunk_len=1000,
+    ).path
     with open_capture(path, require=["x_hpo_rt", "u_cmd"]) as cap:
         d = cap.read(["U", "u_cmd", "x_hpo_rt", "x_laser"])
     assert ctl.seen == cap.n
@@ -280,25 +334,39 @@ def test_controller_hook_drives_the_bench_and_logs(tmp_path, stack_params, stack
 
 
 @settings(max_examples=30, deadline=None)
-@given(bandwidth=st.floats(1e-3, 100.0), t0=st.floats(0.0, 5000.0), split=st.integers(1, 9999),
-       seed=st.integers(0, 2**32 - 1))
-def test_slow_process_interpolation_is_exact_to_1e4_of_peak_and_chunk_invariant(bandwidth, t0, split, seed):
+@given(
+    bandwidth=st.floats(1e-3, 100.0),
+    t0=st.floats(0.0, 5000.0),
+    split=st.integers(1, 9999),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_slow_process_interpolation_is_exact_to_1e4_of_peak_and_chunk_invariant(
+    bandwidth, t0, split, seed
+):
     process = SlowProcess(np.random.default_rng(seed), peak=1.0, bandwidth=bandwidth)
     t = t0 + np.arange(10000) / 48000.0
     whole = process(t)
     assert np.max(np.abs(whole - process.exact(t))) < 1.3e-4
     # to rounding: numpy's vectorised sin may differ in the last bit with the array's length
-    np.testing.assert_allclose(np.concatenate([process(t[:split]), process(t[split:])]), whole, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        np.concatenate([process(t[:split]), process(t[split:])]), whole, rtol=0, atol=1e-12
+    )
 
 
 @settings(max_examples=40, deadline=None)
-@given(durations=st.lists(st.floats(0.0, 0.01), min_size=1, max_size=8),
-       levels=st.lists(st.floats(-50.0, 150.0), min_size=8, max_size=8), block=st.integers(1, 40))
+@given(
+    durations=st.lists(st.floats(0.0, 0.01), min_size=1, max_size=8),
+    levels=st.lists(st.floats(-50.0, 150.0), min_size=8, max_size=8),
+    block=st.integers(1, 40),
+)
 def test_drive_in_short_blocks_equals_the_whole_span(durations, levels, block):
     """The closed loop evaluates the drive 12 samples at a time, touching only nearby segments."""
-    drive = Drive("voltage", tuple(Segment(d, 100.0 * (k % 2), 0.0, levels[k]) for k, d in enumerate(durations)))
+    drive = Drive(
+        "voltage",
+        tuple(Segment(d, 100.0 * (k % 2), 0.0, levels[k]) for k, d in enumerate(durations)),
+    )
     t = np.arange(int(drive.duration * 48000) + 30) / 48000.0
-    blocks = np.concatenate([drive(t[s:s + block]) for s in range(0, len(t), block)])
+    blocks = np.concatenate([drive(t[s : s + block]) for s in range(0, len(t), block)])
     np.testing.assert_array_equal(blocks, drive(t))
 
 
@@ -310,20 +378,37 @@ def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_param
     channels agree to one ADC step. The logged estimate agrees to the rounding of the window sums
     (n_periods·ns terms) amplified by C_e's cancellation (Eq 3.12), κ computed from the windows."""
     from selfsense.methods.control import IntegralController
-    from selfsense.twin.closed_loop import realtime_controller
     from selfsense.methods.gamma import GammaPolynomial
     from selfsense.methods.observer import HPOGains
     from selfsense.methods.ripple import plan_from_capture
+    from selfsense.twin.closed_loop import realtime_controller
 
     s = stack_params.stack
     gamma = GammaPolynomial((-1e6 * s.C_P0 / s.dC_x, 1.0 / s.dC_x))  # C_P0 + dC_x·x, inverted
     drive = Drive("position", (Segment(0.05), Segment(0.3, 10.0, 0.0, 15e-6)))
     runs = {}
     for compiled in (False, True):
-        loop = realtime_controller(stack_daq, drive, 0.05, 4, gamma, HPOGains(17.0),
-                                   IntegralController(2 * np.pi * 250, s.k / s.alpha), compiled=compiled)
-        path = simulate_capture(tmp_path / f"{compiled}.nc", stack_params, stack_daq, drive, {}, 3, "closed",
-                                controller=loop, chunk_len=1000).path  # 1000: chunks start mid-period
+        loop = realtime_controller(
+            stack_daq,
+            drive,
+            0.05,
+            4,
+            gamma,
+            HPOGains(17.0),
+            IntegralController(2 * np.pi * 250, s.k / s.alpha),
+            compiled=compiled,
+        )
+        path = simulate_capture(
+            tmp_path / f"{compiled}.nc",
+            stack_params,
+            stack_daq,
+            drive,
+            {},
+            3,
+            "closed",
+            controller=loop,
+            chunk_len=1000,
+        ).path  # 1000: chunks start mid-period
         with open_capture(path) as cap:
             runs[compiled] = cap.read([*stack_daq.channels, "x_ref", "x_hpo_rt", "u_cmd"])
             steps = {c: cap.resolution(c) for c in stack_daq.channels}
@@ -332,11 +417,15 @@ def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_param
     for c, step in steps.items():
         np.testing.assert_allclose(fast[c], ref[c], rtol=0, atol=step, err_msg=c)
     windows = extract_impedance(ref["Ur"], ref["Ir"], plan)
-    kappa = np.max((np.abs(windows.A_I * windows.B_V) + np.abs(windows.A_V * windows.B_I))
-                   / np.abs(windows.A_I * windows.B_V - windows.A_V * windows.B_I))
+    kappa = np.max(
+        (np.abs(windows.A_I * windows.B_V) + np.abs(windows.A_V * windows.B_I))
+        / np.abs(windows.A_I * windows.B_V - windows.A_V * windows.B_I)
+    )
     bound = rtol(kappa, roundings=plan.block_len)
     for c in ("x_ref", "x_hpo_rt", "u_cmd"):
-        np.testing.assert_allclose(fast[c], ref[c], rtol=0, atol=bound * np.max(np.abs(ref[c])), err_msg=c)
+        np.testing.assert_allclose(
+            fast[c], ref[c], rtol=0, atol=bound * np.max(np.abs(ref[c])), err_msg=c
+        )
     assert np.ptp(ref["x_hpo_rt"]) > 10e-6  # the loop tracked the 15 µm profile
 
 
@@ -361,7 +450,9 @@ def test_a_capture_blosc_cannot_store_is_written_again_with_zlib(tmp_path, monke
 
     monkeypatch.setattr(twin, "simulate_capture", refusing_blosc)
     config = load_config(ROOT / "tests" / "config" / "smoke.yaml")
-    scan = twin.simulate_experiment(ROOT / "raw", "pi_p885", "ch3_sine_10hz", config, tmp_path / "c.nc")
+    scan = twin.simulate_experiment(
+        ROOT / "raw", "pi_p885", "ch3_sine_10hz", config, tmp_path / "c.nc"
+    )
     assert tried == ["blosc_zstd", "zlib"]
     with netCDF4.Dataset(scan.path) as nc:
         assert compression_of(nc["U"]) == "zlib"

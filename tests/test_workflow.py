@@ -23,7 +23,9 @@ def test_every_capture_is_made_and_checked(smoke_run):
     # (for a few samples per step, as on a bench); the QC counts them
     steps = table["experiment"].str.startswith("ch6_p1_")
     assert (table.loc[~steps, "clipped samples"] == 0).all()
-    assert (table.loc[steps & table["experiment"].str.contains("open"), "clipped samples"] > 0).all()
+    assert (
+        table.loc[steps & table["experiment"].str.contains("open"), "clipped samples"] > 0
+    ).all()
     assert (smoke_run / "results/pi_p885/qc/captures.csv.json").exists()
 
 
@@ -51,7 +53,11 @@ def _jobs_after_editing(repo, module):
         path.write_bytes(text)
         os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
     assert dry.returncode == 0, dry.stderr[-2000:]
-    return set(re.findall(r"^(\w+)\s+\d+$", dry.stdout + dry.stderr, re.M)) - {"all", "job", "total"}
+    return set(re.findall(r"^(\w+)\s+\d+$", dry.stdout + dry.stderr, re.M)) - {
+        "all",
+        "job",
+        "total",
+    }
 
 
 def test_a_library_edit_reruns_the_rules_whose_code_it_changes(smoke_tree):
@@ -63,8 +69,13 @@ def test_a_library_edit_reruns_the_rules_whose_code_it_changes(smoke_tree):
     assert {"simulate", "simulate_closed_loop"} <= _jobs_after_editing(smoke_tree, "twin/kernel.py")
     # the curve comparisons read the thesis's printed Γ from the registry through the scorecard module,
     # and the twin's calibration table locates its numbers with the scorecard's locators
-    assert _jobs_after_editing(smoke_tree, "scorecard.py") == {"scorecard", "scorecard_summary", "curve_vs_thesis",
-                                                                "gamma_truth", "twin_calibration"}
+    assert _jobs_after_editing(smoke_tree, "scorecard.py") == {
+        "scorecard",
+        "scorecard_summary",
+        "curve_vs_thesis",
+        "gamma_truth",
+        "twin_calibration",
+    }
 
 
 def test_chapter_3_tables_equal_the_thesis(smoke_run):
@@ -106,9 +117,15 @@ def test_chapter_4_case_2_recovers_the_twin_within_5_percent(smoke_run):
         # (±2 %: C_e's 1 % accuracy from the ripple, and the noise)
         assert abs(case2.loc[key, "error vs model on truth [%]"]) < 2, key
     # Fig 4.8's U_H share beside the twin's own hysteresis voltage, the same value as its table
-    share = rec.set_index(["case", "parameter"])["identified mean"].xs("U_H share of max U at 10 Hz [%]", level=1)
-    table = pd.read_csv(smoke_run / "results/pi_p885/ch4/hysteresis_voltage.csv").set_index(["frequency [Hz]", "case"])
-    assert share.to_numpy() == pytest.approx(table.loc[10.0, "U_H share of max U [%]"].to_numpy(), rel=1e-9)
+    share = rec.set_index(["case", "parameter"])["identified mean"].xs(
+        "U_H share of max U at 10 Hz [%]", level=1
+    )
+    table = pd.read_csv(smoke_run / "results/pi_p885/ch4/hysteresis_voltage.csv").set_index(
+        ["frequency [Hz]", "case"]
+    )
+    assert share.to_numpy() == pytest.approx(
+        table.loc[10.0, "U_H share of max U [%]"].to_numpy(), rel=1e-9
+    )
 
 
 def test_chapter_4_tables(smoke_run):
@@ -127,14 +144,24 @@ def test_chapter_5_outputs(smoke_run):
     t51 = pd.read_csv(res / "table_5_1.csv")
     assert list(t51["model"]) == ["j=3", "j=4", "j=5", "j=6", "ln"]
     anova = pd.read_csv(res / "table_5_2_anova.csv").set_index("source")
-    assert anova.loc["Total", "SS"] == pytest.approx(anova.loc["Regression", "SS"] + anova.loc["Residual", "SS"])
+    assert anova.loc["Total", "SS"] == pytest.approx(
+        anova.loc["Regression", "SS"] + anova.loc["Residual", "SS"]
+    )
     t53 = pd.read_csv(res / "table_5_3.csv").set_index("parameter")
     a0 = t53.loc["a0 [C/m]", "reproduced"]
     assert t53.loc["L_I", "reproduced"] == pytest.approx((2 * 3.141592653589793) ** 2 * a0)
     t54 = pd.read_csv(res / "table_5_4.csv")
     assert list(t54["frequency [Hz]"]) == [0.01, 0.1, 1, 10, 50, 100]
     assert t54["max error [µm]"].notna().all()
-    for f in ("fig_5_1", "fig_5_3", "fig_5_4", "fig_5_6", "fig_5_10", "fig_5_13", "fig_5_observer_study"):
+    for f in (
+        "fig_5_1",
+        "fig_5_3",
+        "fig_5_4",
+        "fig_5_6",
+        "fig_5_10",
+        "fig_5_13",
+        "fig_5_observer_study",
+    ):
         assert (smoke_run / f"figures/pi_p885/{f}.png").exists()
     assert (smoke_run / "figures/pi_p885/fig_5_3.pdf").exists()
 
@@ -151,7 +178,10 @@ def test_frequency_response_of_fig_5_3(smoke_run):
     assert low["magnitude error [%]"].abs().max() < 2 and low["phase error [deg]"].abs().max() < 1
     assert low["measured |G| [µm/µC]"].between(0.04, 0.08).all()  # 1/a0 of Eq 5.3: a0 ≈ 17 C/m
     peaks = pd.read_csv(smoke_run / "results/pi_p885/ch5/resonance.csv").set_index("response")
-    measured, model = peaks.loc["measured", "peak frequency [Hz]"], peaks.loc["model", "peak frequency [Hz]"]
+    measured, model = (
+        peaks.loc["measured", "peak frequency [Hz]"],
+        peaks.loc["model", "peak frequency [Hz]"],
+    )
     assert 3300 < measured < 3800 and abs(measured / model - 1) < 0.05
     assert peaks.loc["measured", "peak |G| [µm/µC]"] > 5 * low["measured |G| [µm/µC]"].max()
     stages = pd.read_csv(smoke_run / "results/pi_p885/stages.csv").set_index("stage")
@@ -165,7 +195,9 @@ def test_frequency_response_of_fig_5_3(smoke_run):
 def test_chapter_6_realtime_audit_and_tables(smoke_run):
     audit = pd.read_csv(smoke_run / "results/pi_p885/ch6/audit.csv")
     closed_loop = sorted(p.stem for p in (smoke_run / "raw/pi_p885").glob("*_closed*.nc"))
-    assert sorted(audit["run"]) == closed_loop and (audit["max |offline − logged| [nm]"] <= 1.0).all()
+    assert (
+        sorted(audit["run"]) == closed_loop and (audit["max |offline − logged| [nm]"] <= 1.0).all()
+    )
     t61 = pd.read_csv(smoke_run / "results/pi_p885/ch6/table_6_1.csv")
     assert set(t61["error"]) == {"e_TOL", "e_TCL", "e_OCL"}
     assert (t61["tests"] == 2).all()  # the smoke campaign's P1 recording holds two tests
@@ -218,7 +250,10 @@ def test_chapter_7_runs_and_says_why_when_runs_are_too_short(smoke_run):
     # Fig 7.9 is drawn from the identified values, and says when the thermal model has none
     shown = json.loads((smoke_run / "figures/pi_p885/fig_7_9.png.json").read_text())["shown"]
     assert shown["g [µm/K]"] == json.loads((res / "gamma_t.json").read_text())["g"]
-    assert shown["a0 [C/m]"] == json.loads((smoke_run / "results/pi_p885/ch5/observer.json").read_text())["a0"]
+    assert (
+        shown["a0 [C/m]"]
+        == json.loads((smoke_run / "results/pi_p885/ch5/observer.json").read_text())["a0"]
+    )
     assert (shown["tau [s]"] is None) == (not model["identified"])
 
 
@@ -227,13 +262,21 @@ def test_every_job_that_reads_a_capture_takes_its_qc_report(tmp_path):
     # still run on it (and under --keep-going make tables from it)
     dry = snakemake(copy_repo(tmp_path / "repo"), "-n")
     assert dry.returncode == 0, dry.stderr[-2000:]
-    jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    input: (.*)$", dry.stdout + dry.stderr, re.M)
+    jobs = re.findall(
+        r"^rule (\w+):\n(?:    .*\n)*?    input: (.*)$", dry.stdout + dry.stderr, re.M
+    )
     readers = 0
     for rule, inputs in jobs:
         inputs = inputs.split(", ")
-        captures = [m.groups() for m in map(re.compile(r"raw/([^/]+)/(\w+)\.nc$").match, inputs) if m]
+        captures = [
+            m.groups() for m in map(re.compile(r"raw/([^/]+)/(\w+)\.nc$").match, inputs) if m
+        ]
         if rule != "check_capture" and captures:
             readers += 1
-            missing = [f"results/{d}/qc/{e}.json" for d, e in captures if f"results/{d}/qc/{e}.json" not in inputs]
+            missing = [
+                f"results/{d}/qc/{e}.json"
+                for d, e in captures
+                if f"results/{d}/qc/{e}.json" not in inputs
+            ]
             assert missing == [], (rule, missing)
     assert readers > 50

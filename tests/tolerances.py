@@ -57,11 +57,15 @@ def assert_close(actual, desired, rtol, atol=0.0):
     bad = ~(np.abs(actual - desired) <= bound)
     if bad.any():
         k = np.unravel_index(np.argmax(np.where(bad, excess, -1)), bad.shape) if bad.ndim else ()
-        raise AssertionError(f"{bad.sum()} of {bad.size} elements differ beyond their tolerance; worst at "
-                             f"{k}: {actual[k]!r} vs {desired[k]!r} (tolerance {np.broadcast_to(bound, bad.shape)[k]:.3g})")
+        raise AssertionError(
+            f"{bad.sum()} of {bad.size} elements differ beyond their tolerance; worst at "
+            f"{k}: {actual[k]!r} vs {desired[k]!r} (tolerance {np.broadcast_to(bound, bad.shape)[k]:.3g})"
+        )
 
 
 def root_condition(coefficients, root):
     """κ of a simple root r of Σ a_k s^k: Σ|a_k||r|^k / (|r|·|p'(r)|) (Wilkinson)."""
     c = np.atleast_1d(np.squeeze(coefficients))
-    return np.polyval(np.abs(c), np.abs(root)) / (np.abs(root) * np.abs(np.polyval(np.polyder(c), root)))
+    return np.polyval(np.abs(c), np.abs(root)) / (
+        np.abs(root) * np.abs(np.polyval(np.polyder(c), root))
+    )

@@ -9,7 +9,14 @@ import sys
 from pathlib import Path
 
 from selfsense.io.capture import CaptureError
-from selfsense.io.importer import ImportProblem, Request, parse_attr, parse_column, parse_range, run_import
+from selfsense.io.importer import (
+    ImportProblem,
+    Request,
+    parse_attr,
+    parse_column,
+    parse_range,
+    run_import,
+)
 from selfsense.io.manifest import ManifestError
 
 EXAMPLE = """\
@@ -29,11 +36,13 @@ contract's (V, A, m, N); channels: U, I, x_laser or x_disp, F, Ur, Ir, ... (docs
 
 def _arg(parse):
     """argparse shows an ArgumentTypeError's own message (a ValueError only as "invalid value")."""
+
     def wrapped(text):
         try:
             return parse(text)
         except ImportProblem as err:
             raise argparse.ArgumentTypeError(str(err)) from None
+
     wrapped.__name__ = parse.__name__
     return wrapped
 
@@ -41,27 +50,62 @@ def _arg(parse):
 def parser() -> argparse.ArgumentParser:
     cli = argparse.ArgumentParser(prog="selfsense", description=__doc__)
     commands = cli.add_subparsers(dest="command", required=True)
-    imp = commands.add_parser("import", help="a CSV/TSV or .mat recording into raw/<dataset>/",
-                              description="Import one recording as one capture of a measured dataset.",
-                              epilog=EXAMPLE, formatter_class=argparse.RawDescriptionHelpFormatter)
-    imp.add_argument("source", type=Path, help="the recording: .csv, .tsv (or --sep) or .mat (v4–v7)")
+    imp = commands.add_parser(
+        "import",
+        help="a CSV/TSV or .mat recording into raw/<dataset>/",
+        description="Import one recording as one capture of a measured dataset.",
+        epilog=EXAMPLE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    imp.add_argument(
+        "source", type=Path, help="the recording: .csv, .tsv (or --sep) or .mat (v4–v7)"
+    )
     imp.add_argument("--dataset", required=True, help="dataset name: letters, digits, '_' or '-'")
     imp.add_argument("--experiment", required=True, help="capture name: letters, digits or '_'")
-    imp.add_argument("--channel", action="append", required=True, type=_arg(parse_column), dest="channels",
-                     metavar="CHANNEL=COLUMN:UNIT", help="a contract channel, where it is, its unit there")
+    imp.add_argument(
+        "--channel",
+        action="append",
+        required=True,
+        type=_arg(parse_column),
+        dest="channels",
+        metavar="CHANNEL=COLUMN:UNIT",
+        help="a contract channel, where it is, its unit there",
+    )
     timing = imp.add_mutually_exclusive_group()
-    timing.add_argument("--time", type=_arg(lambda t: parse_column(t, time=True)), metavar="COLUMN:UNIT",
-                        help="the time column (s, ms, us); checked to be uniformly sampled")
+    timing.add_argument(
+        "--time",
+        type=_arg(lambda t: parse_column(t, time=True)),
+        metavar="COLUMN:UNIT",
+        help="the time column (s, ms, us); checked to be uniformly sampled",
+    )
     timing.add_argument("--fs", type=float, help="sampling rate [Hz] when there is no time column")
-    imp.add_argument("--range", action="append", type=_arg(parse_range), dest="ranges", metavar="CHANNEL=LOW,HIGH",
-                     help="the ADC's full scale in the contract's unit (default: the manifest's, else "
-                          "derived from the data)")
-    imp.add_argument("--attr", action="append", type=_arg(parse_attr), dest="attrs", metavar="NAME=VALUE",
-                     help="a capture attribute, e.g. warmup_s=0.5 (docs/capture-contract.md)")
+    imp.add_argument(
+        "--range",
+        action="append",
+        type=_arg(parse_range),
+        dest="ranges",
+        metavar="CHANNEL=LOW,HIGH",
+        help="the ADC's full scale in the contract's unit (default: the manifest's, else "
+        "derived from the data)",
+    )
+    imp.add_argument(
+        "--attr",
+        action="append",
+        type=_arg(parse_attr),
+        dest="attrs",
+        metavar="NAME=VALUE",
+        help="a capture attribute, e.g. warmup_s=0.5 (docs/capture-contract.md)",
+    )
     imp.add_argument("--sep", help="column separator (default: tab for .tsv, else comma)")
-    imp.add_argument("--no-header", dest="header", action="store_false", help="the file has no header row")
-    imp.add_argument("--model", choices=["stack", "bender", "other"], help="the actuator's kind (new datasets)")
-    imp.add_argument("--raw-dir", type=Path, default=Path("raw"), help="where datasets live (default: raw)")
+    imp.add_argument(
+        "--no-header", dest="header", action="store_false", help="the file has no header row"
+    )
+    imp.add_argument(
+        "--model", choices=["stack", "bender", "other"], help="the actuator's kind (new datasets)"
+    )
+    imp.add_argument(
+        "--raw-dir", type=Path, default=Path("raw"), help="where datasets live (default: raw)"
+    )
     return cli
 
 
@@ -69,9 +113,22 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
     try:
         args = parser().parse_args(argv)
-        capture, manifest = run_import(Request(
-            args.source, args.dataset, args.experiment, tuple(args.channels), args.time, args.fs,
-            dict(args.ranges or ()), dict(args.attrs or ()), args.sep, args.header, args.model, args.raw_dir))
+        capture, manifest = run_import(
+            Request(
+                args.source,
+                args.dataset,
+                args.experiment,
+                tuple(args.channels),
+                args.time,
+                args.fs,
+                dict(args.ranges or ()),
+                dict(args.attrs or ()),
+                args.sep,
+                args.header,
+                args.model,
+                args.raw_dir,
+            )
+        )
     except (ImportProblem, CaptureError, ManifestError) as err:
         print(f"selfsense import: {err}", file=sys.stderr)
         return 1

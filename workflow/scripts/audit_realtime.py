@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from selfsense.io.provenance import script_logging, write_table
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
-from selfsense.io.provenance import script_logging, write_table
 from selfsense.methods.selfsensing import audit_realtime
 
 
@@ -22,15 +22,35 @@ def main(captures, gamma, observer, table, n_periods, log=None):
     poly, gains, rows = load_gamma(gamma), load_gains(observer), []
     for k, capture in enumerate(captures, 1):
         audit = audit_realtime(capture, poly, gains, n_periods)
-        rows.append({"run": Path(capture).stem} | {f"{key} [nm]": value * 1e9 for key, value in audit.items()})
-        logger.info("%d/%d %s: offline vs logged HPO differ by at most %.3f nm", k, len(captures), capture,
-                    rows[-1]["max |offline − logged| [nm]"])
-    write_table(pd.DataFrame(rows), table, inputs=[*captures, gamma, observer], config={"n_periods": n_periods})
+        rows.append(
+            {"run": Path(capture).stem}
+            | {f"{key} [nm]": value * 1e9 for key, value in audit.items()}
+        )
+        logger.info(
+            "%d/%d %s: offline vs logged HPO differ by at most %.3f nm",
+            k,
+            len(captures),
+            capture,
+            rows[-1]["max |offline − logged| [nm]"],
+        )
+    write_table(
+        pd.DataFrame(rows),
+        table,
+        inputs=[*captures, gamma, observer],
+        config={"n_periods": n_periods},
+    )
 
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(list(i.capture), i.gamma, i.observer, snakemake.output.table, snakemake.params.n_periods, snakemake.log[0])
+    main(
+        list(i.capture),
+        i.gamma,
+        i.observer,
+        snakemake.output.table,
+        snakemake.params.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("gamma", "observer", "table"):

@@ -16,10 +16,26 @@ def summary(reports):
     rows = []
     for path in reports:
         r = json.loads(Path(path).read_text())
-        rows.append({"experiment": Path(r["path"]).stem, "duration [s]": r["duration_s"],
-                     "fs [Hz]": r["fs"], "samples": r["n_samples"], "channels": " ".join(r["channels"]),
-                     "NaN samples": sum(r["nan"].values()), "clipped samples": sum(r["clipped"].values())})
-    columns = ["experiment", "duration [s]", "fs [Hz]", "samples", "channels", "NaN samples", "clipped samples"]
+        rows.append(
+            {
+                "experiment": Path(r["path"]).stem,
+                "duration [s]": r["duration_s"],
+                "fs [Hz]": r["fs"],
+                "samples": r["n_samples"],
+                "channels": " ".join(r["channels"]),
+                "NaN samples": sum(r["nan"].values()),
+                "clipped samples": sum(r["clipped"].values()),
+            }
+        )
+    columns = [
+        "experiment",
+        "duration [s]",
+        "fs [Hz]",
+        "samples",
+        "channels",
+        "NaN samples",
+        "clipped samples",
+    ]
     return pd.DataFrame(rows, columns=columns)
 
 

@@ -8,27 +8,49 @@ import argparse
 from selfsense.io import figures
 from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import save_figure, script_logging, write_table
-from selfsense.twin.params import TwinParams
 from selfsense.twin.experiment import daq_plan
+from selfsense.twin.params import TwinParams
 from selfsense.verify.studies import ce_error_vs_np_and_wander
 
 
-def main(manifest, table, figure, nps=(1, 2, 4, 8, 12, 16), wanders=(0, 30, 100, 300), drive_hz=100.0,
-         log=None):
+def main(
+    manifest,
+    table,
+    figure,
+    nps=(1, 2, 4, 8, 12, 16),
+    wanders=(0, 30, 100, 300),
+    drive_hz=100.0,
+    log=None,
+):
     logger = script_logging(log)
     meta = load_manifest(manifest)
-    result = ce_error_vs_np_and_wander(TwinParams.from_manifest(meta["twin"]), daq_plan(meta),
-                                       list(nps), list(wanders), drive_hz=drive_hz, seed=meta.get("seed", 0))
+    result = ce_error_vs_np_and_wander(
+        TwinParams.from_manifest(meta["twin"]),
+        daq_plan(meta),
+        list(nps),
+        list(wanders),
+        drive_hz=drive_hz,
+        seed=meta.get("seed", 0),
+    )
     config = {"np": list(nps), "wander_hz": list(wanders), "drive_hz": drive_hz}
     write_table(result, table, inputs=[manifest], config=config, seed=meta.get("seed", 0))
-    save_figure(figures.np_study(result), figure, inputs=[manifest], config=config, seed=meta.get("seed", 0))
+    save_figure(
+        figures.np_study(result), figure, inputs=[manifest], config=config, seed=meta.get("seed", 0)
+    )
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
     p = snakemake.params
-    main(snakemake.input.manifest, snakemake.output.table, snakemake.output.figure, p.nps, p.wanders,
-         p.drive_hz, snakemake.log[0])
+    main(
+        snakemake.input.manifest,
+        snakemake.output.table,
+        snakemake.output.figure,
+        p.nps,
+        p.wanders,
+        p.drive_hz,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("manifest")

@@ -22,15 +22,21 @@ def main(pairs, table, n_periods, log=None):
         with open_capture(capture) as cap:
             truth, fs = Truth.from_capture(cap, names=("C_e",)), cap.fs
         data = read_series(series, ["time", "C_e"])
-        rows.append({"experiment": Path(capture).stem, "np": n_periods} | ce_tracking(data, truth, fs))
+        rows.append(
+            {"experiment": Path(capture).stem, "np": n_periods} | ce_tracking(data, truth, fs)
+        )
     result = pd.DataFrame(rows)
     write_table(result, table, inputs=[*pairs, *pairs.values()], config={"n_periods": n_periods})
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
-    main(dict(zip(snakemake.input.captures, snakemake.input.series)), snakemake.output.table,
-         snakemake.params.n_periods, snakemake.log[0])
+    main(
+        dict(zip(snakemake.input.captures, snakemake.input.series)),
+        snakemake.output.table,
+        snakemake.params.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("table")

@@ -6,8 +6,8 @@ Alone: python workflow/scripts/ch3_figures.py --help
 import argparse
 from pathlib import Path
 
-from selfsense.io.capture import read_series
 from selfsense.chapters import ch3
+from selfsense.io.capture import read_series
 from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import save_figure, script_logging
 
@@ -25,8 +25,14 @@ def main(capture_10hz, series, manifest, out, skip_s=0.1, log=None):
 
 
 if "snakemake" in globals():
-    main(snakemake.input.capture, dict(zip(snakemake.params.labels, snakemake.input.series)),
-         snakemake.input.manifest, dict(snakemake.output.items()), snakemake.params.skip_s, snakemake.log[0])
+    main(
+        snakemake.input.capture,
+        dict(zip(snakemake.params.labels, snakemake.input.series)),
+        snakemake.input.manifest,
+        dict(snakemake.output.items()),
+        snakemake.params.skip_s,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("capture_10hz")
@@ -34,5 +40,9 @@ elif __name__ == "__main__":
     cli.add_argument("out_dir")
     cli.add_argument("--series", nargs="+", required=True, help="label=path, the 10 Hz one first")
     args = cli.parse_args()
-    main(args.capture_10hz, dict(s.split("=", 1) for s in args.series), args.manifest,
-         {name: Path(args.out_dir) / f"{name}.png" for name in ch3.FIGURES})
+    main(
+        args.capture_10hz,
+        dict(s.split("=", 1) for s in args.series),
+        args.manifest,
+        {name: Path(args.out_dir) / f"{name}.png" for name in ch3.FIGURES},
+    )

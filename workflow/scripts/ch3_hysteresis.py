@@ -6,8 +6,8 @@ Alone: python workflow/scripts/ch3_hysteresis.py results/pi_p885/ripple/ch3_sine
 
 import argparse
 
-from selfsense.io.capture import read_series
 from selfsense.chapters.ch3 import hysteresis_table, phase_table, steady
+from selfsense.io.capture import read_series
 from selfsense.io.provenance import script_logging, write_table
 
 
@@ -21,8 +21,14 @@ def main(series, table, phases, skip_s=0.1, frequency=10.0, log=None):
 
 
 if "snakemake" in globals():
-    main(snakemake.input.series, snakemake.output.table, snakemake.output.phases, snakemake.params.skip_s,
-         snakemake.params.frequency, snakemake.log[0])
+    main(
+        snakemake.input.series,
+        snakemake.output.table,
+        snakemake.output.phases,
+        snakemake.params.skip_s,
+        snakemake.params.frequency,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("series")

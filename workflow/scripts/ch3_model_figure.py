@@ -13,8 +13,11 @@ from selfsense.io.provenance import save_figure, script_logging
 def main(manifest, figure, log=None):
     logger = script_logging(log)
     twin = load_manifest(manifest)["twin"]
-    save_figure(figure_3_2(twin["stack"], twin["ripple"]["amplitude"], twin["ripple"]["f_nominal"]),
-                figure, inputs=[manifest])
+    save_figure(
+        figure_3_2(twin["stack"], twin["ripple"]["amplitude"], twin["ripple"]["f_nominal"]),
+        figure,
+        inputs=[manifest],
+    )
     logger.info("wrote %s", figure)
 
 

@@ -22,6 +22,12 @@ if "snakemake" in globals():
     main(p.fr, p.ns, p.fs, snakemake.output.table_31, snakemake.output.table_32, snakemake.log[0])
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
-    for name, kind in (("fr", float), ("ns", int), ("fs", float), ("table_31", str), ("table_32", str)):
+    for name, kind in (
+        ("fr", float),
+        ("ns", int),
+        ("fs", float),
+        ("table_31", str),
+        ("table_32", str),
+    ):
         cli.add_argument(name, type=kind)
     main(**vars(cli.parse_args()))

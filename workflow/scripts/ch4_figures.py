@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from selfsense.io.capture import open_capture, read_series
 from selfsense.chapters import ch4
+from selfsense.io.capture import open_capture, read_series
 from selfsense.io.provenance import save_figure, script_logging
 
 
@@ -32,12 +32,24 @@ def main(series, per_set, force_capture, drive_capture, out, log=None):
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(list(i.series), i.per_set, i.force, i.drive, dict(snakemake.output.items()), snakemake.log[0])
+    main(
+        list(i.series),
+        i.per_set,
+        i.force,
+        i.drive,
+        dict(snakemake.output.items()),
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("per_set", "force_capture", "drive_capture", "out_dir"):
         cli.add_argument(name)
     cli.add_argument("--series", nargs="+", required=True)
     a = cli.parse_args()
-    main(a.series, a.per_set, a.force_capture, a.drive_capture,
-         {name: Path(a.out_dir) / f"{name}.png" for name in ch4.FIGURES})
+    main(
+        a.series,
+        a.per_set,
+        a.force_capture,
+        a.drive_capture,
+        {name: Path(a.out_dir) / f"{name}.png" for name in ch4.FIGURES},
+    )

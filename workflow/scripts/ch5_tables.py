@@ -7,8 +7,8 @@ import argparse
 import json
 from pathlib import Path
 
-from selfsense.io.capture import read_series
 from selfsense.chapters.ch5 import creep_errors, table_5_4
+from selfsense.io.capture import read_series
 from selfsense.io.provenance import script_logging, write_table
 
 
@@ -27,8 +27,14 @@ def main(stats, creep_stats, creep_traces, table, creep_table, log=None):
 
 if "snakemake" in globals():
     p = snakemake.params
-    main(dict(zip(p.frequencies, snakemake.input.stats)), snakemake.input.creep_stats, snakemake.input.creep,
-         snakemake.output.table, snakemake.output.creep, snakemake.log[0])
+    main(
+        dict(zip(p.frequencies, snakemake.input.stats)),
+        snakemake.input.creep_stats,
+        snakemake.input.creep,
+        snakemake.output.table,
+        snakemake.output.creep,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("creep_stats")
@@ -37,4 +43,10 @@ elif __name__ == "__main__":
     cli.add_argument("creep_table")
     cli.add_argument("--stats", nargs="+", required=True, help="frequency=path")
     a = cli.parse_args()
-    main(dict(s.split("=", 1) for s in a.stats), a.creep_stats, a.creep_traces, a.table, a.creep_table)
+    main(
+        dict(s.split("=", 1) for s in a.stats),
+        a.creep_stats,
+        a.creep_traces,
+        a.table,
+        a.creep_table,
+    )

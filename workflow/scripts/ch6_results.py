@@ -7,8 +7,8 @@ rate). Alone: run through Snakemake (`snakemake results/pi_p885/ch6/table_6_1.cs
 from pathlib import Path
 
 from selfsense.chapters import ch6
-from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.methods.electromech import load_k_over_alpha
 
 
 def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
@@ -18,8 +18,12 @@ def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
     tables = ch6.results(runs, protocols, controls, k_over_alpha, omega_c)
     inputs = list(captures)
     for key, table in tables.items():
-        write_table(table, out[key], inputs=inputs, config=None if key == "p3" else {"omega_c": omega_c})
-    window = ch6.p1_window(protocols["ch6_p1_closed"]) if "ch6_p1_closed" in protocols else float("inf")
+        write_table(
+            table, out[key], inputs=inputs, config=None if key == "p3" else {"omega_c": omega_c}
+        )
+    window = (
+        ch6.p1_window(protocols["ch6_p1_closed"]) if "ch6_p1_closed" in protocols else float("inf")
+    )
     for name, fig in ch6.figures_ch6(runs, tables["tracking"], window).items():
         save_figure(fig, out[name], inputs=inputs)
     logger.info("%d runs", len(runs))
@@ -27,5 +31,12 @@ def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
 
 if "snakemake" in globals():
     p = snakemake.params
-    main(list(snakemake.input.captures), p.protocols, p.controls, load_k_over_alpha(snakemake.input.model),
-         p.omega_c, dict(snakemake.output.items()), snakemake.log[0])
+    main(
+        list(snakemake.input.captures),
+        p.protocols,
+        p.controls,
+        load_k_over_alpha(snakemake.input.model),
+        p.omega_c,
+        dict(snakemake.output.items()),
+        snakemake.log[0],
+    )

@@ -7,8 +7,8 @@ Alone: run through Snakemake (`snakemake results/pi_p885/ch7/coupled.csv`).
 import json
 from pathlib import Path
 
-from selfsense.io.capture import read_series
 from selfsense.chapters import ch7
+from selfsense.io.capture import read_series
 from selfsense.io.provenance import save_figure, script_logging, write_table
 
 
@@ -19,11 +19,19 @@ def main(stats, traces, out, log=None):
     coupled = ch7.coupled_table(records)
     write_table(coupled, out["coupled"], inputs=list(stats.values()))
     for name, run in ch7.COUPLED_FIGURES.items():
-        save_figure(ch7.figure_coupled(name, run, read_series(traces[run]), records[run]), out[name],
-                    inputs=[traces[run]])
+        save_figure(
+            ch7.figure_coupled(name, run, read_series(traces[run]), records[run]),
+            out[name],
+            inputs=[traces[run]],
+        )
     logger.info("\n%s", coupled.to_string())
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(dict(zip(p.runs, i.stats)), dict(zip(p.runs, i.traces)), dict(snakemake.output.items()), snakemake.log[0])
+    main(
+        dict(zip(p.runs, i.stats)),
+        dict(zip(p.runs, i.traces)),
+        dict(snakemake.output.items()),
+        snakemake.log[0],
+    )

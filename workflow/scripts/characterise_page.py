@@ -7,8 +7,8 @@ Alone: python workflow/scripts/characterise_page.py rows.json loops_01.png "titl
 
 import argparse
 
-from selfsense.methods import characterise as ch
 from selfsense.io.provenance import provenance, save_figure, script_logging, write_json
+from selfsense.methods import characterise as ch
 
 
 def main(captures, rows_json, figure, title, settle_s=0.1, min_hold_s=1.0, log=None):

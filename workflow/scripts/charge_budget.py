@@ -10,27 +10,43 @@ import argparse
 
 import pandas as pd
 
-from selfsense.verify.error_budget import capture_charge_budget
 from selfsense.io.provenance import script_logging, write_table
+from selfsense.verify.error_budget import capture_charge_budget
 
 
 def main(runs, table, n_periods, log=None):
     """runs: {drive frequency [Hz]: (ripple series, capture)}."""
     logger = script_logging(log)
-    rows = [{"frequency [Hz]": float(f)} | capture_charge_budget(s, c, n_periods) for f, (s, c) in sorted(runs.items())]
+    rows = [
+        {"frequency [Hz]": float(f)} | capture_charge_budget(s, c, n_periods)
+        for f, (s, c) in sorted(runs.items())
+    ]
     result = pd.DataFrame(rows)
-    write_table(result, table, inputs=[p for pair in runs.values() for p in pair], config={"n_periods": n_periods})
+    write_table(
+        result,
+        table,
+        inputs=[p for pair in runs.values() for p in pair],
+        config={"n_periods": n_periods},
+    )
     logger.info("\n%s", result.T.to_string())
 
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(dict(zip(snakemake.params.frequencies, zip(i.series, i.capture))), snakemake.output.table,
-         snakemake.params.n_periods, snakemake.log[0])
+    main(
+        dict(zip(snakemake.params.frequencies, zip(i.series, i.capture))),
+        snakemake.output.table,
+        snakemake.params.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("table")
     cli.add_argument("runs", nargs="+", help="frequency=series,capture")
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
     a = cli.parse_args()
-    main({float(f): tuple(p.split(",")) for f, p in (r.split("=", 1) for r in a.runs)}, a.table, a.n_periods)
+    main(
+        {float(f): tuple(p.split(",")) for f, p in (r.split("=", 1) for r in a.runs)},
+        a.table,
+        a.n_periods,
+    )

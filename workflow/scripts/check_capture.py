@@ -20,12 +20,19 @@ def main(capture, manifest, report, log=None):
     check_attributes(capture, header, meta, manifest)
     check_clipping(capture, scan.clipped, header, manifest)
     write_scan_report(scan, report, inputs=[capture, manifest])
-    logger.info("%s: %d samples, NaN %s, clipped %s", capture, scan.n_samples,
-                sum(scan.nan.values()), sum(scan.clipped.values()))
+    logger.info(
+        "%s: %d samples, NaN %s, clipped %s",
+        capture,
+        scan.n_samples,
+        sum(scan.nan.values()),
+        sum(scan.clipped.values()),
+    )
 
 
 if "snakemake" in globals():
-    main(snakemake.input.capture, snakemake.input.manifest, snakemake.output.report, snakemake.log[0])
+    main(
+        snakemake.input.capture, snakemake.input.manifest, snakemake.output.report, snakemake.log[0]
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("capture")

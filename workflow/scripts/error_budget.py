@@ -9,21 +9,29 @@ from pathlib import Path
 import pandas as pd
 
 from selfsense.io import figures
-from selfsense.verify.error_budget import SOURCES, capture_budget
+from selfsense.io.provenance import save_figure, script_logging, write_table
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
-from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.verify.error_budget import SOURCES, capture_budget
 
 
 def main(runs, gamma, observer, table, figure, n_periods, log=None):
     """runs: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Chapter 6 closed-loop run
     or None, the protocol of a P1 run or None, the creep run's transient [s] or None)}."""
     logger, poly, gains = script_logging(log), load_gamma(gamma), load_gains(observer)
-    result = pd.DataFrame([{"run": Path(c).stem, "segment": s or None, "frequency [Hz]": f} | row
-                           for c, (f, w, p1, transient) in runs.items()
-                           for s, row in capture_budget(c, n_periods, poly, gains, w, p1, transient).items()])
+    result = pd.DataFrame(
+        [
+            {"run": Path(c).stem, "segment": s or None, "frequency [Hz]": f} | row
+            for c, (f, w, p1, transient) in runs.items()
+            for s, row in capture_budget(c, n_periods, poly, gains, w, p1, transient).items()
+        ]
+    )
     result = result.astype({"frequency [Hz]": float})
-    config = {"n_periods": n_periods, "omega_c": [r[1] for r in runs.values()], "transient_s": [r[3] for r in runs.values()]}
+    config = {
+        "n_periods": n_periods,
+        "omega_c": [r[1] for r in runs.values()],
+        "transient_s": [r[3] for r in runs.values()],
+    }
     provenance = {"inputs": [*runs, gamma, observer], "config": config}
     write_table(result, table, **provenance)
     save_figure(figures.error_budget(result, SOURCES), figure, **provenance)
@@ -33,18 +41,42 @@ def main(runs, gamma, observer, table, figure, n_periods, log=None):
 if "snakemake" in globals():
     i = snakemake.input
     p = snakemake.params
-    main(dict(zip(i.captures, zip(p.frequencies, p.loop_omega_c, p.p1_protocols, p.transient_s))), i.gamma, i.observer,
-         snakemake.output.table, snakemake.output.figure, p.n_periods, snakemake.log[0])
+    main(
+        dict(zip(i.captures, zip(p.frequencies, p.loop_omega_c, p.p1_protocols, p.transient_s))),
+        i.gamma,
+        i.observer,
+        snakemake.output.table,
+        snakemake.output.figure,
+        p.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("gamma", "observer", "table", "figure"):
         cli.add_argument(name)
     cli.add_argument("--runs", nargs="+", required=True, help="capture[=Table 5.4 frequency in Hz]")
-    cli.add_argument("--p2", nargs="*", default=[], help="closed-loop P2 capture=the loop's ω_C [rad/s]")
+    cli.add_argument(
+        "--p2", nargs="*", default=[], help="closed-loop P2 capture=the loop's ω_C [rad/s]"
+    )
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    cli.add_argument("--transient-s", type=float, default=10.0, help="the creep run's (ch5_creep) transient [s]")
+    cli.add_argument(
+        "--transient-s", type=float, default=10.0, help="the creep run's (ch5_creep) transient [s]"
+    )
     a = cli.parse_args()
-    runs = {c: (float(f) if f else None, None, None, a.transient_s if Path(c).stem == "ch5_creep" else None)
-            for c, _, f in (r.partition("=") for r in a.runs)}
-    main(runs | {c: (None, float(w), None, None) for c, _, w in (r.partition("=") for r in a.p2)}, a.gamma, a.observer,
-         a.table, a.figure, a.n_periods)
+    runs = {
+        c: (
+            float(f) if f else None,
+            None,
+            None,
+            a.transient_s if Path(c).stem == "ch5_creep" else None,
+        )
+        for c, _, f in (r.partition("=") for r in a.runs)
+    }
+    main(
+        runs | {c: (None, float(w), None, None) for c, _, w in (r.partition("=") for r in a.p2)},
+        a.gamma,
+        a.observer,
+        a.table,
+        a.figure,
+        a.n_periods,
+    )

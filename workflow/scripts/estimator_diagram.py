@@ -9,27 +9,47 @@ import json
 from pathlib import Path
 
 from selfsense.chapters import ch7
+from selfsense.io.provenance import save_figure, script_logging
 from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
-from selfsense.io.provenance import save_figure, script_logging
 from selfsense.methods.ripple import plan_from_fs
 
 
 def main(gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods, log=None):
     logger = script_logging(log)
-    fig, shown = ch7.figure_7_9(load_gamma(gamma_t), load_gains(observer), json.loads(Path(thermal_model).read_text()),
-                                load_k_over_alpha(model), plan_from_fs(fs, fr, ns, n_periods))
+    fig, shown = ch7.figure_7_9(
+        load_gamma(gamma_t),
+        load_gains(observer),
+        json.loads(Path(thermal_model).read_text()),
+        load_k_over_alpha(model),
+        plan_from_fs(fs, fr, ns, n_periods),
+    )
     # the sidecar records the numbers the diagram shows, for audits that cannot read a PNG
-    save_figure(fig, figure, inputs=[gamma_t, observer, thermal_model, model], config={"n_periods": n_periods},
-                shown=shown)
+    save_figure(
+        fig,
+        figure,
+        inputs=[gamma_t, observer, thermal_model, model],
+        config={"n_periods": n_periods},
+        shown=shown,
+    )
     logger.info("Figure 7.9 shows %s", shown)
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(i.gamma_t, i.observer, i.thermal_model, i.model, snakemake.output.figure, p.fs, p.fr, p.ns, p.n_periods,
-         snakemake.log[0])
+    main(
+        i.gamma_t,
+        i.observer,
+        i.thermal_model,
+        i.model,
+        snakemake.output.figure,
+        p.fs,
+        p.fr,
+        p.ns,
+        p.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("results", type=Path)
@@ -40,5 +60,14 @@ elif __name__ == "__main__":
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
     a = cli.parse_args()
     r = a.results
-    main(r / "ch7/gamma_t.json", r / "ch5/observer.json", r / "ch7/thermal_model.json", r / "ch4/model.json", a.figure,
-         a.fs, a.fr, a.ns, a.n_periods)
+    main(
+        r / "ch7/gamma_t.json",
+        r / "ch5/observer.json",
+        r / "ch7/thermal_model.json",
+        r / "ch4/model.json",
+        a.figure,
+        a.fs,
+        a.fr,
+        a.ns,
+        a.n_periods,
+    )

@@ -24,11 +24,18 @@ def main(capture, series, n_periods, chunk_len=1 << 18, log=None):
         with SeriesWriter(series, SERIES_UNITS, attrs) as out:
             for block in impedance_series(chunks, plan, cap.fs, COMPANIONS):
                 out.write(block)
-        logger.info("%s: %d ripple windows (np = %d), NaN %s", capture, out.n, plan.n_periods, cap.stats.nan)
+        logger.info(
+            "%s: %d ripple windows (np = %d), NaN %s", capture, out.n, plan.n_periods, cap.stats.nan
+        )
 
 
 if "snakemake" in globals():
-    main(snakemake.input.capture, snakemake.output.series, snakemake.params.n_periods, log=snakemake.log[0])
+    main(
+        snakemake.input.capture,
+        snakemake.output.series,
+        snakemake.params.n_periods,
+        log=snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("capture")

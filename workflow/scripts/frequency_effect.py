@@ -9,16 +9,30 @@ import argparse
 from pathlib import Path
 
 from selfsense.chapters import ch7
-from selfsense.methods.gamma import load_gamma
 from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.methods.gamma import load_gamma
 
 
-def main(series, captures, frequencies, gamma, gamma_t, reference, table, figure, bins=20, min_windows=10, log=None):
+def main(
+    series,
+    captures,
+    frequencies,
+    gamma,
+    gamma_t,
+    reference,
+    table,
+    figure,
+    bins=20,
+    min_windows=10,
+    log=None,
+):
     """series / captures / frequencies: {run: ripple series path / capture path / drive frequency [Hz]}."""
     logger = script_logging(log)
     gamma_poly = load_gamma(gamma)
     runs = {run: ch7.frequency_run(series[run], captures[run], frequencies[run]) for run in series}
-    result, curves = ch7.frequency_effect(runs, gamma_poly, load_gamma(gamma_t).g, reference, bins, min_windows)
+    result, curves = ch7.frequency_effect(
+        runs, gamma_poly, load_gamma(gamma_t).g, reference, bins, min_windows
+    )
     inputs = [*series.values(), *captures.values(), gamma, gamma_t]
     config = {"bins": bins, "min_windows": min_windows, "reference": reference}
     write_table(result, table, inputs=inputs, config=config)
@@ -28,11 +42,23 @@ def main(series, captures, frequencies, gamma, gamma_t, reference, table, figure
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(dict(zip(p.runs, i.series)), dict(zip(p.runs, i.captures)), dict(zip(p.runs, p.frequencies)), i.gamma,
-         i.gamma_t, p.reference, snakemake.output.table, snakemake.output.figure, p.bins, p.min_windows,
-         snakemake.log[0])
+    main(
+        dict(zip(p.runs, i.series)),
+        dict(zip(p.runs, i.captures)),
+        dict(zip(p.runs, p.frequencies)),
+        i.gamma,
+        i.gamma_t,
+        p.reference,
+        snakemake.output.table,
+        snakemake.output.figure,
+        p.bins,
+        p.min_windows,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    cli = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     cli.add_argument("raw", type=Path)
     cli.add_argument("results", type=Path)
     cli.add_argument("out_dir", type=Path)
@@ -42,6 +68,15 @@ elif __name__ == "__main__":
     cli.add_argument("--min-windows", type=int, default=10)
     a = cli.parse_args()
     freqs = {run: float(f) for run, f in (r.split("=") for r in a.runs)}
-    main({r: a.results / "ripple" / f"{r}.nc" for r in freqs}, {r: a.raw / f"{r}.nc" for r in freqs}, freqs,
-         a.results / "ch5/gamma.json", a.results / "ch7/gamma_t.json", a.reference, a.out_dir / "frequency_effect.csv",
-         a.out_dir / f"{ch7.FREQUENCY_FIGURE}.png", a.bins, a.min_windows)
+    main(
+        {r: a.results / "ripple" / f"{r}.nc" for r in freqs},
+        {r: a.raw / f"{r}.nc" for r in freqs},
+        freqs,
+        a.results / "ch5/gamma.json",
+        a.results / "ch7/gamma_t.json",
+        a.reference,
+        a.out_dir / "frequency_effect.csv",
+        a.out_dir / f"{ch7.FREQUENCY_FIGURE}.png",
+        a.bins,
+        a.min_windows,
+    )

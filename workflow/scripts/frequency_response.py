@@ -9,11 +9,12 @@ import json
 from pathlib import Path
 
 from selfsense.chapters import ch5
-from selfsense.methods import frequency_response as fr
 from selfsense.io.capture import open_capture
 from selfsense.io.manifest import expand_protocols
 from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.methods import frequency_response as fr
 from selfsense.methods.drive import drive_from_protocol
+
 
 def main(capture, model, protocol, settle_s, out, log=None):
     """protocol: the sweep's catalogue entry (segments, warmup); out: {table, peaks, figure}."""
@@ -23,19 +24,32 @@ def main(capture, model, protocol, settle_s, out, log=None):
         measured = fr.measure_sweep(cap, drive_from_protocol(protocol).segments, settle_s)
     G = fr.transfer_function(params, measured.operating_position)
     table, peaks = fr.response_table(measured, G), fr.resonance_table(measured, G, params["m"])
-    cfg = {"settle_s": settle_s, "operating position [µm]": measured.operating_position * 1e6,
-           "model": {k: params[k] for k in ("C_P0", "dC_x", "alpha", "k", "m", "b")}}
+    cfg = {
+        "settle_s": settle_s,
+        "operating position [µm]": measured.operating_position * 1e6,
+        "model": {k: params[k] for k in ("C_P0", "dC_x", "alpha", "k", "m", "b")},
+    }
     inputs = [capture, model]
     write_table(table, out["table"], inputs=inputs, config=cfg)
     write_table(peaks, out["peaks"], inputs=inputs, config=cfg)
     save_figure(ch5.figure_5_3(table, peaks, G), out["figure"], inputs=inputs, config=cfg)
-    logger.info("operating position %.2f µm\n%s\n%s", measured.operating_position * 1e6, table.to_string(),
-                peaks.to_string())
+    logger.info(
+        "operating position %.2f µm\n%s\n%s",
+        measured.operating_position * 1e6,
+        table.to_string(),
+        peaks.to_string(),
+    )
 
 
 if "snakemake" in globals():
-    main(snakemake.input.capture, snakemake.input.model, snakemake.params.protocol, snakemake.params.settle_s,
-         dict(snakemake.output.items()), snakemake.log[0])
+    main(
+        snakemake.input.capture,
+        snakemake.input.model,
+        snakemake.params.protocol,
+        snakemake.params.settle_s,
+        dict(snakemake.output.items()),
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("capture", "model", "table", "peaks", "figure"):
@@ -43,5 +57,10 @@ elif __name__ == "__main__":
     cli.add_argument("--campaign", default="thesis", choices=["thesis", "smoke"])
     cli.add_argument("--settle-s", type=float, default=0.02)
     a = cli.parse_args()
-    main(a.capture, a.model, expand_protocols(["ch5"], a.campaign)["ch5_sweep"].protocol, a.settle_s,
-         {"table": a.table, "peaks": a.peaks, "figure": a.figure})
+    main(
+        a.capture,
+        a.model,
+        expand_protocols(["ch5"], a.campaign)["ch5_sweep"].protocol,
+        a.settle_s,
+        {"table": a.table, "peaks": a.peaks, "figure": a.figure},
+    )

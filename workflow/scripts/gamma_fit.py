@@ -7,13 +7,20 @@ Alone: python workflow/scripts/gamma_fit.py raw/pi_p885/ch5_sine_0p1hz.nc result
 import argparse
 from pathlib import Path
 
-from selfsense.io.capture import open_capture, read_series
 from selfsense.chapters.ch5 import gamma_data, gamma_tables
+from selfsense.io.capture import open_capture, read_series
 from selfsense.io.provenance import provenance, script_logging, write_json, write_table
 
-NAMES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv", "coefficients": "table_5_2_coefficients.csv",
-         "anova_j5": "table_5_2_anova_j5.csv", "coefficients_j5": "table_5_2_coefficients_j5.csv",
-         "basis": "gamma_basis.csv", "gamma": "gamma.json", "gamma_j5": "gamma_j5.json"}
+NAMES = {
+    "table_5_1": "table_5_1.csv",
+    "anova": "table_5_2_anova.csv",
+    "coefficients": "table_5_2_coefficients.csv",
+    "anova_j5": "table_5_2_anova_j5.csv",
+    "coefficients_j5": "table_5_2_coefficients_j5.csv",
+    "basis": "gamma_basis.csv",
+    "gamma": "gamma.json",
+    "gamma_j5": "gamma_j5.json",
+}
 
 
 def main(capture, series, out, n_periods, orders=(3, 4, 5, 6), log=None):
@@ -31,8 +38,14 @@ def main(capture, series, out, n_periods, orders=(3, 4, 5, 6), log=None):
 
 
 if "snakemake" in globals():
-    main(snakemake.input.capture, snakemake.input.series, dict(snakemake.output.items()), snakemake.params.n_periods,
-         snakemake.params.orders, snakemake.log[0])
+    main(
+        snakemake.input.capture,
+        snakemake.input.series,
+        dict(snakemake.output.items()),
+        snakemake.params.n_periods,
+        snakemake.params.orders,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("capture")

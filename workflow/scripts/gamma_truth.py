@@ -8,36 +8,95 @@ Alone: python workflow/scripts/gamma_truth.py workflow/scorecard.yaml out.csv "T
 import argparse
 
 from selfsense.io.capture import read_series
-from selfsense.methods.gamma import load_gamma
-from selfsense.verify.gamma_truth import capture_variants, curve_rows
 from selfsense.io.manifest import load_yaml
 from selfsense.io.provenance import script_logging, write_table
+from selfsense.methods.gamma import load_gamma
 from selfsense.scorecard.registry import parse_registry, printed_gamma
+from selfsense.verify.gamma_truth import capture_variants, curve_rows
 
 
-def main(registry, capture, series, fits, table, source, coefficients, g=None, temperatures=(0.0,), power=None,
-         n_periods=4, log=None):
+def main(
+    registry,
+    capture,
+    series,
+    fits,
+    table,
+    source,
+    coefficients,
+    g=None,
+    temperatures=(0.0,),
+    power=None,
+    n_periods=4,
+    log=None,
+):
     logger = script_logging(log)
-    thesis, stroke = printed_gamma(parse_registry(load_yaml(registry), registry), source, coefficients, g)
-    data = capture_variants(capture, read_series(series), n_periods, read_series(power, ["time", "T_mid"]) if power else None)
+    thesis, stroke = printed_gamma(
+        parse_registry(load_yaml(registry), registry), source, coefficients, g
+    )
+    data = capture_variants(
+        capture,
+        read_series(series),
+        n_periods,
+        read_series(power, ["time", "T_mid"]) if power else None,
+    )
     orders = {name: load_gamma(path).order for name, path in fits.items()}
-    result = curve_rows(data, orders, thesis, stroke, temperatures, orders["thesis order"] if power else None)
-    write_table(result, table, inputs=[registry, capture, series, *fits.values(), *filter(None, [power])],
-                config={"source": source, "temperatures": list(temperatures), "n_periods": n_periods})
+    result = curve_rows(
+        data, orders, thesis, stroke, temperatures, orders["thesis order"] if power else None
+    )
+    write_table(
+        result,
+        table,
+        inputs=[registry, capture, series, *fits.values(), *filter(None, [power])],
+        config={"source": source, "temperatures": list(temperatures), "n_periods": n_periods},
+    )
     logger.info("\n%s", result.T.to_string())
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(i.registry, i.capture, i.series, dict(zip(p.fits, i.fits)), snakemake.output.table, p.source, p.coefficients,
-         p.g, p.temperatures, i.power[0] if i.power else None, p.n_periods, snakemake.log[0])
+    main(
+        i.registry,
+        i.capture,
+        i.series,
+        dict(zip(p.fits, i.fits)),
+        snakemake.output.table,
+        p.source,
+        p.coefficients,
+        p.g,
+        p.temperatures,
+        i.power[0] if i.power else None,
+        p.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("registry", "table", "source", "capture", "series"):
         cli.add_argument(name)
-    for name, default in (("--power", None), ("--prefix", "b"), ("--g", None), ("--np", 4), ("--temperature", 0.0)):
+    for name, default in (
+        ("--power", None),
+        ("--prefix", "b"),
+        ("--g", None),
+        ("--np", 4),
+        ("--temperature", 0.0),
+    ):
         cli.add_argument(name, default=default, type=type(default) if default is not None else str)
-    cli.add_argument("--fit", action="append", required=True, help="name=path of a Γ record ('thesis order' among them)")
+    cli.add_argument(
+        "--fit",
+        action="append",
+        required=True,
+        help="name=path of a Γ record ('thesis order' among them)",
+    )
     a = cli.parse_args()
-    main(a.registry, a.capture, a.series, dict(f.split("=", 1) for f in a.fit), a.table, a.source,
-         [f"{a.prefix}{i}" for i in range(6)], a.g, [a.temperature], a.power, a.np)
+    main(
+        a.registry,
+        a.capture,
+        a.series,
+        dict(f.split("=", 1) for f in a.fit),
+        a.table,
+        a.source,
+        [f"{a.prefix}{i}" for i in range(6)],
+        a.g,
+        [a.temperature],
+        a.power,
+        a.np,
+    )

@@ -7,11 +7,11 @@ import argparse
 import json
 from pathlib import Path
 
-from selfsense.io.capture import read_series
 from selfsense.chapters import ch4
-from selfsense.methods.electromech import geometry_from_actuator, model_record
+from selfsense.io.capture import read_series
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import script_logging, write_json, write_table, provenance
+from selfsense.io.provenance import provenance, script_logging, write_json, write_table
+from selfsense.methods.electromech import geometry_from_actuator, model_record
 
 
 def main(series, static, manifest, out, log=None):
@@ -35,8 +35,13 @@ def main(series, static, manifest, out, log=None):
 
 
 if "snakemake" in globals():
-    main(list(snakemake.input.series), snakemake.input.static, snakemake.input.manifest,
-         dict(snakemake.output.items()), snakemake.log[0])
+    main(
+        list(snakemake.input.series),
+        snakemake.input.static,
+        snakemake.input.manifest,
+        dict(snakemake.output.items()),
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("static")
@@ -45,4 +50,9 @@ elif __name__ == "__main__":
     cli.add_argument("--series", nargs="+", required=True)
     a = cli.parse_args()
     names = ("sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage")
-    main(a.series, a.static, a.manifest, {n: f"{a.out_dir}/{n}.csv" for n in names} | {"model": f"{a.out_dir}/model.json"})
+    main(
+        a.series,
+        a.static,
+        a.manifest,
+        {n: f"{a.out_dir}/{n}.csv" for n in names} | {"model": f"{a.out_dir}/model.json"},
+    )

@@ -9,36 +9,67 @@ import argparse
 
 import pandas as pd
 
+from selfsense.io.manifest import load_config
+from selfsense.io.provenance import script_logging, write_table
 from selfsense.methods.control import IntegralController
-from selfsense.twin.closed_loop import controller_factory
 from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.gamma import load_gamma
-from selfsense.verify.loop_leak import leak_study
-from selfsense.io.manifest import load_config
 from selfsense.methods.observer import load_gains
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.twin.closed_loop import controller_factory
+from selfsense.verify.loop_leak import leak_study
 
 
 def main(captures, gamma, observer, model, table, campaign, capture, omega_c, n_periods, log=None):
     logger = script_logging(log)
     g, gains = load_gamma(gamma), load_gains(observer)
-    controller_for = controller_factory(n_periods, g, gains, IntegralController(omega_c, load_k_over_alpha(model)))
-    rows = leak_study(captures, {"campaign": campaign, "capture": capture}, controller_for, n_periods, g, gains, omega_c)
+    controller_for = controller_factory(
+        n_periods, g, gains, IntegralController(omega_c, load_k_over_alpha(model))
+    )
+    rows = leak_study(
+        captures,
+        {"campaign": campaign, "capture": capture},
+        controller_for,
+        n_periods,
+        g,
+        gains,
+        omega_c,
+    )
     write_table(pd.DataFrame(rows), table, inputs=[*captures, gamma, observer, model])
     logger.info("\n%s", pd.DataFrame(rows).set_index("run").T.to_string())
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(i.capture, i.gamma, i.observer, i.model, snakemake.output[0], p.campaign, p.capture, p.omega_c, p.n_periods,
-         snakemake.log[0])
+    main(
+        i.capture,
+        i.gamma,
+        i.observer,
+        i.model,
+        snakemake.output[0],
+        p.campaign,
+        p.capture,
+        p.omega_c,
+        p.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("gamma", "observer", "model", "table"):
         cli.add_argument(name)
-    cli.add_argument("captures", nargs="+", help="closed-loop captures, raw/<dataset>/<experiment>.nc")
+    cli.add_argument(
+        "captures", nargs="+", help="closed-loop captures, raw/<dataset>/<experiment>.nc"
+    )
     cli.add_argument("--config", default="config.yaml")
     a = cli.parse_args()
     c = load_config(a.config)
-    main(a.captures, a.gamma, a.observer, a.model, a.table, c["campaign"], c["capture"], c["control"]["omega_c"],
-         c["ripple"]["n_periods"])
+    main(
+        a.captures,
+        a.gamma,
+        a.observer,
+        a.model,
+        a.table,
+        c["campaign"],
+        c["capture"],
+        c["control"]["omega_c"],
+        c["ripple"]["n_periods"],
+    )

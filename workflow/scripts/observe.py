@@ -6,11 +6,11 @@ Alone: python workflow/scripts/observe.py raw/pi_p885/ch5_sine_1hz.nc results/pi
 
 import argparse
 
-from selfsense.io.capture import SeriesWriter, open_capture
 from selfsense.chapters.ch5 import creep_phases, run_observer
+from selfsense.io.capture import SeriesWriter, open_capture
+from selfsense.io.provenance import provenance, script_logging, write_json
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
-from selfsense.io.provenance import provenance, script_logging, write_json
 from selfsense.methods.ripple import plan_from_capture
 
 UNITS = {"time": "s", "x_laser": "m", "x_hat": "m", "x_cp": "m", "i0_hat": "A"}
@@ -24,25 +24,54 @@ def main(capture, gamma, observer, traces, stats, n_periods, transient_s=None, l
         plan = plan_from_capture(cap, n_periods)
         settle = float(cap.attribute("warmup_s"))
         phases = creep_phases(settle, transient_s) if transient_s is not None else ()
-        result, trace = run_observer(cap.iter_chunks(("Ur", "Ir", "I", "x_laser")), plan, poly, gains, cap.fs, settle,
-                                     phases=phases)
+        result, trace = run_observer(
+            cap.iter_chunks(("Ur", "Ir", "I", "x_laser")),
+            plan,
+            poly,
+            gains,
+            cap.fs,
+            settle,
+            phases=phases,
+        )
         nan = dict(cap.stats.nan)
     with SeriesWriter(traces, UNITS, {"capture": capture}) as out:
         out.write(trace)
-    write_json(result | {"warmup [s]": settle, "NaN samples": nan,
-                         "provenance": provenance([capture, gamma, observer], {"n_periods": n_periods, "transient_s": transient_s})},
-               stats)
+    write_json(
+        result
+        | {
+            "warmup [s]": settle,
+            "NaN samples": nan,
+            "provenance": provenance(
+                [capture, gamma, observer], {"n_periods": n_periods, "transient_s": transient_s}
+            ),
+        },
+        stats,
+    )
     logger.info("%s: %s", capture, result)
 
 
 if "snakemake" in globals():
     i, o = snakemake.input, snakemake.output
     p = snakemake.params
-    main(i.capture, i.gamma, i.observer, o.traces, o.stats, p.n_periods, p.transient_s, snakemake.log[0])
+    main(
+        i.capture,
+        i.gamma,
+        i.observer,
+        o.traces,
+        o.stats,
+        p.n_periods,
+        p.transient_s,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("capture", "gamma", "observer", "traces", "stats"):
         cli.add_argument(name)
     cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    cli.add_argument("--transient-s", type=float, default=None, help="the creep run's transient after its step [s]")
+    cli.add_argument(
+        "--transient-s",
+        type=float,
+        default=None,
+        help="the creep run's transient after its step [s]",
+    )
     main(**vars(cli.parse_args()))

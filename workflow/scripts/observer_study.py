@@ -5,12 +5,12 @@ Alone: python workflow/scripts/observer_study.py raw/pi_p885/ch5_sine_1hz.nc gam
 
 import argparse
 
+from selfsense.chapters.ch5 import observer_study
 from selfsense.io import figures
 from selfsense.io.capture import open_capture
-from selfsense.chapters.ch5 import observer_study
+from selfsense.io.provenance import save_figure, script_logging, write_table
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
-from selfsense.io.provenance import save_figure, script_logging, write_table
 from selfsense.methods.ripple import plan_from_capture
 
 CHANNELS = ("Ur", "Ir", "I", "x_laser")
@@ -22,23 +22,45 @@ def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, lo
     with open_capture(capture, require=CHANNELS) as cap:
         plan = plan_from_capture(cap, n_periods)
         settle, fs = float(cap.attribute("warmup_s")), cap.fs
+
     def chunks():
         with open_capture(capture) as cap:
             yield from cap.iter_chunks(CHANNELS)
+
     result = observer_study(chunks, plan, load_gamma(gamma), a0, fs, settle, omegas, offsets)
     cfg = {"omegas": list(omegas), "offsets": list(offsets), "n_periods": n_periods}
     write_table(result, table, inputs=[capture, gamma, observer], config=cfg)
-    save_figure(figures.observer_study(result), figure, inputs=[capture, gamma, observer], config=cfg)
+    save_figure(
+        figures.observer_study(result), figure, inputs=[capture, gamma, observer], config=cfg
+    )
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
     p = snakemake.params
-    main(snakemake.input.capture, snakemake.input.gamma, snakemake.input.observer, snakemake.output.table,
-         snakemake.output.figure, p.omegas, p.offsets, p.n_periods, snakemake.log[0])
+    main(
+        snakemake.input.capture,
+        snakemake.input.gamma,
+        snakemake.input.observer,
+        snakemake.output.table,
+        snakemake.output.figure,
+        p.omegas,
+        p.offsets,
+        p.n_periods,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("capture", "gamma", "observer", "table", "figure"):
         cli.add_argument(name)
     a = cli.parse_args()
-    main(a.capture, a.gamma, a.observer, a.table, a.figure, [0.2 * 3.14159, 3.14159, 6.28319, 31.4159], [0, 0.005], 4)
+    main(
+        a.capture,
+        a.gamma,
+        a.observer,
+        a.table,
+        a.figure,
+        [0.2 * 3.14159, 3.14159, 6.28319, 31.4159],
+        [0, 0.005],
+        4,
+    )

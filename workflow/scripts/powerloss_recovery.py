@@ -8,8 +8,8 @@ import argparse
 
 import pandas as pd
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters import ronkanen
+from selfsense.io.capture import open_capture
 from selfsense.io.provenance import script_logging, write_table
 
 
@@ -17,7 +17,9 @@ def main(capture, identified, table_1, table_2, table, log=None):
     logger = script_logging(log)
     with open_capture(capture) as cap:
         truth, _ = cap.read_truth()
-    result = ronkanen.recovery(pd.read_csv(identified), pd.read_csv(table_1), pd.read_csv(table_2), truth)
+    result = ronkanen.recovery(
+        pd.read_csv(identified), pd.read_csv(table_1), pd.read_csv(table_2), truth
+    )
     write_table(result, table, inputs=[capture, identified, table_1, table_2])
     logger.info("\n%s", result.to_string())
 

@@ -19,7 +19,12 @@ def main(table_1, identified, table, log=None):
 
 
 if "snakemake" in globals():
-    main(snakemake.input.table_1, snakemake.input.identified, snakemake.output.table, snakemake.log[0])
+    main(
+        snakemake.input.table_1,
+        snakemake.input.identified,
+        snakemake.output.table,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("table_1", "identified", "table"):

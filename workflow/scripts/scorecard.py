@@ -11,10 +11,11 @@ import pandas as pd
 
 from selfsense.io.manifest import load_dataset, load_yaml
 from selfsense.io.provenance import atomic_path, provenance, script_logging, write_json, write_table
-from selfsense.scorecard.reference_values import reference_rows, tables_read as reference_tables
+from selfsense.scorecard.reference_values import reference_rows
+from selfsense.scorecard.reference_values import tables_read as reference_tables
 from selfsense.scorecard.registry import applicable, parse_registry, tables_read
-from selfsense.scorecard.scoring import counts, scorecard
 from selfsense.scorecard.render import scorecard_html
+from selfsense.scorecard.scoring import counts, scorecard
 
 REGISTRY = "workflow/scorecard.yaml"
 
@@ -24,11 +25,16 @@ def main(manifest, results_dir, table, page, tables=None, registry=REGISTRY, log
     meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
     entries = parse_registry(load_yaml(registry), registry)
     if tables is None:  # run alone: the registry's tables that exist
-        tables = [p for t in tables_read(applicable(entries, meta)) + reference_tables(meta)
-                  if (p := Path(results_dir) / t).exists()]
+        tables = [
+            p
+            for t in tables_read(applicable(entries, meta)) + reference_tables(meta)
+            if (p := Path(results_dir) / t).exists()
+        ]
     read = {Path(t).relative_to(results_dir).as_posix(): pd.read_csv(t) for t in tables}
     card, own = scorecard(entries, read, meta), reference_rows(meta, read)
-    if not own.empty:  # concatenating an empty frame would turn the float columns to object (no %.10g)
+    if (
+        not own.empty
+    ):  # concatenating an empty frame would turn the float columns to object (no %.10g)
         card = own if card.empty else pd.concat([card, own], ignore_index=True)
     inputs = [registry, manifest, *map(str, tables)]
     write_table(card, table, inputs=inputs)
@@ -39,8 +45,15 @@ def main(manifest, results_dir, table, page, tables=None, registry=REGISTRY, log
 
 
 if "snakemake" in globals():
-    main(snakemake.input.manifest, snakemake.params.results_dir, snakemake.output.table,
-         snakemake.output.page, list(snakemake.input.tables), snakemake.input.registry, snakemake.log[0])
+    main(
+        snakemake.input.manifest,
+        snakemake.params.results_dir,
+        snakemake.output.table,
+        snakemake.output.page,
+        list(snakemake.input.tables),
+        snakemake.input.registry,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("manifest", "results_dir", "table", "page"):

@@ -34,8 +34,15 @@ def main(cards, summary_rst, counts, out_of_band, not_yet, campaign="thesis", lo
 
 
 if "snakemake" in globals():
-    main(list(snakemake.input.cards), snakemake.output.summary, snakemake.output.counts, snakemake.output.out_of_band,
-         snakemake.output.not_yet, snakemake.params.campaign, snakemake.log[0])
+    main(
+        list(snakemake.input.cards),
+        snakemake.output.summary,
+        snakemake.output.counts,
+        snakemake.output.out_of_band,
+        snakemake.output.not_yet,
+        snakemake.params.campaign,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("summary_rst", "counts", "out_of_band", "not_yet"):

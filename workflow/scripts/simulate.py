@@ -15,16 +15,28 @@ from selfsense.twin.experiment import simulate_experiment
 
 def main(raw_dir, dataset, experiment, campaign, capture, output=None, report=None, log=None):
     logger = script_logging(log)
-    scan = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output)
+    scan = simulate_experiment(
+        raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output
+    )
     write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
-    logger.info("wrote %s (campaign %s), clipped %d", scan.path, campaign, sum(scan.clipped.values()))
+    logger.info(
+        "wrote %s (campaign %s), clipped %d", scan.path, campaign, sum(scan.clipped.values())
+    )
 
 
 if "snakemake" in globals():
     p, o = snakemake.params, snakemake.output
     # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
-    main(Path(snakemake.input.manifest).parents[1], snakemake.wildcards.dataset, snakemake.wildcards.experiment,
-         p.campaign, p.capture, o.capture, o.report, snakemake.log[0])
+    main(
+        Path(snakemake.input.manifest).parents[1],
+        snakemake.wildcards.dataset,
+        snakemake.wildcards.experiment,
+        p.campaign,
+        p.capture,
+        o.capture,
+        o.report,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("dataset")

@@ -10,32 +10,72 @@ import argparse
 from pathlib import Path
 
 from selfsense.io.capture import write_scan_report
+from selfsense.io.manifest import load_config
+from selfsense.io.provenance import script_logging
 from selfsense.methods.control import IntegralController
-from selfsense.twin.closed_loop import controller_factory
 from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.gamma import load_gamma
-from selfsense.io.manifest import load_config
 from selfsense.methods.observer import load_gains
-from selfsense.io.provenance import script_logging
+from selfsense.twin.closed_loop import controller_factory
 from selfsense.twin.experiment import simulate_experiment
 
 
-def main(raw_dir, dataset, experiment, gamma, observer, model, campaign, capture, omega_c, n_periods,
-         output=None, report=None, log=None):
+def main(
+    raw_dir,
+    dataset,
+    experiment,
+    gamma,
+    observer,
+    model,
+    campaign,
+    capture,
+    omega_c,
+    n_periods,
+    output=None,
+    report=None,
+    log=None,
+):
     logger = script_logging(log)
-    g, gains, loop = load_gamma(gamma), load_gains(observer), IntegralController(omega_c, load_k_over_alpha(model))
-    scan = simulate_experiment(raw_dir, dataset, experiment, {"campaign": campaign, "capture": capture}, output,
-                               controller_for=controller_factory(n_periods, g, gains, loop))
+    g, gains, loop = (
+        load_gamma(gamma),
+        load_gains(observer),
+        IntegralController(omega_c, load_k_over_alpha(model)),
+    )
+    scan = simulate_experiment(
+        raw_dir,
+        dataset,
+        experiment,
+        {"campaign": campaign, "capture": capture},
+        output,
+        controller_for=controller_factory(n_periods, g, gains, loop),
+    )
     write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
-    logger.info("wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m", scan.path, loop.k_over_alpha, gains.a0)
+    logger.info(
+        "wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m",
+        scan.path,
+        loop.k_over_alpha,
+        gains.a0,
+    )
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
     # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
-    main(Path(i.manifest).parents[1], snakemake.wildcards.dataset, snakemake.wildcards.experiment, i.gamma,
-         i.observer, i.model, p.campaign, p.capture, p.omega_c, p.n_periods, snakemake.output.capture,
-         snakemake.output.report, snakemake.log[0])
+    main(
+        Path(i.manifest).parents[1],
+        snakemake.wildcards.dataset,
+        snakemake.wildcards.experiment,
+        i.gamma,
+        i.observer,
+        i.model,
+        p.campaign,
+        p.capture,
+        p.omega_c,
+        p.n_periods,
+        snakemake.output.capture,
+        snakemake.output.report,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("dataset", "experiment", "gamma", "observer", "model"):
@@ -43,5 +83,15 @@ elif __name__ == "__main__":
     cli.add_argument("--config", default="config.yaml")
     a = cli.parse_args()
     c = load_config(a.config)
-    main(c["raw_dir"], a.dataset, a.experiment, a.gamma, a.observer, a.model, c["campaign"], c["capture"],
-         c["control"]["omega_c"], c["ripple"]["n_periods"])
+    main(
+        c["raw_dir"],
+        a.dataset,
+        a.experiment,
+        a.gamma,
+        a.observer,
+        a.model,
+        c["campaign"],
+        c["capture"],
+        c["control"]["omega_c"],
+        c["ripple"]["n_periods"],
+    )

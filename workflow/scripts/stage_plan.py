@@ -11,7 +11,9 @@ from selfsense.io.provenance import script_logging, write_table
 def main(rows, manifest, table, log=None):
     logger = script_logging(log)
     df = pd.DataFrame(rows)
-    df["status"] = ["runs" if r else "skipped: the dataset lacks what the stage needs" for r in df["runs"]]
+    df["status"] = [
+        "runs" if r else "skipped: the dataset lacks what the stage needs" for r in df["runs"]
+    ]
     write_table(df[["stage", "status", "needs"]], table, inputs=[manifest])
     logger.info("\n%s", df.to_string())
 

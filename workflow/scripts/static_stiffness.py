@@ -8,10 +8,10 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters.ch4 import STATIC_K
-from selfsense.methods.electromech import hold_rise, static_stiffness
+from selfsense.io.capture import open_capture
 from selfsense.io.provenance import script_logging, write_table
+from selfsense.methods.electromech import hold_rise, static_stiffness
 
 
 def rise(capture, channel, t_hold):
@@ -24,14 +24,21 @@ def main(free, blocked, table, t_hold=0.55, log=None):
     logger = script_logging(log)
     x_free, F_blocked = rise(free, "x_laser", t_hold), rise(blocked, "F", t_hold)
     k = static_stiffness(F_blocked, x_free)
-    result = pd.DataFrame([{"x_free [µm]": x_free * 1e6, "F_blocked [N]": F_blocked, STATIC_K: k * 1e-6}])
+    result = pd.DataFrame(
+        [{"x_free [µm]": x_free * 1e6, "F_blocked [N]": F_blocked, STATIC_K: k * 1e-6}]
+    )
     write_table(result, table, inputs=[free, blocked], config={"t_hold": t_hold})
     logger.info("static stiffness %.3f N/µm", k * 1e-6)
 
 
 if "snakemake" in globals():
-    main(snakemake.input.free, snakemake.input.blocked, snakemake.output.table, snakemake.params.t_hold,
-         snakemake.log[0])
+    main(
+        snakemake.input.free,
+        snakemake.input.blocked,
+        snakemake.output.table,
+        snakemake.params.t_hold,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("free", "blocked", "table"):

@@ -15,8 +15,8 @@ import pandas as pd
 
 from selfsense.io.capture import read_series
 from selfsense.io.provenance import script_logging, write_table
-from selfsense.verify.temperature_budget import SOURCES, capture_temperature_budget
 from selfsense.methods.thermal import ThermalModel
+from selfsense.verify.temperature_budget import SOURCES, capture_temperature_budget
 
 
 def main(capture, traces, thermal_model, table, stats=None, log=None):
@@ -28,20 +28,35 @@ def main(capture, traces, thermal_model, table, stats=None, log=None):
         logger.warning("%s: skipped, %s", capture, th["reason"])
         return
     stated = json.loads(Path(stats).read_text()) if stats else None
-    budget = capture_temperature_budget(capture, read_series(traces), ThermalModel(th["tau"], th["gamma"]),
-                                        th["T_amb"], stats=stated)
+    budget = capture_temperature_budget(
+        capture,
+        read_series(traces),
+        ThermalModel(th["tau"], th["gamma"]),
+        th["T_amb"],
+        stats=stated,
+    )
     write_table(budget, table, inputs=inputs)
     for _, r in budget.iterrows():
-        logger.info("%s %s: %+.3f K at %.1f s = %s", capture, r["estimator"], r["total at max [K]"],
-                    r["time of max [s]"], " ".join(f"{s} {r[f'{s} at max [K]']:+.3f}" for s in SOURCES))
+        logger.info(
+            "%s %s: %+.3f K at %.1f s = %s",
+            capture,
+            r["estimator"],
+            r["total at max [K]"],
+            r["time of max [s]"],
+            " ".join(f"{s} {r[f'{s} at max [K]']:+.3f}" for s in SOURCES),
+        )
 
 
 if "snakemake" in globals():
     i = snakemake.input
-    main(i.capture, i.traces, i.thermal_model, snakemake.output[0], i.get("stats"), snakemake.log[0])
+    main(
+        i.capture, i.traces, i.thermal_model, snakemake.output[0], i.get("stats"), snakemake.log[0]
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("capture", "traces", "thermal_model", "table"):
         cli.add_argument(name)
-    cli.add_argument("--stats", help="rule coupled's stats JSON: its max errors are checked against the budget's")
+    cli.add_argument(
+        "--stats", help="rule coupled's stats JSON: its max errors are checked against the budget's"
+    )
     main(**vars(cli.parse_args()))

@@ -8,10 +8,10 @@ import argparse
 
 import numpy as np
 
-from selfsense.io.capture import SeriesWriter, open_capture
 from selfsense.chapters.ch7 import extract
-from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.io.capture import SeriesWriter, open_capture
 from selfsense.io.provenance import script_logging
+from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.ripple import plan_from_capture
 
 FAST = ("U", "I", "x_laser", "Ur", "Ir")
@@ -28,19 +28,36 @@ def main(capture, model, power, samples, n_periods, interval=0.1, every=200, log
     P = {k: np.concatenate([p[0][k] for p in parts]) for k in ("time", "P_PS")}
     n = min(len(P["time"]), len(temps["T_mid"]))
     peaks = {"U_max": max(p[2][0] for p in parts), "x_max": max(p[2][1] for p in parts)}  # Eq 7.11
-    with SeriesWriter(power, {"time": "s", "P_PS": "W"} | {c: "degC" for c in slow}, {"capture": capture} | peaks) as w:
+    with SeriesWriter(
+        power, {"time": "s", "P_PS": "W"} | {c: "degC" for c in slow}, {"capture": capture} | peaks
+    ) as w:
         w.write({"time": P["time"][:n], "P_PS": P["P_PS"][:n]} | {c: temps[c][:n] for c in slow})
     G = {k: np.concatenate([p[1][k] for p in parts]) for k in ("time", "C_e", "x_laser")}
-    with SeriesWriter(samples, {"time": "s", "C_e": "F", "x_laser": "m"}, {"capture": capture}) as w:
+    with SeriesWriter(
+        samples, {"time": "s", "C_e": "F", "x_laser": "m"}, {"capture": capture}
+    ) as w:
         w.write(G)
-    logger.info("%s: %d power intervals, %d Γ_T samples, mean power %.3f W", capture, n, len(G["time"]),
-                float(np.mean(P["P_PS"])))
+    logger.info(
+        "%s: %d power intervals, %d Γ_T samples, mean power %.3f W",
+        capture,
+        n,
+        len(G["time"]),
+        float(np.mean(P["P_PS"])),
+    )
 
 
 if "snakemake" in globals():
     p = snakemake.params
-    main(snakemake.input.capture, snakemake.input.model, snakemake.output.power, snakemake.output.samples,
-         p.n_periods, p.interval, p.every, snakemake.log[0])
+    main(
+        snakemake.input.capture,
+        snakemake.input.model,
+        snakemake.output.power,
+        snakemake.output.samples,
+        p.n_periods,
+        p.interval,
+        p.every,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("capture", "model", "power", "samples"):

@@ -5,11 +5,11 @@ Alone: run through Snakemake (`snakemake results/pi_p885/ch7/table_7_1.csv`).
 
 from pathlib import Path
 
-from selfsense.io.capture import read_series, series_scalars
 from selfsense.chapters import ch7
-from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.io.capture import read_series, series_scalars
 from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import provenance, save_figure, script_logging, write_json, write_table
+from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.thermal import ThermalProperties
 
 
@@ -19,21 +19,36 @@ def main(freq_series, volt_series, check_series, manifest, model, volt_segments,
     logger = script_logging(log)
     th = load_manifest(manifest)["actuator"]["thermal"]
     tables, record, built = ch7.thermal_identification(
-        {Path(p).stem: read_series(p) | series_scalars(p) for p in freq_series.values()}, {Path(p).stem: float(f) for f, p in freq_series.items()},
-        read_series(volt_series), volt_segments, {Path(p).stem: read_series(p) for p in check_series.values()},
-        ThermalProperties(th["rho"], th["c"], th["volume_m3"], th["area_m2"]), load_k_over_alpha(model))
+        {Path(p).stem: read_series(p) | series_scalars(p) for p in freq_series.values()},
+        {Path(p).stem: float(f) for f, p in freq_series.items()},
+        read_series(volt_series),
+        volt_segments,
+        {Path(p).stem: read_series(p) for p in check_series.values()},
+        ThermalProperties(th["rho"], th["c"], th["volume_m3"], th["area_m2"]),
+        load_k_over_alpha(model),
+    )
     inputs = [*freq_series.values(), volt_series, *check_series.values(), manifest, model]
     for key, table in tables.items():
         write_table(table, out[key], inputs=inputs)
     write_json(record | {"provenance": provenance(inputs)}, out["thermal_model"])
     for name, fig in built.items():
         save_figure(fig, out[name], inputs=inputs)
-    if not record["identified"]:  # e.g. the smoke campaign's short runs: the later stages skip, and say why
+    if not record[
+        "identified"
+    ]:  # e.g. the smoke campaign's short runs: the later stages skip, and say why
         logger.warning(record["reason"])
     logger.info("\n%s", tables["per_run"].to_string())
 
 
 if "snakemake" in globals():
     i, p = snakemake.input, snakemake.params
-    main(dict(zip(p.freqs, i.freq_series)), i.volt_series, dict(zip(p.checks, i.check_series)), i.manifest, i.model,
-         p.volt_segments, dict(snakemake.output.items()), snakemake.log[0])
+    main(
+        dict(zip(p.freqs, i.freq_series)),
+        i.volt_series,
+        dict(zip(p.checks, i.check_series)),
+        i.manifest,
+        i.model,
+        p.volt_segments,
+        dict(snakemake.output.items()),
+        snakemake.log[0],
+    )

@@ -8,10 +8,10 @@ import argparse
 
 import pandas as pd
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters import ch7
-from selfsense.methods.gamma import load_gamma
+from selfsense.io.capture import open_capture
 from selfsense.io.provenance import script_logging, write_table
+from selfsense.methods.gamma import load_gamma
 
 
 def main(table_7_1, gamma_t, truth_capture, recovery, log=None):
@@ -24,8 +24,13 @@ def main(table_7_1, gamma_t, truth_capture, recovery, log=None):
 
 
 if "snakemake" in globals():
-    main(snakemake.input.table_7_1, snakemake.input.gamma_t, snakemake.input.truth_capture, snakemake.output.recovery,
-         snakemake.log[0])
+    main(
+        snakemake.input.table_7_1,
+        snakemake.input.gamma_t,
+        snakemake.input.truth_capture,
+        snakemake.output.recovery,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("table_7_1", "gamma_t", "truth_capture", "recovery"):

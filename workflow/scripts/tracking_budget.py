@@ -22,17 +22,34 @@ def main(runs, tables, omega_c, log=None):
     rows = {name: [] for name in tables}
     for k, (capture, (protocol, closed)) in enumerate(runs.items(), 1):
         for name, budget in capture_tracking_budget(capture, protocol, closed, omega_c).items():
-            rows[name] += [{"run": Path(capture).stem, "segment": s or None} | row for s, row in budget.items()]
-            logger.info("%d/%d %s, %s: %s", k, len(runs), capture, name,
-                        ", ".join(f"{s or 'max'} {r['total max error [µm]']:.2f} µm" for s, r in budget.items()))
+            rows[name] += [
+                {"run": Path(capture).stem, "segment": s or None} | row for s, row in budget.items()
+            ]
+            logger.info(
+                "%d/%d %s, %s: %s",
+                k,
+                len(runs),
+                capture,
+                name,
+                ", ".join(
+                    f"{s or 'max'} {r['total max error [µm]']:.2f} µm" for s, r in budget.items()
+                ),
+            )
     for name, path in tables.items():
         write_table(pd.DataFrame(rows[name]), path, inputs=list(runs), config={"omega_c": omega_c})
 
 
 if "snakemake" in globals():
     p = snakemake.params
-    main({c: (p.protocols[Path(c).stem], p.controls[Path(c).stem] == "closed_loop") for c in snakemake.input.capture},
-         dict(snakemake.output.items()), p.omega_c, snakemake.log[0])
+    main(
+        {
+            c: (p.protocols[Path(c).stem], p.controls[Path(c).stem] == "closed_loop")
+            for c in snakemake.input.capture
+        },
+        dict(snakemake.output.items()),
+        p.omega_c,
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("tracking")
@@ -42,5 +59,14 @@ elif __name__ == "__main__":
     a = cli.parse_args()
     config = load_config(a.config)
     catalogue = expand_protocols(["ch6"], config["campaign"])
-    main({c: (dict(catalogue[Path(c).stem].protocol), catalogue[Path(c).stem].control == "closed_loop")
-          for c in a.captures}, {"tracking": a.tracking, "controller": a.controller}, config["control"]["omega_c"])
+    main(
+        {
+            c: (
+                dict(catalogue[Path(c).stem].protocol),
+                catalogue[Path(c).stem].control == "closed_loop",
+            )
+            for c in a.captures
+        },
+        {"tracking": a.tracking, "controller": a.controller},
+        config["control"]["omega_c"],
+    )

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.scorecard.calibration import calibration_table, load_targets
 from selfsense.io.provenance import script_logging, write_table
+from selfsense.scorecard.calibration import calibration_table, load_targets
 
 
 def main(targets, results_dir, table, tables=None, log=None):
@@ -22,12 +22,19 @@ def main(targets, results_dir, table, tables=None, log=None):
     read = {Path(t).relative_to(results_dir).as_posix(): pd.read_csv(t) for t in tables}
     result = calibration_table(calibration.targets, read)
     write_table(result, table, inputs=[targets, *map(str, tables)])
-    logger.info("\n%s", result[["signature", "thesis value", "twin value", "within", "note"]].to_string())
+    logger.info(
+        "\n%s", result[["signature", "thesis value", "twin value", "within", "note"]].to_string()
+    )
 
 
 if "snakemake" in globals():
-    main(snakemake.input.targets, snakemake.params.results_dir, snakemake.output.table, list(snakemake.input.tables),
-         snakemake.log[0])
+    main(
+        snakemake.input.targets,
+        snakemake.params.results_dir,
+        snakemake.output.table,
+        list(snakemake.input.tables),
+        snakemake.log[0],
+    )
 elif __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     for name in ("targets", "results_dir", "table"):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
@@ -42,9 +42,15 @@ def hysteresis_table(series: Mapping[str, np.ndarray]) -> pd.DataFrame:
     rows = []
     for h, v, published, words in LOOPS:
         along_v, along_h = hysteresis_percent(series[h], series[v], rising)
-        rows.append({"loop": f"{v}–{h}", "thesis [%]": published, "thesis says": words,
-                     "width along horizontal [% of range]": along_h,
-                     "width along vertical [% of range]": along_v})
+        rows.append(
+            {
+                "loop": f"{v}–{h}",
+                "thesis [%]": published,
+                "thesis says": words,
+                "width along horizontal [% of range]": along_h,
+                "width along vertical [% of range]": along_v,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -65,9 +71,22 @@ def ripple_phase_deg(series: Mapping[str, np.ndarray]) -> float:
 def phase_table(series: Mapping[str, np.ndarray], f: float) -> pd.DataFrame:
     """The phases Figs 3.3–3.4 print in their titles: by how much the drive current leads the
     drive voltage at the drive frequency ``f`` [Hz], and the ripple current the ripple voltage."""
-    return pd.DataFrame([
-        {"signal": "drive", "frequency [Hz]": f, "current leads voltage by [°]": phase_deg(series["time"], series["U"], series["I"], f)},
-        {"signal": "ripple", "frequency [Hz]": float("nan"), "current leads voltage by [°]": ripple_phase_deg(series)}])
+    return pd.DataFrame(
+        [
+            {
+                "signal": "drive",
+                "frequency [Hz]": f,
+                "current leads voltage by [°]": phase_deg(
+                    series["time"], series["U"], series["I"], f
+                ),
+            },
+            {
+                "signal": "ripple",
+                "frequency [Hz]": float("nan"),
+                "current leads voltage by [°]": ripple_phase_deg(series),
+            },
+        ]
+    )
 
 
 def figure_3_2(stack: Mapping[str, float], ripple_amplitude: float, fr: float):
@@ -78,17 +97,26 @@ def figure_3_2(stack: Mapping[str, float], ripple_amplitude: float, fr: float):
     k, alpha, zeta = stack["k"], stack["alpha"], stack["zeta"]
     t = np.linspace(0, 3 / fr, 600)
     traces = {}
-    for label, f_n in (("free (40 kHz)", 40e3), (f"clamped in the bench ({stack['f_bench'] / 1e3:g} kHz)",
-                                                 stack["f_bench"])):
+    for label, f_n in (
+        ("free (40 kHz)", 40e3),
+        (f"clamped in the bench ({stack['f_bench'] / 1e3:g} kHz)", stack["f_bench"]),
+    ):
         m = k / (2 * np.pi * f_n) ** 2
         velocity_per_force = signal.TransferFunction([1, 0], [m, 2 * zeta * np.sqrt(k * m), k])
         _, h = signal.freqresp(velocity_per_force, [2 * np.pi * fr])
-        traces[label] = np.abs(h[0]) * alpha * ripple_amplitude * np.cos(2 * np.pi * fr * t + np.angle(h[0]))
-    return figures.velocity_response(t, traces, f"Velocity driven by a {ripple_amplitude * 1e3:g} mV, "
-                                                f"{fr / 1e3:g} kHz ripple (model)")
+        traces[label] = (
+            np.abs(h[0]) * alpha * ripple_amplitude * np.cos(2 * np.pi * fr * t + np.angle(h[0]))
+        )
+    return figures.velocity_response(
+        t,
+        traces,
+        f"Velocity driven by a {ripple_amplitude * 1e3:g} mV, {fr / 1e3:g} kHz ripple (model)",
+    )
 
 
-def figures_ch3(capture, series_by_label: Mapping[str, Mapping[str, np.ndarray]], fr: float, ns: int) -> dict:
+def figures_ch3(
+    capture, series_by_label: Mapping[str, Mapping[str, np.ndarray]], fr: float, ns: int
+) -> dict:
     """Figures 3.3, 3.4, 3.7 and 3.9–3.14: ``capture`` is the :data:`SHOWN_HZ` run, ``series_by_label``
     the steady ripple series by label, that run's first; ``fr`` [Hz] and ``ns`` the DAQ's ripple plan."""
     with open_capture(capture, require=("U", "I")) as cap:
@@ -97,44 +125,80 @@ def figures_ch3(capture, series_by_label: Mapping[str, Mapping[str, np.ndarray]]
         t = (start + np.arange(len(last["U"]))) / cap.fs
     shown = next(iter(series_by_label.values()))
     one = {f"{SHOWN_HZ:g} Hz": shown}
-    return dict(zip(FIGURES, (
-        figure_3_3(t, last["U"], last["I"], SHOWN_HZ),
-        figure_3_4(shown, fr),
-        figure_3_7(fr, ns),
-        figure_3_9(shown),
-        loop_figure(one, "U", "C_e", "Effective capacitance against voltage"),
-        loop_figure(one, "x_laser", "C_e", "Effective capacitance against position"),
-        loop_figure(one, "U", "x_laser", "Position against voltage"),
-        loop_figure(series_by_label, "x_laser", "C_e", "Effective capacitance against position at several frequencies"),
-        loop_figure(one, "C_e", "R_e", "Effective resistance against effective capacitance"),
-    )))
+    return dict(
+        zip(
+            FIGURES,
+            (
+                figure_3_3(t, last["U"], last["I"], SHOWN_HZ),
+                figure_3_4(shown, fr),
+                figure_3_7(fr, ns),
+                figure_3_9(shown),
+                loop_figure(one, "U", "C_e", "Effective capacitance against voltage"),
+                loop_figure(one, "x_laser", "C_e", "Effective capacitance against position"),
+                loop_figure(one, "U", "x_laser", "Position against voltage"),
+                loop_figure(
+                    series_by_label,
+                    "x_laser",
+                    "C_e",
+                    "Effective capacitance against position at several frequencies",
+                ),
+                loop_figure(
+                    one, "C_e", "R_e", "Effective resistance against effective capacitance"
+                ),
+            ),
+        )
+    )
 
 
 def figure_3_3(t, u, i, f):
-    return figures.normalised_pair(t - t[0], u - u.mean(), i - i.mean(),
-                                   f"U and I at {f:g} Hz: current leads by {phase_deg(t, u, i, f):.1f}°")
+    return figures.normalised_pair(
+        t - t[0],
+        u - u.mean(),
+        i - i.mean(),
+        f"U and I at {f:g} Hz: current leads by {phase_deg(t, u, i, f):.1f}°",
+    )
 
 
 def figure_3_4(series, fr):
     phase = ripple_phase_deg(series)
     t = np.linspace(0, 2 / fr, 400)
-    return figures.normalised_pair(t, np.cos(2 * np.pi * fr * t), np.cos(2 * np.pi * fr * t + np.radians(phase)),
-                                   f"Ripple U_r and I_r at {fr / 1e3:g} kHz (from the Fourier phasors): "
-                                   f"current leads by {phase:.1f}°", t_unit="µs", scale=1e6)
+    return figures.normalised_pair(
+        t,
+        np.cos(2 * np.pi * fr * t),
+        np.cos(2 * np.pi * fr * t + np.radians(phase)),
+        f"Ripple U_r and I_r at {fr / 1e3:g} kHz (from the Fourier phasors): "
+        f"current leads by {phase:.1f}°",
+        t_unit="µs",
+        scale=1e6,
+    )
 
 
 def figure_3_7(fr: float, ns: int):
     return figures.folding(fr, [SamplingPlan(fr, ns, nf, 1) for nf in range(4)])
 
 
-def loop_figure(series_by_label: Mapping[str, Mapping[str, np.ndarray]], h: str, v: str, title: str):
+def loop_figure(
+    series_by_label: Mapping[str, Mapping[str, np.ndarray]], h: str, v: str, title: str
+):
     labels = list(series_by_label)
-    return figures.loop([series_by_label[k][h] * SCALE[h] for k in labels],
-                        [series_by_label[k][v] * SCALE[v] for k in labels],
-                        LABEL[h], LABEL[v], title, labels=labels if len(labels) > 1 else None)
+    return figures.loop(
+        [series_by_label[k][h] * SCALE[h] for k in labels],
+        [series_by_label[k][v] * SCALE[v] for k in labels],
+        LABEL[h],
+        LABEL[v],
+        title,
+        labels=labels if len(labels) > 1 else None,
+    )
 
 
 def figure_3_9(series):
-    return figures.time_traces(series["time"], [(series["U"], LABEL["U"]), (series["x_laser"] * 1e6, LABEL["x_laser"]),
-                                                (series["C_e"] * 1e6, LABEL["C_e"]), (series["R_e"], LABEL["R_e"])],
-                               "Voltage, position, effective capacitance and resistance at 10 Hz")
+    return figures.time_traces(
+        series["time"],
+        [
+            (series["U"], LABEL["U"]),
+            (series["x_laser"] * 1e6, LABEL["x_laser"]),
+            (series["C_e"] * 1e6, LABEL["C_e"]),
+            (series["R_e"], LABEL["R_e"]),
+        ],
+        "Voltage, position, effective capacitance and resistance at 10 Hz",
+    )

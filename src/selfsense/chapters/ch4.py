@@ -2,14 +2,25 @@
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
 from selfsense.chapters import figure_names
 from selfsense.io import figures
-from selfsense.methods.electromech import ChargeFit, Geometry, ModelParameters, SetIdentification, as_row, identify_set, kinematics, material_properties, sensitivity, slope_is_consistent
+from selfsense.methods.electromech import (
+    ChargeFit,
+    Geometry,
+    ModelParameters,
+    SetIdentification,
+    as_row,
+    identify_set,
+    kinematics,
+    material_properties,
+    sensitivity,
+    slope_is_consistent,
+)
 
 #: Table 4.2 rows: (key, label, unit, scale from SI to the unit)
 PARAMETERS = (
@@ -29,14 +40,30 @@ PARAMETERS = (
 
 #: published values (thesis Tables 4.2, 4.3; Table 2.1 for the manufacturer), in table units
 THESIS_CASE1 = {"C_P0": 3.13, "C_P100": 3.13, "dC_x": 0.0, "k": 11.20}
-THESIS_CASE2 = {"C_P0": 3.13, "C_P100": 2.16, "dC_x": -0.03, "k": 25.1, "alpha": 9.36, "d33": 700.0,
-                "k33": 0.72, "U_P_max": 86.0}
+THESIS_CASE2 = {
+    "C_P0": 3.13,
+    "C_P100": 2.16,
+    "dC_x": -0.03,
+    "k": 25.1,
+    "alpha": 9.36,
+    "d33": 700.0,
+    "k33": 0.72,
+    "U_P_max": 86.0,
+}
 MANUFACTURER = {"C_P0": 3.1, "k": 25.0}
-SENSITIVITY_CHANGES = {"no change": (1.0, 1.0), "+20 % C_P0": (1.2, 1.0), "+20 % ΔCx": (1.0, 1.2),
-                       "+20 % both": (1.2, 1.2)}
+SENSITIVITY_CHANGES = {
+    "no change": (1.0, 1.0),
+    "+20 % C_P0": (1.2, 1.0),
+    "+20 % ΔCx": (1.0, 1.2),
+    "+20 % both": (1.2, 1.2),
+}
 THESIS_TABLE_4_3 = {
-    "k": (25.1, 20.7, 24.0, 20.9), "alpha": (9.36, 7.72, 10.77, 9.36), "d33": (700, 697, 841, 840),
-    "k33": (0.72, 0.66, 0.77, 0.73), "U_P_max": (86, 86, 72, 72)}
+    "k": (25.1, 20.7, 24.0, 20.9),
+    "alpha": (9.36, 7.72, 10.77, 9.36),
+    "d33": (700, 697, 841, 840),
+    "k33": (0.72, 0.66, 0.77, 0.73),
+    "U_P_max": (86, 86, 72, 72),
+}
 
 
 #: the column of rule static_stiffness's table that holds k (Eq 4.16) [N/µm]
@@ -53,8 +80,9 @@ def set_frame(series: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     return dict(series) | {"x_laser": series["x_laser"] - series["x_laser"][0]}
 
 
-def identify_sets(sets: Mapping[str, Mapping[str, np.ndarray]], k_static: float, m: float,
-                  geometry: Geometry) -> tuple[pd.DataFrame, dict[str, SetIdentification]]:
+def identify_sets(
+    sets: Mapping[str, Mapping[str, np.ndarray]], k_static: float, m: float, geometry: Geometry
+) -> tuple[pd.DataFrame, dict[str, SetIdentification]]:
     """Both cases for every set: one row per (set, case) in SI units, and the fits."""
     rows, fits = [], {}
     for name, raw in sets.items():
@@ -63,15 +91,27 @@ def identify_sets(sets: Mapping[str, Mapping[str, np.ndarray]], k_static: float,
         fits[name] = fit
         for p in (fit.case1, fit.case2):
             mp = material_properties(p, geometry, fit.x_max)
-            rows.append({"set": name, "frequency [Hz]": _frequency(name)} | as_row(p, mp)
-                        | {"C_P100": float(p.capacitance(fit.x_max)),
-                           "alpha_from_current": fit.alpha_from_current if p.case == 2 else np.nan,
-                           "k_from_current": fit.k_from_current if p.case == 2 else np.nan,
-                           "x_max": fit.x_max,
-                           "Eq 4.15 has a real root": (slope_is_consistent(fit.charge_linear.a1, p.C_P0, k_static)
-                                                       if p.case == 1 else np.nan)}
-                        | {f"charge_{k}": v for k, v in
-                           vars(fit.charge_linear if p.case == 1 else fit.charge_quadratic).items()})
+            rows.append(
+                {"set": name, "frequency [Hz]": _frequency(name)}
+                | as_row(p, mp)
+                | {
+                    "C_P100": float(p.capacitance(fit.x_max)),
+                    "alpha_from_current": fit.alpha_from_current if p.case == 2 else np.nan,
+                    "k_from_current": fit.k_from_current if p.case == 2 else np.nan,
+                    "x_max": fit.x_max,
+                    "Eq 4.15 has a real root": (
+                        slope_is_consistent(fit.charge_linear.a1, p.C_P0, k_static)
+                        if p.case == 1
+                        else np.nan
+                    ),
+                }
+                | {
+                    f"charge_{k}": v
+                    for k, v in vars(
+                        fit.charge_linear if p.case == 1 else fit.charge_quadratic
+                    ).items()
+                }
+            )
     return pd.DataFrame(rows), fits
 
 
@@ -83,10 +123,19 @@ def fits_from_table(per_set: pd.DataFrame) -> dict[str, SetIdentification]:
     for name, rows in per_set.groupby("set", sort=False):
         by_case = {int(r["case"]): r for _, r in rows.iterrows()}
         params = {c: ModelParameters(*(r[k] for k in model_keys)) for c, r in by_case.items()}
-        charges = {c: ChargeFit(*(r[f"charge_{k}"] for k in charge_keys)) for c, r in by_case.items()}
+        charges = {
+            c: ChargeFit(*(r[f"charge_{k}"] for k in charge_keys)) for c, r in by_case.items()
+        }
         two = by_case[2]
-        fits[name] = SetIdentification(params[1], params[2], charges[1], charges[2], two["alpha_from_current"],
-                                       two["k_from_current"], two["x_max"])
+        fits[name] = SetIdentification(
+            params[1],
+            params[2],
+            charges[1],
+            charges[2],
+            two["alpha_from_current"],
+            two["k_from_current"],
+            two["x_max"],
+        )
     return fits
 
 
@@ -115,8 +164,12 @@ def table_4_3(fits: Mapping[str, SetIdentification], geometry: Geometry) -> pd.D
     """Sensitivity of k, α, d33, k33, U_Pmax to +20 % in C_P0, ΔCx and both (set means), from the
     quadratic q(x) fit (Eq 4.18); beside "no change", k and α from current over velocity (Eq 4.19),
     the thesis's alternative."""
-    per_set = [sensitivity(f.charge_quadratic, f.case2.C_P0, f.case2.dC_x, geometry, f.x_max, SENSITIVITY_CHANGES)
-               for f in fits.values()]
+    per_set = [
+        sensitivity(
+            f.charge_quadratic, f.case2.C_P0, f.case2.dC_x, geometry, f.x_max, SENSITIVITY_CHANGES
+        )
+        for f in fits.values()
+    ]
     scale = {"k": 1e-6, "alpha": 1.0, "d33": 1e12, "k33": 1.0, "U_P_max": 1.0}
     unit = {"k": "N/µm", "alpha": "N/V", "d33": "pm/V", "k33": "-", "U_P_max": "V"}
     rows = []
@@ -125,19 +178,34 @@ def table_4_3(fits: Mapping[str, SetIdentification], geometry: Geometry) -> pd.D
         for i, label in enumerate(SENSITIVITY_CHANGES):
             row[label] = float(np.mean([s[label][key] for s in per_set])) * scale[key]
             row[f"thesis {label}"] = THESIS_TABLE_4_3[key][i]
-        current = {"k": [f.k_from_current for f in fits.values()], "alpha": [f.alpha_from_current for f in fits.values()]}
-        row["no change, Eq 4.19"] = float(np.mean(current[key])) * scale[key] if key in current else np.nan
+        current = {
+            "k": [f.k_from_current for f in fits.values()],
+            "alpha": [f.alpha_from_current for f in fits.values()],
+        }
+        row["no change, Eq 4.19"] = (
+            float(np.mean(current[key])) * scale[key] if key in current else np.nan
+        )
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def table_4_1() -> pd.DataFrame:
     """Literature comparison, carried as published data (thesis Table 4.1; not computed here)."""
-    rows = [("Goldfarb et al.", "NEC AE0505D16", 10.00, 9.31, 1.20, 1.40, 6.00, 48.85),
-            ("Badel et al.", "NEC AE0505D44H40F", 7.19, 9.31, 2.77, 3.40, 28.70, 20.24),
-            ("Juhasz et al.", "PI P885-50", 17.55, 8.05, 1.50, 1.50, 100.29, 50.00)]
-    cols = ["model", "actuator", "α identified [N/V]", "α manufacturer [N/V]", "C_P identified [µF]",
-            "C_P manufacturer [µF]", "k_P identified [N/µm]", "k_P manufacturer [N/µm]"]
+    rows = [
+        ("Goldfarb et al.", "NEC AE0505D16", 10.00, 9.31, 1.20, 1.40, 6.00, 48.85),
+        ("Badel et al.", "NEC AE0505D44H40F", 7.19, 9.31, 2.77, 3.40, 28.70, 20.24),
+        ("Juhasz et al.", "PI P885-50", 17.55, 8.05, 1.50, 1.50, 100.29, 50.00),
+    ]
+    cols = [
+        "model",
+        "actuator",
+        "α identified [N/V]",
+        "α manufacturer [N/V]",
+        "C_P identified [µF]",
+        "C_P manufacturer [µF]",
+        "k_P identified [N/µm]",
+        "k_P manufacturer [N/µm]",
+    ]
     table = pd.DataFrame(rows, columns=cols)
     table["source"] = "published: Islam 2013 Table 4.1"
     return table
@@ -157,8 +225,15 @@ def hysteresis_voltage(sets, fits, per_frequency=(10.0, 100.0)) -> tuple[pd.Data
         for p in (fit.case1, fit.case2):
             u_h = s["U"] - p.piezo_voltage(kin)
             traces[f][f"U_H case {p.case}"] = u_h
-            rows.append({"frequency [Hz]": f, "case": p.case, "max |U_H| [V]": float(np.nanmax(np.abs(u_h))),
-                         "U_H share of max U [%]": 100 * float(np.nanmax(np.abs(u_h)) / np.nanmax(s["U"]))})
+            rows.append(
+                {
+                    "frequency [Hz]": f,
+                    "case": p.case,
+                    "max |U_H| [V]": float(np.nanmax(np.abs(u_h))),
+                    "U_H share of max U [%]": 100
+                    * float(np.nanmax(np.abs(u_h)) / np.nanmax(s["U"])),
+                }
+            )
     return pd.DataFrame(rows), traces
 
 
@@ -172,16 +247,28 @@ def figures_ch4(sets, fits, force, drive) -> dict:
     for name in sets:
         first.setdefault(_frequency(name), name)
     by_f = {f"{f:g} Hz": set_frame(sets[n]) for f, n in sorted(first.items())}
-    capacitance = figures.loop([s["x_laser"] * 1e6 for s in by_f.values()], [s["C_e"] * 1e6 for s in by_f.values()],
-                               "x [µm]", "C_e [µF]", "Capacitance against position", labels=list(by_f))
+    capacitance = figures.loop(
+        [s["x_laser"] * 1e6 for s in by_f.values()],
+        [s["C_e"] * 1e6 for s in by_f.values()],
+        "x [µm]",
+        "C_e [µF]",
+        "Capacitance against position",
+        labels=list(by_f),
+    )
     ratio_x, ratio = [], []
     for label, s in by_f.items():
         kin = kinematics(s["time"], s["x_laser"])
         fast = np.abs(kin.v) > 0.5 * np.max(np.abs(kin.v))
         ratio_x.append(kin.x[fast] * 1e6)
         ratio.append(s["I"][fast] / kin.v[fast])
-    current_ratio = figures.loop(ratio_x, ratio, "x [µm]", "I/ẋ [C/m]", "Current over velocity against position",
-                                 labels=list(by_f))
+    current_ratio = figures.loop(
+        ratio_x,
+        ratio,
+        "x [µm]",
+        "I/ẋ [C/m]",
+        "Current over velocity against position",
+        labels=list(by_f),
+    )
     qs, qm, xs, i_meas, i_model = [], [], [], [], []
     for f, name in sorted(first.items()):
         s, fit = by_f[f"{f:g} Hz"], fits[name]
@@ -195,15 +282,20 @@ def figures_ch4(sets, fits, force, drive) -> dict:
         i_model.append(np.gradient(model, s["time"]))
     labels = list(by_f)
     _, traces = hysteresis_voltage(sets, fits)
-    return dict(zip(FIGURES, (
-        figures.time_traces(force["t"], [(force["F"], "F [N]")], "Force at 50 Hz"),
-        capacitance,
-        current_ratio,
-        figures.time_traces(drive["t"], [(drive["U"], "U [V]")], "Driving signal at 10 Hz"),
-        figures.model_vs_measured(xs, qs, qm, i_meas, i_model, labels),
-        _figure_4_7(by_f, first, fits),
-        figures.hysteresis_voltage(traces),
-    )))
+    return dict(
+        zip(
+            FIGURES,
+            (
+                figures.time_traces(force["t"], [(force["F"], "F [N]")], "Force at 50 Hz"),
+                capacitance,
+                current_ratio,
+                figures.time_traces(drive["t"], [(drive["U"], "U [V]")], "Driving signal at 10 Hz"),
+                figures.model_vs_measured(xs, qs, qm, i_meas, i_model, labels),
+                _figure_4_7(by_f, first, fits),
+                figures.hysteresis_voltage(traces),
+            ),
+        )
+    )
 
 
 def _figure_4_7(by_f, first, fits):
@@ -215,7 +307,12 @@ def _figure_4_7(by_f, first, fits):
         kin = kinematics(s["time"], s["x_laser"])
         q1 = s["q"] - fit.charge_linear.q0 - fit.charge_linear.I0 * s["time"]
         q2 = s["q"] - fit.charge_quadratic.q0 - fit.charge_quadratic.I0 * s["time"]
-        panels[f] = {"x": kin.x, "q": q2, "traditional": fit.case1.charge(kin),
-                     "proposed": fit.case2.charge(kin), "error traditional": q1 - fit.case1.charge(kin),
-                     "error proposed": q2 - fit.case2.charge(kin)}
+        panels[f] = {
+            "x": kin.x,
+            "q": q2,
+            "traditional": fit.case1.charge(kin),
+            "proposed": fit.case2.charge(kin),
+            "error traditional": q1 - fit.case1.charge(kin),
+            "error proposed": q2 - fit.case2.charge(kin),
+        }
     return figures.model_comparison(panels)

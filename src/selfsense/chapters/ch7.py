@@ -4,36 +4,67 @@ frequency effect on C_e–x (Fig 7.8) and the coupled observer/thermal estimatio
 from __future__ import annotations
 
 import textwrap
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
 from selfsense.chapters import figure_names
 from selfsense.io.capture import open_capture, read_series
-from selfsense.methods.gamma import GammaPolynomial, anova_table, coefficient_table, fit_gamma, gamma_t_table
+from selfsense.methods.gamma import (
+    GammaPolynomial,
+    anova_table,
+    coefficient_table,
+    fit_gamma,
+    gamma_t_table,
+)
 from selfsense.methods.metrics import branch_means, direction
 from selfsense.methods.observer import HPOGains
 from selfsense.methods.ripple import RippleExtractor, SamplingPlan, WindowMeans
 from selfsense.methods.selfsensing import SelfSensingChain
-from selfsense.methods.thermal import PowerAverager, SelfHeatingEstimator, ThermalModel, ThermalProperties, identify_series, linear_fit, power_loss, predict_temperature
+from selfsense.methods.thermal import (
+    PowerAverager,
+    SelfHeatingEstimator,
+    ThermalModel,
+    ThermalProperties,
+    identify_series,
+    linear_fit,
+    power_loss,
+    predict_temperature,
+)
 
-THESIS_TABLE_7_1 = {"tau [s]": 100.0, "k_T [W/(m² K)]": 28.0, "gamma [K/W]": 57.0, "k/alpha [V/m]": 2.85e6,
-                    "T_ref [°C]": 23.0}
+THESIS_TABLE_7_1 = {
+    "tau [s]": 100.0,
+    "k_T [W/(m² K)]": 28.0,
+    "gamma [K/W]": 57.0,
+    "k/alpha [V/m]": 2.85e6,
+    "T_ref [°C]": 23.0,
+}
 #: How often the coupled estimation hands T_SH(HPO) to Γ_T and x̂ to the loss power [s]: the IR
 #: thermometers' rate, and fast enough for a temperature that changes over τ ≈ 100 s.
 COUPLING_INTERVAL = 0.1
 #: the thesis's coupled estimation over the mixed run (Fig 7.12)
-THESIS_COUPLED_MIXED = {"max observer error [µm]": 1.38, "max observer error [% of stroke]": 4.18,
-                        "max |T_SH_HPO − T| [K]": 1.45, "max |T_SH_PS − T| [K]": 1.45}
+THESIS_COUPLED_MIXED = {
+    "max observer error [µm]": 1.38,
+    "max observer error [% of stroke]": 4.18,
+    "max |T_SH_HPO − T| [K]": 1.45,
+    "max |T_SH_PS − T| [K]": 1.45,
+}
 THERMAL_FIGURES = figure_names.CH7_THERMAL
-GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (figure_names.CH7_GAMMA_T, figure_names.CH7_FREQUENCY,
-                                                    figure_names.CH7_DIAGRAM)
+GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (
+    figure_names.CH7_GAMMA_T,
+    figure_names.CH7_FREQUENCY,
+    figure_names.CH7_DIAGRAM,
+)
 COUPLED_FIGURES = figure_names.CH7_COUPLED
 #: the run the thesis reports the coupled estimation's errors for: the one Fig 7.12 shows
 MIXED_RUN = COUPLED_FIGURES["fig_7_12"]
-THESIS_TABLE_7_2 = {"n=4": (0.998189, 0.998188, 0.474422), "n=5": (0.998194, 0.998193, 0.473808),
-                    "n=6": (0.998194, 0.998193, 0.47377), "n=5 + C·T": (0.998193, 0.998193, 0.473825)}
+THESIS_TABLE_7_2 = {
+    "n=4": (0.998189, 0.998188, 0.474422),
+    "n=5": (0.998194, 0.998193, 0.473808),
+    "n=6": (0.998194, 0.998193, 0.47377),
+    "n=5 + C·T": (0.998193, 0.998193, 0.473825),
+}
 
 
 #: {k·φ} (φ the golden ratio's fractional part) is the most evenly spread sequence in [0, 1): the
@@ -55,7 +86,9 @@ def kept_windows(window: np.ndarray, every: int) -> np.ndarray:
     return window % every == offset
 
 
-def extract(chunks, fs: float, plan: SamplingPlan, k_over_alpha: float, interval: float, every: int):
+def extract(
+    chunks, fs: float, plan: SamplingPlan, k_over_alpha: float, interval: float, every: int
+):
     """Stream a capture into (a) mean loss power per interval from the laser position (Eq 7.4)
     and (b) C_e with the window-mean position, one ripple window in ``every`` (for Γ_T,
     :func:`kept_windows`).
@@ -76,33 +109,58 @@ def extract(chunks, fs: float, plan: SamplingPlan, k_over_alpha: float, interval
         blocks = extractor.process(d["Ur"], d["Ir"])
         _, (xm,) = means.process(x)
         keep = kept_windows(blocks.sample_index // plan.ns, every)
-        yield ({"time": t, "P_PS": P},
-               {"time": (blocks.sample_index[keep] - (plan.block_len - 1) / 2) / fs, "C_e": blocks.C_e[keep],
-                "x_laser": xm[keep]}, (float(np.max(d["U"], initial=-np.inf)), float(np.max(x, initial=-np.inf))))
+        yield (
+            {"time": t, "P_PS": P},
+            {
+                "time": (blocks.sample_index[keep] - (plan.block_len - 1) / 2) / fs,
+                "C_e": blocks.C_e[keep],
+                "x_laser": xm[keep],
+            },
+            (float(np.max(d["U"], initial=-np.inf)), float(np.max(x, initial=-np.inf))),
+        )
 
 
-def identify(series: Mapping[str, Mapping[str, np.ndarray]], props: ThermalProperties, T_amb: float | None):
+def identify(
+    series: Mapping[str, Mapping[str, np.ndarray]], props: ThermalProperties, T_amb: float | None
+):
     """τ and γ per heating run by least squares of the predicted against the measured T (Eq 7.4)."""
     rows, fits = [], {}
     for name, s in series.items():
         try:
-            fit = identify_series(s["time"], s["T_mid"], s["P_PS"], T_amb=T_amb, T0="ambient", props=props)
+            fit = identify_series(
+                s["time"], s["T_mid"], s["P_PS"], T_amb=T_amb, T0="ambient", props=props
+            )
         except ValueError as err:  # a run too short to see τ (e.g. the smoke campaign): say so
             rows.append({"run": name, "note": f"not identifiable: {err}"})
             continue
         span = float(s["time"][-1] - s["time"][0])
         if span < 3 * fit.tau or fit.r_squared < 0.9:
-            rows.append({"run": name, "note": f"not identifiable: {span:.3g} s of data for τ = {fit.tau:.3g} s, "
-                                              f"R² = {fit.r_squared:.3f}"})
+            rows.append(
+                {
+                    "run": name,
+                    "note": f"not identifiable: {span:.3g} s of data for τ = {fit.tau:.3g} s, "
+                    f"R² = {fit.r_squared:.3f}",
+                }
+            )
             continue
         fits[name] = fit
-        rows.append({"run": name, "tau [s]": fit.tau, "gamma [K/W]": fit.gamma,
-                     "k_T from tau [W/(m² K)]": fit.k_T_from_tau, "k_T from gamma [W/(m² K)]": fit.k_T_from_gamma,
-                     "R²": fit.r_squared, "max |T − fit| [K]": fit.residual_max,
-                     "heating power [W]": heating_power(s["P_PS"]),
-                     "max rise [K]": float(np.max(s["T_mid"]) - fit.T_amb),
-                     "T_amb [°C]": fit.T_amb, "U_max [V]": s.get("U_max", np.nan), "x_max [m]": s.get("x_max", np.nan),
-                     "note": ""})
+        rows.append(
+            {
+                "run": name,
+                "tau [s]": fit.tau,
+                "gamma [K/W]": fit.gamma,
+                "k_T from tau [W/(m² K)]": fit.k_T_from_tau,
+                "k_T from gamma [W/(m² K)]": fit.k_T_from_gamma,
+                "R²": fit.r_squared,
+                "max |T − fit| [K]": fit.residual_max,
+                "heating power [W]": heating_power(s["P_PS"]),
+                "max rise [K]": float(np.max(s["T_mid"]) - fit.T_amb),
+                "T_amb [°C]": fit.T_amb,
+                "U_max [V]": s.get("U_max", np.nan),
+                "x_max [m]": s.get("x_max", np.nan),
+                "note": "",
+            }
+        )
     return pd.DataFrame(rows), fits
 
 
@@ -111,9 +169,15 @@ def heating_power(P: np.ndarray) -> float:
     return float(np.mean(P[P > 0.5 * np.max(P)]))
 
 
-def thermal_identification(runs: Mapping[str, Mapping[str, np.ndarray]], freq_of: Mapping[str, float],
-                           volt: Mapping[str, np.ndarray], volt_segments, checks: Mapping[str, Mapping[str, np.ndarray]],
-                           props: ThermalProperties, k_over_alpha: float):
+def thermal_identification(
+    runs: Mapping[str, Mapping[str, np.ndarray]],
+    freq_of: Mapping[str, float],
+    volt: Mapping[str, np.ndarray],
+    volt_segments,
+    checks: Mapping[str, Mapping[str, np.ndarray]],
+    props: ThermalProperties,
+    k_over_alpha: float,
+):
     """τ, γ, k_T from the heating runs (Table 7.1), the trends against frequency and voltage
     (Figs 7.2, 7.3) and the predictions of the check runs (Figs 7.5, 7.6).
 
@@ -122,42 +186,85 @@ def thermal_identification(runs: Mapping[str, Mapping[str, np.ndarray]], freq_of
     run is long enough to identify τ (e.g. the smoke campaign) the later tables and figures say
     why. Returns ({table: DataFrame} incl. "per_run", the thermal model record, {figure: Figure}).
     """
-    from selfsense.io import figures  # here: the streaming jobs that import this module need no matplotlib
+    from selfsense.io import (
+        figures,  # here: the streaming jobs that import this module need no matplotlib
+    )
 
     per_run, _ = identify(runs, props, T_amb=None)
     identified = per_run.dropna(subset=["tau [s]"]) if "tau [s]" in per_run else per_run.iloc[0:0]
-    heating = figures.loop([s["time"] for s in runs.values()], [s["T_mid"] for s in runs.values()],
-                           "time [s]", "T [°C]", "Self-heating at 100 V, 20–200 Hz", labels=list(runs))
+    heating = figures.loop(
+        [s["time"] for s in runs.values()],
+        [s["T_mid"] for s in runs.values()],
+        "time [s]",
+        "T [°C]",
+        "Self-heating at 100 V, 20–200 Hz",
+        labels=list(runs),
+    )
     later = ("table_7_1", "freq_trend", "volt_trend", "prediction")
     if identified.empty:
         reason = "no heating run long enough to identify τ and γ (see per_run.csv)"
         tables = {key: pd.DataFrame([{"note": f"not computed: {reason}"}]) for key in later}
         missing = [figures.placeholder(_title(name), reason) for name in THERMAL_FIGURES[1:]]
-        return ({"per_run": per_run} | tables, {"identified": False, "reason": reason},
-                dict(zip(THERMAL_FIGURES, (heating, *missing))))
-    model = ThermalModel(float(identified["tau [s]"].mean()), float(identified["gamma [K/W]"].mean()))
+        return (
+            {"per_run": per_run} | tables,
+            {"identified": False, "reason": reason},
+            dict(zip(THERMAL_FIGURES, (heating, *missing))),
+        )
+    model = ThermalModel(
+        float(identified["tau [s]"].mean()), float(identified["gamma [K/W]"].mean())
+    )
     T_amb = float(identified["T_amb [°C]"].mean())
     trend = steady_rise_trends(identified, freq_of)
     vtrend = voltage_trend(volt, volt_segments, model)
-    tables = dict(zip(later, (table_7_1(identified, k_over_alpha, THESIS_TABLE_7_1["T_ref [°C]"]), trend, vtrend,
-                              prediction_errors(checks, model, T_amb))))
-    frequency_rise = figures.loop([trend["frequency [Hz]"]] * 2, [trend["steady rise [K]"],
-                                  trend["fit slope [K/Hz]"] * trend["frequency [Hz]"] + trend["fit intercept [K]"]],
-                                  "frequency [Hz]", "steady rise [K]",
-                                  f"Steady rise against frequency (linear fit R² = {trend['fit R²'].iloc[0]:.4f})",
-                                  labels=["identified γ·P", "linear fit"])
-    voltage_rise = figures.loop([vtrend["voltage [V]"] ** 2], [vtrend["steady rise [K]"]], "V² [V²]",
-                                "steady rise [K]",
-                                f"Steady rise against V² at 150 Hz (R² = {vtrend['fit R²'].iloc[0]:.4f})")
+    tables = dict(
+        zip(
+            later,
+            (
+                table_7_1(identified, k_over_alpha, THESIS_TABLE_7_1["T_ref [°C]"]),
+                trend,
+                vtrend,
+                prediction_errors(checks, model, T_amb),
+            ),
+        )
+    )
+    frequency_rise = figures.loop(
+        [trend["frequency [Hz]"]] * 2,
+        [
+            trend["steady rise [K]"],
+            trend["fit slope [K/Hz]"] * trend["frequency [Hz]"] + trend["fit intercept [K]"],
+        ],
+        "frequency [Hz]",
+        "steady rise [K]",
+        f"Steady rise against frequency (linear fit R² = {trend['fit R²'].iloc[0]:.4f})",
+        labels=["identified γ·P", "linear fit"],
+    )
+    voltage_rise = figures.loop(
+        [vtrend["voltage [V]"] ** 2],
+        [vtrend["steady rise [K]"]],
+        "V² [V²]",
+        "steady rise [K]",
+        f"Steady rise against V² at 150 Hz (R² = {vtrend['fit R²'].iloc[0]:.4f})",
+    )
     predicted = []
     for name, s in checks.items():
         T_pred = predict_temperature(s["time"], s["P_PS"], model, T0=T_amb, T_amb=T_amb)
-        predicted.append(figures.time_traces(s["time"], [(s["T_mid"], "T measured [°C]"), (T_pred, "T_SH(PS) [°C]"),
-                                                         (T_pred - s["T_mid"], "error [K]")],
-                                             f"{name}: measured against predicted temperature"))
+        predicted.append(
+            figures.time_traces(
+                s["time"],
+                [
+                    (s["T_mid"], "T measured [°C]"),
+                    (T_pred, "T_SH(PS) [°C]"),
+                    (T_pred - s["T_mid"], "error [K]"),
+                ],
+                f"{name}: measured against predicted temperature",
+            )
+        )
     record = {"identified": True, "tau": model.tau, "gamma": model.gamma, "T_amb": T_amb}
-    return ({"per_run": per_run} | tables, record,
-            dict(zip(THERMAL_FIGURES, (heating, frequency_rise, voltage_rise, *predicted))))
+    return (
+        {"per_run": per_run} | tables,
+        record,
+        dict(zip(THERMAL_FIGURES, (heating, frequency_rise, voltage_rise, *predicted))),
+    )
 
 
 def _title(name: str) -> str:
@@ -168,14 +275,34 @@ def _title(name: str) -> str:
 def table_7_1(per_run: pd.DataFrame, k_over_alpha: float, T_ref: float) -> pd.DataFrame:
     """Table 7.1: τ, γ, k_T (means over the identified runs), k/α by Eq 7.11 (U_max/x_max, median
     over the runs) beside Chapter 4's k/α, which the loss power P = (U − k/α·x)·I uses."""
-    ours = {"tau [s]": per_run["tau [s]"].mean(), "gamma [K/W]": per_run["gamma [K/W]"].mean(),
-            "k_T [W/(m² K)]": 0.5 * (per_run["k_T from tau [W/(m² K)]"].mean() + per_run["k_T from gamma [W/(m² K)]"].mean()),
-            "k/alpha [V/m]": float(np.median(per_run["U_max [V]"] / per_run["x_max [m]"])),
-            "k/alpha, Chapter 4 [V/m]": k_over_alpha, "T_ref [°C]": T_ref}
-    spread = {"tau [s]": per_run["tau [s]"].std(ddof=1), "gamma [K/W]": per_run["gamma [K/W]"].std(ddof=1),
-              "k_T [W/(m² K)]": abs(per_run["k_T from tau [W/(m² K)]"].mean() - per_run["k_T from gamma [W/(m² K)]"].mean()) / 2}
-    return pd.DataFrame([{"parameter": k, "reproduced": v, "spread": spread.get(k, np.nan),
-                          "thesis": THESIS_TABLE_7_1.get(k, np.nan)} for k, v in ours.items()])
+    ours = {
+        "tau [s]": per_run["tau [s]"].mean(),
+        "gamma [K/W]": per_run["gamma [K/W]"].mean(),
+        "k_T [W/(m² K)]": 0.5
+        * (per_run["k_T from tau [W/(m² K)]"].mean() + per_run["k_T from gamma [W/(m² K)]"].mean()),
+        "k/alpha [V/m]": float(np.median(per_run["U_max [V]"] / per_run["x_max [m]"])),
+        "k/alpha, Chapter 4 [V/m]": k_over_alpha,
+        "T_ref [°C]": T_ref,
+    }
+    spread = {
+        "tau [s]": per_run["tau [s]"].std(ddof=1),
+        "gamma [K/W]": per_run["gamma [K/W]"].std(ddof=1),
+        "k_T [W/(m² K)]": abs(
+            per_run["k_T from tau [W/(m² K)]"].mean() - per_run["k_T from gamma [W/(m² K)]"].mean()
+        )
+        / 2,
+    }
+    return pd.DataFrame(
+        [
+            {
+                "parameter": k,
+                "reproduced": v,
+                "spread": spread.get(k, np.nan),
+                "thesis": THESIS_TABLE_7_1.get(k, np.nan),
+            }
+            for k, v in ours.items()
+        ]
+    )
 
 
 def steady_rise_trends(per_run: pd.DataFrame, freq_runs: Mapping[str, float]) -> pd.DataFrame:
@@ -185,32 +312,55 @@ def steady_rise_trends(per_run: pd.DataFrame, freq_runs: Mapping[str, float]) ->
     f = np.array([freq_runs[r] for r in sel["run"]])
     rise = (sel["gamma [K/W]"] * sel["heating power [W]"]).to_numpy()
     fit = linear_fit(f, rise)
-    return pd.DataFrame({"frequency [Hz]": f, "steady rise [K]": rise,
-                         "steady temperature [°C]": sel["T_amb [°C]"].to_numpy() + rise, "fit slope [K/Hz]": fit.slope,
-                         "fit intercept [K]": fit.intercept, "fit R²": fit.r_squared})
+    return pd.DataFrame(
+        {
+            "frequency [Hz]": f,
+            "steady rise [K]": rise,
+            "steady temperature [°C]": sel["T_amb [°C]"].to_numpy() + rise,
+            "fit slope [K/Hz]": fit.slope,
+            "fit intercept [K]": fit.intercept,
+            "fit R²": fit.r_squared,
+        }
+    )
 
 
 def voltage_trend(series: Mapping[str, np.ndarray], segments, model: ThermalModel) -> pd.DataFrame:
     """Fig 7.3: the steady rise γ·P per voltage step at 150 Hz against V², with a linear fit."""
     rows, start = [], 0.0
     for seg in segments:
-        sel = (series["time"] >= start + 0.5 * seg["duration"]) & (series["time"] < start + seg["duration"])
-        rows.append({"voltage [V]": seg["hi"], "steady rise [K]": model.gamma * float(np.mean(series["P_PS"][sel]))})
+        sel = (series["time"] >= start + 0.5 * seg["duration"]) & (
+            series["time"] < start + seg["duration"]
+        )
+        rows.append(
+            {
+                "voltage [V]": seg["hi"],
+                "steady rise [K]": model.gamma * float(np.mean(series["P_PS"][sel])),
+            }
+        )
         start += seg["duration"]
     table = pd.DataFrame(rows)
     fit = linear_fit(table["voltage [V]"] ** 2, table["steady rise [K]"])
     return table.assign(**{"fit slope [K/V²]": fit.slope, "fit R²": fit.r_squared})
 
 
-def prediction_errors(series: Mapping[str, Mapping[str, np.ndarray]], model: ThermalModel, T_amb: float) -> pd.DataFrame:
+def prediction_errors(
+    series: Mapping[str, Mapping[str, np.ndarray]], model: ThermalModel, T_amb: float
+) -> pd.DataFrame:
     """Figs 7.5–7.6: T predicted from the loss power against the measured T, max error."""
     rows = []
     for name, s in series.items():
         T = predict_temperature(s["time"], s["P_PS"], model, T0=T_amb, T_amb=T_amb)
         err = T - s["T_mid"]
-        rows.append({"run": name, "max |T_SH(PS) − T| [K]": float(np.max(np.abs(err))),
-                     "max rise [K]": float(np.max(s["T_mid"]) - T_amb),
-                     "error [% of max rise]": 100 * float(np.max(np.abs(err))) / max(float(np.max(s["T_mid"]) - T_amb), 1e-9)})
+        rows.append(
+            {
+                "run": name,
+                "max |T_SH(PS) − T| [K]": float(np.max(np.abs(err))),
+                "max rise [K]": float(np.max(s["T_mid"]) - T_amb),
+                "error [% of max rise]": 100
+                * float(np.max(np.abs(err)))
+                / max(float(np.max(s["T_mid"]) - T_amb), 1e-9),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -232,9 +382,15 @@ def gamma_t_order(data, validation, candidates=(1, 2, 3, 4, 5, 6)) -> tuple[pd.D
     for j in candidates:
         fit = fit_gamma(data[0], data[1], j, temperature=data[2])
         error_um = (fit.predict(validation[0], validation[2]) - validation[1]) * 1e6
-        rows.append({"order": j, "adjusted R² (fit run)": fit.r2_adj, "g [µm/K]": float(fit.coefficients["g"]),
-                     "rms error on the validation run [µm]": float(np.sqrt(np.mean(error_um ** 2))),
-                     "max error on the validation run [µm]": float(np.max(np.abs(error_um)))})
+        rows.append(
+            {
+                "order": j,
+                "adjusted R² (fit run)": fit.r2_adj,
+                "g [µm/K]": float(fit.coefficients["g"]),
+                "rms error on the validation run [µm]": float(np.sqrt(np.mean(error_um**2))),
+                "max error on the validation run [µm]": float(np.max(np.abs(error_um))),
+            }
+        )
     table = pd.DataFrame(rows)
     order = int(table.loc[table["rms error on the validation run [µm]"].idxmin(), "order"])
     return table.assign(chosen=table["order"] == order), order
@@ -247,22 +403,42 @@ def gamma_t(data, validation, orders=(4, 5, 6), order: int = 5, candidates=(1, 2
     C, x, T = data
     t72 = gamma_t_table(C, x, T, orders=tuple(orders), interaction_order=order)
     fit = fit_gamma(C, x, order, temperature=T)
-    tables = {"table_7_2": t72, "anova": anova_table(fit).reset_index(names="source"),
-              "coefficients": coefficient_table(fit).reset_index(names="coefficient"), "order": selection}
+    tables = {
+        "table_7_2": t72,
+        "anova": anova_table(fit).reset_index(names="source"),
+        "coefficients": coefficient_table(fit).reset_index(names="coefficient"),
+        "order": selection,
+    }
     return tables, {"gamma_t": fit_gamma(C, x, chosen, temperature=T), "gamma_t_n5": fit}
 
 
 def figure_7_7(samples: Mapping[str, np.ndarray]):
     """Fig 7.7: C_e against position on the 50 Hz run while the stack heats (:func:`gamma_t`'s samples)."""
-    from selfsense.io import figures  # here: the streaming jobs that import this module need no matplotlib
+    from selfsense.io import (
+        figures,  # here: the streaming jobs that import this module need no matplotlib
+    )
 
-    return figures.loop([samples["x_laser"] * 1e6], [samples["C_e"] * 1e6], "x [µm]", "C_e [µF]",
-                        "Capacitance against position while the stack heats (50 Hz)")
+    return figures.loop(
+        [samples["x_laser"] * 1e6],
+        [samples["C_e"] * 1e6],
+        "x [µm]",
+        "C_e [µF]",
+        "Capacitance against position while the stack heats (50 Hz)",
+    )
 
 
-def coupled_estimation(chunks, fs: float, plan: SamplingPlan, gamma: GammaPolynomial, gains: HPOGains,
-                       model: ThermalModel, k_over_alpha: float, T_amb: float, warmup: float,
-                       interval: float = COUPLING_INTERVAL):
+def coupled_estimation(
+    chunks,
+    fs: float,
+    plan: SamplingPlan,
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+    model: ThermalModel,
+    k_over_alpha: float,
+    T_amb: float,
+    warmup: float,
+    interval: float = COUPLING_INTERVAL,
+):
     """Fig 7.9: the temperature-compensated observer and the thermal model, coupled.
 
     Every ``interval`` the thermal model, driven by the loss power computed with the observer's
@@ -295,24 +471,40 @@ def coupled_estimation(chunks, fs: float, plan: SamplingPlan, gamma: GammaPolyno
                 x_lo, x_hi = min(x_lo, float(x[after].min())), max(x_hi, float(x[after].max()))
     out = {k: np.concatenate(v) for k, v in traces.items()}
     stroke = x_hi - x_lo
-    return out, {"max observer error [µm]": err_max * 1e6, "stroke [µm]": stroke * 1e6,
-                 "max observer error [% of stroke]": 100 * err_max / stroke}
+    return out, {
+        "max observer error [µm]": err_max * 1e6,
+        "stroke [µm]": stroke * 1e6,
+        "max observer error [% of stroke]": 100 * err_max / stroke,
+    }
 
 
-def against_measured(traces: Mapping[str, np.ndarray], result: Mapping[str, float], measured: Mapping[str, np.ndarray]):
+def against_measured(
+    traces: Mapping[str, np.ndarray],
+    result: Mapping[str, float],
+    measured: Mapping[str, np.ndarray],
+):
     """:func:`coupled_estimation`'s traces beside the measured middle temperature, cut to their common
     length, and the result with each estimate's max error against it."""
     n = min(len(traces["time"]), len(measured["time"]))
     out = {k: v[:n] for k, v in traces.items()} | {"T_mid": measured["T_mid"][:n]}
-    errors = {f"max |{key} − T| [K]": float(np.max(np.abs(out[key] - out["T_mid"]))) for key in ("T_SH_HPO", "T_SH_PS")}
+    errors = {
+        f"max |{key} − T| [K]": float(np.max(np.abs(out[key] - out["T_mid"])))
+        for key in ("T_SH_HPO", "T_SH_PS")
+    }
     return out, dict(result) | errors
 
 
 def coupled_table(stats: Mapping[str, Mapping]) -> pd.DataFrame:
     """The coupled estimation's errors per run ({run: stats record}), the thesis's beside the mixed run."""
     thesis = {f"thesis {k}": v for k, v in THESIS_COUPLED_MIXED.items()}
-    return pd.DataFrame([{"run": run} | {k: v for k, v in s.items() if k != "provenance"}
-                         | (thesis if run == MIXED_RUN else {}) for run, s in stats.items()])
+    return pd.DataFrame(
+        [
+            {"run": run}
+            | {k: v for k, v in s.items() if k != "provenance"}
+            | (thesis if run == MIXED_RUN else {})
+            for run, s in stats.items()
+        ]
+    )
 
 
 def figure_coupled(name: str, run: str, traces: Mapping[str, np.ndarray], stats: Mapping):
@@ -322,23 +514,50 @@ def figure_coupled(name: str, run: str, traces: Mapping[str, np.ndarray], stats:
 
     if not len(traces["time"]):
         return figures.placeholder(_title(name), stats["note"])
-    return figures.time_traces(traces["time"], [(traces["T_mid"], "T measured [°C]"), (traces["T_SH_PS"], "T_SH(PS) [°C]"),
-                                                (traces["T_SH_HPO"], "T_SH(HPO) [°C]"),
-                                                (traces["T_SH_HPO"] - traces["T_mid"], "T_SH(HPO) − T [K]")],
-                               f"{run}: temperature from the laser and from the observer")
+    return figures.time_traces(
+        traces["time"],
+        [
+            (traces["T_mid"], "T measured [°C]"),
+            (traces["T_SH_PS"], "T_SH(PS) [°C]"),
+            (traces["T_SH_HPO"], "T_SH(HPO) [°C]"),
+            (traces["T_SH_HPO"] - traces["T_mid"], "T_SH(HPO) − T [K]"),
+        ],
+        f"{run}: temperature from the laser and from the observer",
+    )
 
 
-def thermal_recovery(table_7_1: pd.DataFrame, truth: Mapping[str, float], g_um_per_K: float) -> pd.DataFrame:
+def thermal_recovery(
+    table_7_1: pd.DataFrame, truth: Mapping[str, float], g_um_per_K: float
+) -> pd.DataFrame:
     """τ, γ, k_T of Table 7.1 and g of the validated Γ_T against the twin's truth (the capture's
     /truth attributes; the twin's g is its C_P temperature slope over its position slope,
     κ_T/|ΔCx|)."""
-    identified = table_7_1.set_index("parameter")["reproduced"] if "parameter" in table_7_1 else pd.Series(dtype=float)
-    pairs = [(name, float(truth[attr]), float(identified.get(key, float("nan"))))
-             for name, attr, key in (("tau [s]", "thermal_tau", "tau [s]"), ("gamma [K/W]", "thermal_gamma", "gamma [K/W]"),
-                                     ("k_T [W/(m² K)]", "thermal_k_T", "k_T [W/(m² K)]"))]
-    pairs.append(("g [µm/K]", 1e6 * float(truth["stack_kappa_T"]) / abs(float(truth["stack_dC_x"])), g_um_per_K))
-    return pd.DataFrame([{"parameter": name, "truth": t, "identified": i, "error [%]": 100 * (i / t - 1)}
-                         for name, t, i in pairs])
+    identified = (
+        table_7_1.set_index("parameter")["reproduced"]
+        if "parameter" in table_7_1
+        else pd.Series(dtype=float)
+    )
+    pairs = [
+        (name, float(truth[attr]), float(identified.get(key, float("nan"))))
+        for name, attr, key in (
+            ("tau [s]", "thermal_tau", "tau [s]"),
+            ("gamma [K/W]", "thermal_gamma", "gamma [K/W]"),
+            ("k_T [W/(m² K)]", "thermal_k_T", "k_T [W/(m² K)]"),
+        )
+    ]
+    pairs.append(
+        (
+            "g [µm/K]",
+            1e6 * float(truth["stack_kappa_T"]) / abs(float(truth["stack_dC_x"])),
+            g_um_per_K,
+        )
+    )
+    return pd.DataFrame(
+        [
+            {"parameter": name, "truth": t, "identified": i, "error [%]": 100 * (i / t - 1)}
+            for name, t, i in pairs
+        ]
+    )
 
 
 def frequency_run(series, capture, frequency: float) -> dict[str, np.ndarray | float]:
@@ -348,12 +567,22 @@ def frequency_run(series, capture, frequency: float) -> dict[str, np.ndarray | f
         T = cap.read(["T_mid"], dim="time_slow")["T_mid"]
         rate = cap.n_slow / cap.duration  # the thermometers span the capture at their own rate
         warmup = float(cap.attribute("warmup_s"))
-    return read_series(series) | {"frequency": frequency, "warmup": warmup, "T_time": np.arange(T.size) / rate,
-                                  "T_mid": T}
+    return read_series(series) | {
+        "frequency": frequency,
+        "warmup": warmup,
+        "T_time": np.arange(T.size) / rate,
+        "T_mid": T,
+    }
 
 
-def frequency_effect(runs: Mapping[str, Mapping], gamma: GammaPolynomial, g: float, reference: str, bins: int = 20,
-                     min_windows: int = 10):
+def frequency_effect(
+    runs: Mapping[str, Mapping],
+    gamma: GammaPolynomial,
+    g: float,
+    reference: str,
+    bins: int = 20,
+    min_windows: int = 10,
+):
     """Fig 7.8: how far each drive frequency's C_e–x curve lies from Γ, and how warm the stack was.
 
     ``runs``: {run: ripple series (time, C_e, x_laser, U) plus "frequency" [Hz], "warmup" [s]
@@ -374,23 +603,43 @@ def frequency_effect(runs: Mapping[str, Mapping], gamma: GammaPolynomial, g: flo
         x, C = (r["x_laser"] - r["x_laser"][0])[driven], r["C_e"][driven]
         ok = np.isfinite(x) & np.isfinite(C)
         x, C, U = x[ok], C[ok], r["U"][driven][ok]
-        centres, rising, falling = branch_means(x, x - gamma.predict(C), direction(U), bins, min_windows)
+        centres, rising, falling = branch_means(
+            x, x - gamma.predict(C), direction(U), bins, min_windows
+        )
         curve = np.concatenate([rising, falling])
         stroke = float(np.ptp(x))
         on = r["T_time"] >= r["warmup"]
         t, T = r["T_time"][on], r["T_mid"][on]
-        rows.append({"frequency [Hz]": r["frequency"], "run": name, "windows": int(x.size), "stroke [µm]": 1e6 * stroke,
-                     "mean x − Γ(C_e) [µm]": 1e6 * float(np.nanmean(curve)),
-                     "max |x − Γ(C_e)| [µm]": 1e6 * float(np.nanmax(np.abs(curve))),
-                     "rms x − Γ(C_e) [µm]": 1e6 * float(np.sqrt(np.nanmean(curve ** 2))),
-                     "max [% of stroke]": 100 * float(np.nanmax(np.abs(curve))) / stroke,
-                     "rms [% of stroke]": 100 * float(np.sqrt(np.nanmean(curve ** 2))) / stroke,
-                     "T mean [°C]": float(np.mean(T)), "T rise [K]": _rise(t, T),
-                     "note": "Γ fitted on this run" if name == reference else ""})
-        curves[f"{r['frequency']:g} Hz"] = {"x": x, "C_e": C, "centres": centres, "rising": rising, "falling": falling}
+        rows.append(
+            {
+                "frequency [Hz]": r["frequency"],
+                "run": name,
+                "windows": int(x.size),
+                "stroke [µm]": 1e6 * stroke,
+                "mean x − Γ(C_e) [µm]": 1e6 * float(np.nanmean(curve)),
+                "max |x − Γ(C_e)| [µm]": 1e6 * float(np.nanmax(np.abs(curve))),
+                "rms x − Γ(C_e) [µm]": 1e6 * float(np.sqrt(np.nanmean(curve**2))),
+                "max [% of stroke]": 100 * float(np.nanmax(np.abs(curve))) / stroke,
+                "rms [% of stroke]": 100 * float(np.sqrt(np.nanmean(curve**2))) / stroke,
+                "T mean [°C]": float(np.mean(T)),
+                "T rise [K]": _rise(t, T),
+                "note": "Γ fitted on this run" if name == reference else "",
+            }
+        )
+        curves[f"{r['frequency']:g} Hz"] = {
+            "x": x,
+            "C_e": C,
+            "centres": centres,
+            "rising": rising,
+            "falling": falling,
+        }
     table = pd.DataFrame(rows)
     T_ref = table.loc[table["run"] == reference, "T mean [°C]"].iloc[0]
-    table.insert(table.columns.get_loc("note"), "offset from temperature g·(T − T_Γ) [µm]", g * (table["T mean [°C]"] - T_ref))
+    table.insert(
+        table.columns.get_loc("note"),
+        "offset from temperature g·(T − T_Γ) [µm]",
+        g * (table["T mean [°C]"] - T_ref),
+    )
     return table, curves
 
 
@@ -402,15 +651,23 @@ def _rise(t: np.ndarray, T: np.ndarray) -> float:
 
 def figure_7_8(curves: Mapping[str, Mapping[str, np.ndarray]], gamma: GammaPolynomial):
     """Fig 7.8 from :func:`frequency_effect`'s curves, with Γ drawn over the measured C_e range."""
-    from selfsense.io import figures  # here: the streaming jobs that import this module need no matplotlib
+    from selfsense.io import (
+        figures,  # here: the streaming jobs that import this module need no matplotlib
+    )
 
     C = np.concatenate([c["C_e"] for c in curves.values()])
     grid = np.linspace(np.min(C), np.max(C), 200)
     return figures.frequency_effect(curves, (grid, gamma.predict(grid)))
 
 
-def figure_7_9(gamma_t: GammaPolynomial, gains: HPOGains, thermal: Mapping, k_over_alpha: float,
-               plan: SamplingPlan, interval: float = COUPLING_INTERVAL):
+def figure_7_9(
+    gamma_t: GammaPolynomial,
+    gains: HPOGains,
+    thermal: Mapping,
+    k_over_alpha: float,
+    plan: SamplingPlan,
+    interval: float = COUPLING_INTERVAL,
+):
     """Fig 7.9 as the pipeline runs it (:func:`coupled_estimation`), annotated with its identified values.
 
     (a) the self-heating model fed by the observer: P = (U − (k/α)x̂)·I averaged per interval,
@@ -427,57 +684,133 @@ def figure_7_9(gamma_t: GammaPolynomial, gains: HPOGains, thermal: Mapping, k_ov
     else:
         heat = "τ, γ not identified:\n" + "\n".join(textwrap.wrap(thermal["reason"], 28))
         ambient = "T_amb: not identified"
-    shown = {"tau [s]": thermal.get("tau"), "gamma [K/W]": thermal.get("gamma"), "T_amb [°C]": thermal.get("T_amb"),
-             "k/alpha [V/m]": k_over_alpha, "Gamma_T order": gamma_t.order, "g [µm/K]": gamma_t.g, "a0 [C/m]": gains.a0,
-             "omega_S [rad/s]": gains.omega_s, "zeta_S": gains.zeta_s, "L_P": gains.LP, "L_I": gains.LI,
-             "np": plan.n_periods, "C_e rate [Hz]": plan.fr_folded, "interval [s]": interval}
+    shown = {
+        "tau [s]": thermal.get("tau"),
+        "gamma [K/W]": thermal.get("gamma"),
+        "T_amb [°C]": thermal.get("T_amb"),
+        "k/alpha [V/m]": k_over_alpha,
+        "Gamma_T order": gamma_t.order,
+        "g [µm/K]": gamma_t.g,
+        "a0 [C/m]": gains.a0,
+        "omega_S [rad/s]": gains.omega_s,
+        "zeta_S": gains.zeta_s,
+        "L_P": gains.LP,
+        "L_I": gains.LI,
+        "np": plan.n_periods,
+        "C_e rate [Hz]": plan.fr_folded,
+        "interval [s]": interval,
+    }
     heating = {
         "x": {"xy": (5, 12), "text": "x̂ from (b)", "kind": "port", "size": (9, 4)},
         "U": {"xy": (5, 30), "text": "U\n(drive voltage)", "kind": "port", "size": (9, 6)},
-        "I": {"xy": (44, 8), "text": "I (drive current,\nas measured)", "kind": "port", "size": (14, 6)},
-        "gain": {"xy": (20, 12), "text": f"k/α\n{k_over_alpha * 1e-6:.3g} V/µm\n(Case 2 k, α; Ch 4)", "kind": "box",
-                 "size": (14, 9)},
+        "I": {
+            "xy": (44, 8),
+            "text": "I (drive current,\nas measured)",
+            "kind": "port",
+            "size": (14, 6),
+        },
+        "gain": {
+            "xy": (20, 12),
+            "text": f"k/α\n{k_over_alpha * 1e-6:.3g} V/µm\n(Case 2 k, α; Ch 4)",
+            "kind": "box",
+            "size": (14, 9),
+        },
         "sum": {"xy": (30, 30), "kind": "sum"},
         "mul": {"xy": (44, 30), "kind": "mul"},
-        "mean": {"xy": (59, 30), "text": f"mean over\n{interval:g} s", "kind": "box", "size": (11, 8)},
-        "model": {"xy": (78, 30), "text": f"γ / (τs + 1)\n{heat}\nexact ZOH at {interval:g} s", "kind": "box",
-                  "size": (20, 13 if thermal["identified"] else 16)},
+        "mean": {
+            "xy": (59, 30),
+            "text": f"mean over\n{interval:g} s",
+            "kind": "box",
+            "size": (11, 8),
+        },
+        "model": {
+            "xy": (78, 30),
+            "text": f"γ / (τs + 1)\n{heat}\nexact ZOH at {interval:g} s",
+            "kind": "box",
+            "size": (20, 13 if thermal["identified"] else 16),
+        },
         "amb": {"xy": (92, 12), "text": ambient, "kind": "port", "size": (16, 4)},
         "tsum": {"xy": (92, 30), "kind": "sum"},
         "T": {"xy": (100, 40), "text": "T_SH(HPO)\nto Γ_T (b)", "kind": "port", "size": (9, 6)},
     }
     heating_wires = [
-        ("x", "gain", r"$\hat{x}$", (), None), ("gain", "sum", r"$U_\mathrm{P}$", ((30, 12),), "−"),
-        ("U", "sum", "$U$", (), "+"), ("sum", "mul", r"$U_\mathrm{H}$", (), None), ("I", "mul", "$I$", (), None),
-        ("mul", "mean", r"$P_\mathrm{loss}$", (), None), ("mean", "model", r"$\bar{P}$", (), None),
-        ("model", "tsum", r"$\Delta T$", (), "+"), ("amb", "tsum", "", (), "+"), ("tsum", "T", "", ((100, 30),), None),
+        ("x", "gain", r"$\hat{x}$", (), None),
+        ("gain", "sum", r"$U_\mathrm{P}$", ((30, 12),), "−"),
+        ("U", "sum", "$U$", (), "+"),
+        ("sum", "mul", r"$U_\mathrm{H}$", (), None),
+        ("I", "mul", "$I$", (), None),
+        ("mul", "mean", r"$P_\mathrm{loss}$", (), None),
+        ("mean", "model", r"$\bar{P}$", (), None),
+        ("model", "tsum", r"$\Delta T$", (), "+"),
+        ("amb", "tsum", "", (), "+"),
+        ("tsum", "T", "", ((100, 30),), None),
     ]
     observer = {
         "ripple": {"xy": (5, 30), "text": "U_r, I_r\n(ripple)", "kind": "port", "size": (8, 6)},
-        "ce": {"xy": (20, 30), "text": f"C_e (Eq 3.12)\nnp = {plan.n_periods} folded periods,\n"
-                                        f"one per {1e3 / plan.fr_folded:g} ms", "kind": "box", "size": (17, 9)},
-        "T": {"xy": (42, 43), "text": f"T_SH(HPO) from (a), held {interval:g} s", "kind": "port", "size": (26, 3)},
-        "gamma": {"xy": (42, 30), "text": f"Γ_T(C_e, T) (Eq 7.13)\norder {gamma_t.order}, g = {gamma_t.g:.3g} µm/K\n"
-                                          "held to the next window", "kind": "box", "size": (19, 9)},
+        "ce": {
+            "xy": (20, 30),
+            "text": f"C_e (Eq 3.12)\nnp = {plan.n_periods} folded periods,\n"
+            f"one per {1e3 / plan.fr_folded:g} ms",
+            "kind": "box",
+            "size": (17, 9),
+        },
+        "T": {
+            "xy": (42, 43),
+            "text": f"T_SH(HPO) from (a), held {interval:g} s",
+            "kind": "port",
+            "size": (26, 3),
+        },
+        "gamma": {
+            "xy": (42, 30),
+            "text": f"Γ_T(C_e, T) (Eq 7.13)\norder {gamma_t.order}, g = {gamma_t.g:.3g} µm/K\n"
+            "held to the next window",
+            "kind": "box",
+            "size": (19, 9),
+        },
         "s1": {"xy": (60, 30), "kind": "sum"},
-        "L": {"xy": (76, 30), "text": f"L(s) = L_P + L_I / s\nL_P = {gains.LP:.4g} A/m\n"
-                                      f"L_I = {gains.LI:.4g} A/(m s)", "kind": "box", "size": (18, 9)},
+        "L": {
+            "xy": (76, 30),
+            "text": f"L(s) = L_P + L_I / s\nL_P = {gains.LP:.4g} A/m\nL_I = {gains.LI:.4g} A/(m s)",
+            "kind": "box",
+            "size": (18, 9),
+        },
         "I": {"xy": (56, 8), "text": "I (drive current)", "kind": "port", "size": (12, 3)},
         "s2": {"xy": (76, 8), "kind": "sum"},
-        "int": {"xy": (89, 8), "text": f"1 / (a0 s)\na0 = {gains.a0:.3g} C/m", "kind": "box", "size": (12, 7)},
+        "int": {
+            "xy": (89, 8),
+            "text": f"1 / (a0 s)\na0 = {gains.a0:.3g} C/m",
+            "kind": "box",
+            "size": (12, 7),
+        },
         "node": {"xy": (98, 8), "kind": "node"},
         "out": {"xy": (98, 20), "text": "x̂ to (a)", "kind": "port", "size": (8, 3)},
     }
     observer_wires = [
-        ("ripple", "ce", "", (), None), ("ce", "gamma", r"$C_\mathrm{e}$", (), None), ("T", "gamma", "$T$", (), None),
-        ("gamma", "s1", r"$x_\mathrm{CP}$", (), "−"), ("s1", "L", "", (), None), ("L", "s2", r"$\hat{I}_0$", (), "−"),
-        ("I", "s2", "$I$", (), "+"), ("s2", "int", "", (), None), ("int", "node", "", (), None),
-        ("node", "s1", r"$\hat{x}$", ((102, 8), (102, 38), (60, 38)), "+"), ("node", "out", "", (), None),
+        ("ripple", "ce", "", (), None),
+        ("ce", "gamma", r"$C_\mathrm{e}$", (), None),
+        ("T", "gamma", "$T$", (), None),
+        ("gamma", "s1", r"$x_\mathrm{CP}$", (), "−"),
+        ("s1", "L", "", (), None),
+        ("L", "s2", r"$\hat{I}_0$", (), "−"),
+        ("I", "s2", "$I$", (), "+"),
+        ("s2", "int", "", (), None),
+        ("int", "node", "", (), None),
+        ("node", "s1", r"$\hat{x}$", ((102, 8), (102, 38), (60, 38)), "+"),
+        ("node", "out", "", (), None),
     ]
-    fig = figures.block_diagram([
-        ("(a) Self-heat generation model with HPO input (Eq 7.10–7.12)", heating, heating_wires),
-        (f"(b) Temperature-compensated HPO (Eq 5.5–5.9, 7.13), Tustin at {plan.fs / 1e3:g} kHz; "
-         f"T and x̂ exchanged every {interval:g} s",
-         observer, observer_wires),
-    ])
+    fig = figures.block_diagram(
+        [
+            (
+                "(a) Self-heat generation model with HPO input (Eq 7.10–7.12)",
+                heating,
+                heating_wires,
+            ),
+            (
+                f"(b) Temperature-compensated HPO (Eq 5.5–5.9, 7.13), Tustin at {plan.fs / 1e3:g} kHz; "
+                f"T and x̂ exchanged every {interval:g} s",
+                observer,
+                observer_wires,
+            ),
+        ]
+    )
     return fig, shown

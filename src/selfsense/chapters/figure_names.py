@@ -6,7 +6,17 @@ chapter modules' matplotlib, scipy and python-control (≈ 2 s of every `snakema
 """
 
 #: Figures 3.3–3.14, in the order ``ch3.figures_ch3`` builds them
-CH3 = ("fig_3_3", "fig_3_4", "fig_3_7", "fig_3_9", "fig_3_10", "fig_3_11", "fig_3_12", "fig_3_13", "fig_3_14")
+CH3 = (
+    "fig_3_3",
+    "fig_3_4",
+    "fig_3_7",
+    "fig_3_9",
+    "fig_3_10",
+    "fig_3_11",
+    "fig_3_12",
+    "fig_3_13",
+    "fig_3_14",
+)
 #: ``ch3.figure_3_2`` (the ripple's velocity, a model)
 CH3_MODEL = "fig_3_2"
 #: Figures 4.2–4.8 of ``ch4.figures_ch4``
@@ -14,8 +24,19 @@ CH4 = ("fig_4_2", "fig_4_3", "fig_4_4", "fig_4_5", "fig_4_6", "fig_4_7", "fig_4_
 #: ``ch5.figure_5_3`` (the stepped-sine sweep)
 CH5_SWEEP = "fig_5_3"
 #: the figures of ``ch5.figures_ch5``
-CH5 = ("fig_5_1", "fig_5_2", "fig_5_4", "fig_5_5", "fig_5_6", "fig_5_7", "fig_5_8", "fig_5_10", "fig_5_12",
-       "fig_5_13", "fig_5_14")
+CH5 = (
+    "fig_5_1",
+    "fig_5_2",
+    "fig_5_4",
+    "fig_5_5",
+    "fig_5_6",
+    "fig_5_7",
+    "fig_5_8",
+    "fig_5_10",
+    "fig_5_12",
+    "fig_5_13",
+    "fig_5_14",
+)
 #: the observer study's figure (``ch5.observer_study``)
 CH5_STUDY = "fig_5_observer_study"
 #: the observer's error budget against the twin's truth (``figures.error_budget``)
@@ -27,7 +48,11 @@ CH7_THERMAL = ("fig_7_1", "fig_7_2", "fig_7_3", "fig_7_5", "fig_7_6")
 #: ``ch7.figure_7_7``, ``ch7.figure_7_8`` and ``ch7.figure_7_9``
 CH7_GAMMA_T, CH7_FREQUENCY, CH7_DIAGRAM = "fig_7_7", "fig_7_8", "fig_7_9"
 #: {file name: the run it shows} of ``ch7.figure_coupled`` (Figs 7.10–7.12)
-CH7_COUPLED = {"fig_7_10": "ch7_freq_100hz", "fig_7_11": "ch7_freq_50hz", "fig_7_12": "ch7_mixed_ae"}
+CH7_COUPLED = {
+    "fig_7_10": "ch7_freq_100hz",
+    "fig_7_11": "ch7_freq_50hz",
+    "fig_7_12": "ch7_mixed_ae",
+}
 #: {figure of Ronkanen 2002: file name} of ``ronkanen.figures_paper``
 RONKANEN = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}
 
@@ -39,4 +64,7 @@ def loop_pages(experiments) -> dict[str, list[str]]:
     """The pages of a dataset's loop figure, figures/<dataset>/characterise/loops_<page>.png:
     {page ("01", "02", …): its experiments}, :data:`LOOPS_PER_PAGE` a page in catalogue order."""
     names = list(experiments)
-    return {f"{k // LOOPS_PER_PAGE + 1:02d}": names[k:k + LOOPS_PER_PAGE] for k in range(0, len(names), LOOPS_PER_PAGE)}
+    return {
+        f"{k // LOOPS_PER_PAGE + 1:02d}": names[k : k + LOOPS_PER_PAGE]
+        for k in range(0, len(names), LOOPS_PER_PAGE)
+    }

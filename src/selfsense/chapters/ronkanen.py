@@ -7,17 +7,17 @@ and axis labels.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
 
 from selfsense.chapters import figure_names
 from selfsense.io import figures
-from selfsense.methods import powerloss as pl
 from selfsense.io.capture import open_capture
+from selfsense.methods import powerloss as pl
 
 plt = figures.plt
 #: the DAQ channels this chapter reads
@@ -52,10 +52,20 @@ class Record:
     X_trial: float  # trial impedance of Section 5 [Ω] (inf unless compensation == impedance)
 
     @classmethod
-    def from_channels(cls, name: str, data: Mapping[str, np.ndarray], attrs: Mapping[str, object],
-                      fs: float) -> "Record":
-        return cls(name, np.arange(len(data["U"])) / fs, data["U"], data["I"], data["i_cmd"], data["x_disp"],
-                   str(attrs["drive_quantity"]), str(attrs["compensation"]), float(attrs["compensation_X"]))
+    def from_channels(
+        cls, name: str, data: Mapping[str, np.ndarray], attrs: Mapping[str, object], fs: float
+    ) -> Record:
+        return cls(
+            name,
+            np.arange(len(data["U"])) / fs,
+            data["U"],
+            data["I"],
+            data["i_cmd"],
+            data["x_disp"],
+            str(attrs["drive_quantity"]),
+            str(attrs["compensation"]),
+            float(attrs["compensation_X"]),
+        )
 
     @property
     def charge_command(self) -> np.ndarray:
@@ -82,14 +92,18 @@ def read_records(paths: Iterable[str | Path]) -> dict[str, Record]:
     records = {}
     for path in paths:
         with open_capture(path, require=CHANNELS) as cap:
-            records[Path(path).stem] = Record.from_channels(Path(path).stem, cap.read(CHANNELS), cap.attrs, cap.fs)
+            records[Path(path).stem] = Record.from_channels(
+                Path(path).stem, cap.read(CHANNELS), cap.attrs, cap.fs
+            )
     return records
 
 
 # ---------------------------------------------------------------------------------------------
 # Section 4–5: R from the static hold, X from the ramps (Table 1), models (Table 2)
 # ---------------------------------------------------------------------------------------------
-def by_kind(records: Mapping[str, Record], captures: Mapping[str, str | Path]) -> dict[str, dict[str, Record]]:
+def by_kind(
+    records: Mapping[str, Record], captures: Mapping[str, str | Path]
+) -> dict[str, dict[str, Record]]:
     """{kind: {control: Record}} of the positioning runs; ``captures``: {"<kind>_<control>": path}."""
     return {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
 
@@ -99,7 +113,9 @@ def add_run_arguments(cli) -> None:
     <kind>_<control>=path (:func:`by_kind`) and the drift hold's start and duration."""
     cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
     cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
-    cli.add_argument("--drift-duration", dest="drift_duration", type=float, default=120.0, help="[s]")
+    cli.add_argument(
+        "--drift-duration", dest="drift_duration", type=float, default=120.0, help="[s]"
+    )
 
 
 def load_identified(path: str | Path, key: str) -> float:
@@ -110,13 +126,20 @@ def load_identified(path: str | Path, key: str) -> float:
 def ramp_row(rec: Record, velocity_window: float) -> dict[str, object]:
     """X, a and the charging current of one ramp record (Section 5); the velocity spread is the
     paper's own test of a trial X (Figs 3–5)."""
-    est = pl.impedance_from_ramp(rec.t, rec.x, rec.I, rec.U, segments=pl.constant_stretches(rec.i_cmd))
+    est = pl.impedance_from_ramp(
+        rec.t, rec.x, rec.I, rec.U, segments=pl.constant_stretches(rec.i_cmd)
+    )
     charging = np.mean(np.abs(pl.charging_current(rec.I, rec.U, est.impedance)))
     # the command channel is 16-bit: its level to 0.1 nA
-    return {"experiment": rec.name, "current command [nA]": round(float(np.max(np.abs(rec.i_cmd))) * NA, 1),
-            "trial impedance [GOhm]": rec.X_trial * GOHM, "identified X [GOhm]": est.impedance * GOHM,
-            "charging current [nA]": charging * NA, "a [m/C]": est.gain,
-            "velocity spread [%]": pl.velocity_spread(rec.t, rec.x, rec.i_cmd, velocity_window)}
+    return {
+        "experiment": rec.name,
+        "current command [nA]": round(float(np.max(np.abs(rec.i_cmd))) * NA, 1),
+        "trial impedance [GOhm]": rec.X_trial * GOHM,
+        "identified X [GOhm]": est.impedance * GOHM,
+        "charging current [nA]": charging * NA,
+        "a [m/C]": est.gain,
+        "velocity spread [%]": pl.velocity_spread(rec.t, rec.x, rec.i_cmd, velocity_window),
+    }
 
 
 def table_1(ramps: pd.DataFrame) -> pd.DataFrame:
@@ -124,15 +147,21 @@ def table_1(ramps: pd.DataFrame) -> pd.DataFrame:
     paper = {round(current * NA): x for current, x in pl.PAPER_TABLE_1.items()}
     rows = []
     for level, group in ramps.groupby("current command [nA]"):
-        rows.append({"current [nA]": level, "ramps": len(group),
-                     "charging current [nA]": group["charging current [nA]"].mean(),
-                     "identified X [GOhm]": group["identified X [GOhm]"].mean(),
-                     "paper X [GOhm]": paper.get(round(level), np.nan) * GOHM})
+        rows.append(
+            {
+                "current [nA]": level,
+                "ramps": len(group),
+                "charging current [nA]": group["charging current [nA]"].mean(),
+                "identified X [GOhm]": group["identified X [GOhm]"].mean(),
+                "paper X [GOhm]": paper.get(round(level), np.nan) * GOHM,
+            }
+        )
     return pd.DataFrame(rows)
 
 
-def identify(hold: Record, ramps: list[Record], hold_start: float,
-             velocity_window: float) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+def identify(
+    hold: Record, ramps: list[Record], hold_start: float, velocity_window: float
+) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """Ramps table, Table 1 and the identified constants (R, a, a_cmd) from the captures.
 
     R comes from the second half of the hold (the meter and the creep have settled) with the
@@ -145,22 +174,64 @@ def identify(hold: Record, ramps: list[Record], hold_start: float,
     a = float(ramp_table["a [m/C]"].median())
     window = hold.t >= hold_start + 0.5 * (hold.t[-1] - hold_start)
     est = pl.hold_from_record(hold.t[window], hold.U[window], hold.I[window], hold.x[window], a)
-    mismatch = np.abs(np.log(ramp_table["trial impedance [GOhm]"] / ramp_table["identified X [GOhm]"]))
+    mismatch = np.abs(
+        np.log(ramp_table["trial impedance [GOhm]"] / ramp_table["identified X [GOhm]"])
+    )
     ideal = ramps[int(mismatch.idxmin())]
     a_cmd = pl.linear_gain(ideal.charge_command, ideal.x - ideal.x[0])
-    identified = pd.DataFrame([
-        {"key": "R", "value": est.R, "unit": "Ohm", "paper": pl.PAPER_HOLD_RESISTANCE,
-         "note": "hold: mean V over the leaking part of the mean current (Section 4)"},
-        {"key": "R_ohm", "value": est.R_ohm, "unit": "Ohm", "paper": pl.PAPER_HOLD_RESISTANCE,
-         "note": "hold: plain V/i_hold, biased when the hold does not stand still"},
-        {"key": "V_hold", "value": est.voltage, "unit": "V", "paper": pl.PAPER_HOLD_VOLTAGE, "note": "hold voltage"},
-        {"key": "I_hold", "value": est.current, "unit": "A", "paper": pl.PAPER_HOLD_CURRENT, "note": "hold current"},
-        {"key": "hold_velocity", "value": est.velocity, "unit": "m/s", "paper": 0.0,
-         "note": "residual velocity during the hold"},
-        {"key": "a", "value": a, "unit": "m/C", "paper": np.nan, "note": "Eq 2, median over the ramps"},
-        {"key": "a_cmd", "value": a_cmd, "unit": "m/C", "paper": 5e-6 / 300e-9,
-         "note": f"per commanded charge, from {ideal.name} (paper: 5 um/s at 300 nA)"},
-    ])
+    identified = pd.DataFrame(
+        [
+            {
+                "key": "R",
+                "value": est.R,
+                "unit": "Ohm",
+                "paper": pl.PAPER_HOLD_RESISTANCE,
+                "note": "hold: mean V over the leaking part of the mean current (Section 4)",
+            },
+            {
+                "key": "R_ohm",
+                "value": est.R_ohm,
+                "unit": "Ohm",
+                "paper": pl.PAPER_HOLD_RESISTANCE,
+                "note": "hold: plain V/i_hold, biased when the hold does not stand still",
+            },
+            {
+                "key": "V_hold",
+                "value": est.voltage,
+                "unit": "V",
+                "paper": pl.PAPER_HOLD_VOLTAGE,
+                "note": "hold voltage",
+            },
+            {
+                "key": "I_hold",
+                "value": est.current,
+                "unit": "A",
+                "paper": pl.PAPER_HOLD_CURRENT,
+                "note": "hold current",
+            },
+            {
+                "key": "hold_velocity",
+                "value": est.velocity,
+                "unit": "m/s",
+                "paper": 0.0,
+                "note": "residual velocity during the hold",
+            },
+            {
+                "key": "a",
+                "value": a,
+                "unit": "m/C",
+                "paper": np.nan,
+                "note": "Eq 2, median over the ramps",
+            },
+            {
+                "key": "a_cmd",
+                "value": a_cmd,
+                "unit": "m/C",
+                "paper": 5e-6 / 300e-9,
+                "note": f"per commanded charge, from {ideal.name} (paper: 5 um/s at 300 nA)",
+            },
+        ]
+    )
     return ramp_table, table_1(ramp_table), identified
 
 
@@ -172,12 +243,27 @@ def table_2_both(table1: pd.DataFrame, R: float) -> pd.DataFrame:
     """
     currents = np.concatenate([[0.0], table1["charging current [nA]"].to_numpy() / NA])
     impedances = np.concatenate([[R], table1["identified X [GOhm]"].to_numpy() / GOHM])
-    parts = [pl.table_2().assign(source="paper Table 1", R_GOhm=pl.PAPER_HOLD_RESISTANCE * GOHM),
-             pl.table_2(currents, impedances, R).assign(source="twin captures", R_GOhm=R * GOHM)]
+    parts = [
+        pl.table_2().assign(source="paper Table 1", R_GOhm=pl.PAPER_HOLD_RESISTANCE * GOHM),
+        pl.table_2(currents, impedances, R).assign(source="twin captures", R_GOhm=R * GOHM),
+    ]
     out = pd.concat(parts, ignore_index=True).rename(columns={"R_GOhm": "R [GOhm]"})
     out["paper c"] = np.where(out["equation"] == "(10)", pl.PAPER_C_EQ12, np.nan)
-    return out[["source", "model", "equation", "formula", "R [GOhm]", "c", "c_unit", "paper c",
-                "SSE [GOhm^2]", "paper SSE [GOhm^2]", "best"]]
+    return out[
+        [
+            "source",
+            "model",
+            "equation",
+            "formula",
+            "R [GOhm]",
+            "c",
+            "c_unit",
+            "paper c",
+            "SSE [GOhm^2]",
+            "paper SSE [GOhm^2]",
+            "best",
+        ]
+    ]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -198,8 +284,14 @@ def cycles(rec: Record, a_cmd: float) -> pd.DataFrame:
     return pl.repeatability(rec.t, required, rec.x, MIN_SWING * np.ptp(required))
 
 
-def performance(decay: Mapping[str, Record], repeat: Mapping[str, Record], drift: Mapping[str, Record],
-                a_cmd: float, drift_start: float, drift_duration: float) -> pd.DataFrame:
+def performance(
+    decay: Mapping[str, Record],
+    repeat: Mapping[str, Record],
+    drift: Mapping[str, Record],
+    a_cmd: float,
+    drift_start: float,
+    drift_duration: float,
+) -> pd.DataFrame:
     """The four results of Section 7 for current control and open-loop voltage control.
 
     Each mapping is {"current": record, "voltage": record}. Hysteresis and max error come from
@@ -216,17 +308,32 @@ def performance(decay: Mapping[str, Record], repeat: Mapping[str, Record], drift
         held = drift[control]
         values = {
             "hysteresis [%]": pl.branch_hysteresis_percent(required, rec.x, swing),
-            "drift over the hold [%]": pl.drift_percent(held.t, held.x, drift_start, drift_duration),
-            "repeatability drift [%]": 100 * (last["midpoint [m]"] - first["midpoint [m]"]) / first["peak-to-peak [m]"],
-            "peak-to-peak change [%]": 100 * (last["peak-to-peak [m]"] / first["peak-to-peak [m]"] - 1),
+            "drift over the hold [%]": pl.drift_percent(
+                held.t, held.x, drift_start, drift_duration
+            ),
+            "repeatability drift [%]": 100
+            * (last["midpoint [m]"] - first["midpoint [m]"])
+            / first["peak-to-peak [m]"],
+            "peak-to-peak change [%]": 100
+            * (last["peak-to-peak [m]"] / first["peak-to-peak [m]"] - 1),
             "decaying-ramp max error [um]": pl.max_error(required, rec.x) * UM,
         }
         hold_s = min(drift_duration, held.t[-1] - drift_start)
-        notes = {"drift over the hold [%]": f"{hold_s:.0f} s hold", "repeatability drift [%]": f"{len(per_cycle)} cycles",
-                 "peak-to-peak change [%]": f"{len(per_cycle)} cycles"}
+        notes = {
+            "drift over the hold [%]": f"{hold_s:.0f} s hold",
+            "repeatability drift [%]": f"{len(per_cycle)} cycles",
+            "peak-to-peak change [%]": f"{len(per_cycle)} cycles",
+        }
         for measure, value in values.items():
-            rows.append({"measure": measure, "control": control, "value": float(value),
-                         "paper": PAPER_RESULTS[measure][column], "note": notes.get(measure, "")})
+            rows.append(
+                {
+                    "measure": measure,
+                    "control": control,
+                    "value": float(value),
+                    "paper": PAPER_RESULTS[measure][column],
+                    "note": notes.get(measure, ""),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -235,51 +342,92 @@ def performance(decay: Mapping[str, Record], repeat: Mapping[str, Record], drift
 # ---------------------------------------------------------------------------------------------
 #: relative tolerances [%] of the recovery and why
 TOLERANCES = {
-    "R": (3.0, "hold current read through the ADC's 76 pA step (±0.6 %) and the sensor drift "
-               "left in the residual-velocity correction"),
+    "R": (
+        3.0,
+        "hold current read through the ADC's 76 pA step (±0.6 %) and the sensor drift "
+        "left in the residual-velocity correction",
+    ),
     "a": (1.0, "charge balance over whole ramps; sensor noise 0.2 µm against 250 µm strokes"),
     "X": (3.0, "one constant X per ramp while i_C wanders by the compensation error"),
-    "c": (2.0, "c ≈ √((R/X)² − 1)/i ≈ R/(X i): R's error (the ADC step, ±0.6 %) and that of the "
-                "ramps' mean X at each current (≈ 1 %) add; the scorecard's twin-input rule"),
+    "c": (
+        2.0,
+        "c ≈ √((R/X)² − 1)/i ≈ R/(X i): R's error (the ADC step, ±0.6 %) and that of the "
+        "ramps' mean X at each current (≈ 1 %) add; the scorecard's twin-input rule",
+    ),
 }
 
 
-def recovery(identified: pd.DataFrame, table1: pd.DataFrame, table2: pd.DataFrame,
-             truth: Mapping[str, float]) -> pd.DataFrame:
+def recovery(
+    identified: pd.DataFrame, table1: pd.DataFrame, table2: pd.DataFrame, truth: Mapping[str, float]
+) -> pd.DataFrame:
     """Identified R, a, X per level and c against the twin's true parameters."""
     value = identified.set_index("key")["value"]
     R, c = float(truth["actuator_R"]), float(truth["actuator_c"])
     twin = table2[(table2["source"] == "twin captures") & (table2["equation"] == "(10)")].iloc[0]
-    rows = [("R", "R [Ohm]", value["R"], R), ("a", "a [m/C]", value["a"], float(truth["actuator_a"])),
-            ("c", "c of model (10) [1/A]", float(twin["c"]), c)]
+    rows = [
+        ("R", "R [Ohm]", value["R"], R),
+        ("a", "a [m/C]", value["a"], float(truth["actuator_a"])),
+        ("c", "c of model (10) [1/A]", float(twin["c"]), c),
+    ]
     for _, level in table1.iterrows():
         i_C = level["charging current [nA]"] / NA
-        rows.append(("X", f"X at {level['current [nA]']:g} nA [Ohm]", level["identified X [GOhm]"] / GOHM,
-                     float(pl.get_impedance_model(10)(i_C, R, c))))
+        rows.append(
+            (
+                "X",
+                f"X at {level['current [nA]']:g} nA [Ohm]",
+                level["identified X [GOhm]"] / GOHM,
+                float(pl.get_impedance_model(10)(i_C, R, c)),
+            )
+        )
     out = []
     for kind, name, found, true in rows:
         tol, why = TOLERANCES[kind]
         error = 100 * (found / true - 1)
-        out.append({"parameter": name, "identified": found, "truth": true, "error [%]": error,
-                    "tolerance [%]": tol, "within": abs(error) <= tol, "why this tolerance": why})
+        out.append(
+            {
+                "parameter": name,
+                "identified": found,
+                "truth": true,
+                "error [%]": error,
+                "tolerance [%]": tol,
+                "within": abs(error) <= tol,
+                "why this tolerance": why,
+            }
+        )
     return pd.DataFrame(out)
 
 
 # ---------------------------------------------------------------------------------------------
 # Figures 2–11
 # ---------------------------------------------------------------------------------------------
-def figures_paper(hold: Record, ramps: Iterable[Record], pairs: Mapping[str, Mapping[str, Record]],
-                  table1: pd.DataFrame, table2: pd.DataFrame, a_cmd: float, drift_start: float,
-                  velocity_window: float) -> dict[str, object]:
+def figures_paper(
+    hold: Record,
+    ramps: Iterable[Record],
+    pairs: Mapping[str, Mapping[str, Record]],
+    table1: pd.DataFrame,
+    table2: pd.DataFrame,
+    a_cmd: float,
+    drift_start: float,
+    velocity_window: float,
+) -> dict[str, object]:
     """Figures 2–11 by file name (:data:`FIGURES`): ``ramps`` in the order of :data:`RAMP_FIGURES`, ``pairs`` from :func:`by_kind`."""
     velocity = dict(zip(RAMP_FIGURES, ramps))
     built = {2: figure_2(hold)}
     for n, rec in velocity.items():
-        built[n] = velocity_figure(rec, velocity_window, f"Ramp velocity, compensation for "
-                                   f"{rec.X_trial / 1e9:g} GΩ ({RAMP_FIGURES[n]}) (Fig {n})")
-    built |= {6: figure_6(velocity[5]), 7: figure_7(table1, table2),
-              8: figure_8(pairs["decay"], a_cmd), 9: figure_9(pairs["decay"], a_cmd),
-              10: figure_10(pairs["repeat"], a_cmd), 11: figure_11(pairs["drift"], drift_start)}
+        built[n] = velocity_figure(
+            rec,
+            velocity_window,
+            f"Ramp velocity, compensation for "
+            f"{rec.X_trial / 1e9:g} GΩ ({RAMP_FIGURES[n]}) (Fig {n})",
+        )
+    built |= {
+        6: figure_6(velocity[5]),
+        7: figure_7(table1, table2),
+        8: figure_8(pairs["decay"], a_cmd),
+        9: figure_9(pairs["decay"], a_cmd),
+        10: figure_10(pairs["repeat"], a_cmd),
+        11: figure_11(pairs["drift"], drift_start),
+    }
     return {FIGURES[n]: fig for n, fig in built.items()}
 
 
@@ -290,8 +438,11 @@ def _thin(*arrays: np.ndarray):
 
 def figure_2(hold: Record):
     t, x, i, u = _thin(hold.t, hold.x, hold.I, hold.U)
-    return figures.time_traces(t, [(x * UM, "displacement [µm]"), (i * NA, "current [nA]"), (u, "voltage [V]")],
-                               "Current consumption in static operation (Fig 2)")
+    return figures.time_traces(
+        t,
+        [(x * UM, "displacement [µm]"), (i * NA, "current [nA]"), (u, "voltage [V]")],
+        "Current consumption in static operation (Fig 2)",
+    )
 
 
 def velocity_figure(rec: Record, window: float, title: str):
@@ -307,28 +458,52 @@ def velocity_figure(rec: Record, window: float, title: str):
 
 def figure_6(rec: Record):
     t, x = _thin(rec.t, rec.x)
-    return figures.time_traces(t, [(x * UM, "displacement [µm]")],
-                               f"Ramp curve, ±{np.max(np.abs(rec.i_cmd)) * NA:.0f} nA, "
-                               f"compensation for {rec.X_trial * GOHM:g} GΩ (Fig 6)")
+    return figures.time_traces(
+        t,
+        [(x * UM, "displacement [µm]")],
+        f"Ramp curve, ±{np.max(np.abs(rec.i_cmd)) * NA:.0f} nA, "
+        f"compensation for {rec.X_trial * GOHM:g} GΩ (Fig 6)",
+    )
 
 
 def figure_7(table1: pd.DataFrame, table2: pd.DataFrame):
     """Fig 7: the five impedance models fitted to the paper's Table 1 and to the twin's."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True, constrained_layout=True)
     i = np.linspace(-0.4e-6, 0.4e-6, 801)
-    points = {"paper Table 1": pl.paper_fit_points(),
-              "twin captures": (np.concatenate([[0.0], table1["charging current [nA]"] / NA]),
-                                np.concatenate([[table2.loc[table2["source"] == "twin captures", "R [GOhm]"].iloc[0] / GOHM],
-                                                table1["identified X [GOhm]"] / GOHM]))}
+    points = {
+        "paper Table 1": pl.paper_fit_points(),
+        "twin captures": (
+            np.concatenate([[0.0], table1["charging current [nA]"] / NA]),
+            np.concatenate(
+                [
+                    [table2.loc[table2["source"] == "twin captures", "R [GOhm]"].iloc[0] / GOHM],
+                    table1["identified X [GOhm]"] / GOHM,
+                ]
+            ),
+        ),
+    }
     for ax, (source, (pi, px)) in zip(axes, points.items()):
         fits = table2[table2["source"] == source]
         for _, row in fits.iterrows():
             model = pl.get_impedance_model(row["model"])
-            ax.plot(i * 1e6, model(i, row["R [GOhm]"] / GOHM, row["c"]) * GOHM, lw=1,
-                    label=f"{row['equation']} {model.formula}")
-        ax.plot(np.concatenate([-pi[1:], pi]) * 1e6, np.concatenate([px[1:], px]) * GOHM, "ko", label="data")
+            ax.plot(
+                i * 1e6,
+                model(i, row["R [GOhm]"] / GOHM, row["c"]) * GOHM,
+                lw=1,
+                label=f"{row['equation']} {model.formula}",
+            )
+        ax.plot(
+            np.concatenate([-pi[1:], pi]) * 1e6,
+            np.concatenate([px[1:], px]) * GOHM,
+            "ko",
+            label="data",
+        )
         # model (9) as printed has a pole at i = -1/c; show the range of the data, as the paper does
-        ax.set(xlabel="current [µA]", title=f"Impedance models, {source}", ylim=(0, 1.25 * px[0] * GOHM))
+        ax.set(
+            xlabel="current [µA]",
+            title=f"Impedance models, {source}",
+            ylim=(0, 1.25 * px[0] * GOHM),
+        )
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("impedance [GΩ]")
     axes[1].legend(fontsize=7)
@@ -336,7 +511,9 @@ def figure_7(table1: pd.DataFrame, table2: pd.DataFrame):
 
 
 def _by_control(records: Mapping[str, Record], a_cmd: float, title: str, minutes: bool = False):
-    fig, axes = plt.subplots(len(records), 1, figsize=(6.4, 6.6), sharex=True, constrained_layout=True)
+    fig, axes = plt.subplots(
+        len(records), 1, figsize=(6.4, 6.6), sharex=True, constrained_layout=True
+    )
     scale = 1 / 60 if minutes else 1.0
     for ax, (control, rec) in zip(np.atleast_1d(axes), records.items()):
         required = rec.required(a_cmd)
@@ -357,9 +534,14 @@ def figure_8(decay: Mapping[str, Record], a_cmd: float):
 
 def figure_9(decay: Mapping[str, Record], a_cmd: float):
     pairs = {control: _thin(rec.required(a_cmd), rec.x) for control, rec in decay.items()}
-    return figures.loop([p[0] * UM for p in pairs.values()], [p[1] * UM for p in pairs.values()],
-                        "required displacement [µm]", "displacement [µm]",
-                        "Hysteresis of the decaying ramp curve (Fig 9)", labels=[f"{c} control" for c in pairs])
+    return figures.loop(
+        [p[0] * UM for p in pairs.values()],
+        [p[1] * UM for p in pairs.values()],
+        "required displacement [µm]",
+        "displacement [µm]",
+        "Hysteresis of the decaying ramp curve (Fig 9)",
+        labels=[f"{c} control" for c in pairs],
+    )
 
 
 def figure_10(repeat: Mapping[str, Record], a_cmd: float):

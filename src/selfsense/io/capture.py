@@ -16,9 +16,9 @@ import math
 import os
 import time
 import zlib
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Iterator, Mapping, Sequence
 
 import netCDF4
 import numpy as np
@@ -79,7 +79,9 @@ class ChannelSpec:
 
     def pack(self, values: np.ndarray) -> tuple[np.ndarray, int]:
         """Quantise to int16 as a 16-bit ADC does; returns codes and the count clipped."""
-        codes = np.rint((np.asarray(values, dtype=np.float64) - self.add_offset) / self.scale_factor)
+        codes = np.rint(
+            (np.asarray(values, dtype=np.float64) - self.add_offset) / self.scale_factor
+        )
         clipped = int(np.count_nonzero(np.abs(codes) > INT16_FULL))  # NaN compares false
         nan = np.isnan(codes)
         if nan.any():  # NaN has no int16 value: FILL stands for it
@@ -126,7 +128,9 @@ DISPLACEMENT = ("x_laser", "x_disp")
 
 def channel_spec(name: str, lo: float, hi: float) -> ChannelSpec:
     units, long_name = CHANNEL_UNITS[name]
-    return ChannelSpec(name, units, long_name, lo, hi, "time_slow" if name in SLOW_CHANNELS else "time")
+    return ChannelSpec(
+        name, units, long_name, lo, hi, "time_slow" if name in SLOW_CHANNELS else "time"
+    )
 
 
 def folded_fs(fr: float, ns: int, nf: int) -> float:
@@ -153,8 +157,13 @@ class _Progress:
         if done / self.total + 1e-12 < self.next:
             return
         elapsed = max(time.monotonic() - self.start, 1e-9)
-        LOG.info("%s: %3.0f %% of %d samples (%.3g M samples/s)", self.what, 100 * done / self.total,
-                 self.total, done / elapsed / 1e6)
+        LOG.info(
+            "%s: %3.0f %% of %d samples (%.3g M samples/s)",
+            self.what,
+            100 * done / self.total,
+            self.total,
+            done / elapsed / 1e6,
+        )
         self.next = (math.floor(done / self.total / PROGRESS_STEP + 1e-9) + 1) * PROGRESS_STEP
 
 
@@ -202,9 +211,12 @@ class CaptureWriter:
         self._nc: netCDF4.Dataset | None = None
         self._crc: dict[str, int] = {}
         self._progress = _Progress(f"{self.path} written", self.n_samples)
-        self._seconds = {"packing and writing": 0.0, "reading back": 0.0}  # logged: benchmarks/run.py's shares
+        self._seconds = {
+            "packing and writing": 0.0,
+            "reading back": 0.0,
+        }  # logged: benchmarks/run.py's shares
 
-    def __enter__(self) -> "CaptureWriter":
+    def __enter__(self) -> CaptureWriter:
         self.tmp = temporary_path(self.path)
         nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
         nc.setncatts({k: _attr(v) for k, v in self._attrs.items()})
@@ -217,14 +229,25 @@ class CaptureWriter:
         for spec in self.channels.values():
             n = self.n_samples if spec.dim == "time" else self.n_slow
             chunk = max(1, min(self._chunk_len, n))
-            v = nc.createVariable(spec.name, "i2", (spec.dim,), **_filters(*self._compression, 2 * chunk),
-                                  chunksizes=(chunk,), fill_value=FILL)
+            v = nc.createVariable(
+                spec.name,
+                "i2",
+                (spec.dim,),
+                **_filters(*self._compression, 2 * chunk),
+                chunksizes=(chunk,),
+                fill_value=FILL,
+            )
             v.set_auto_maskandscale(False)
-            v.setncatts({
-                "units": spec.units, "long_name": spec.long_name,
-                "scale_factor": spec.scale_factor, "add_offset": spec.add_offset,
-                "valid_min": np.int16(-INT16_FULL), "valid_max": np.int16(INT16_FULL),
-            })
+            v.setncatts(
+                {
+                    "units": spec.units,
+                    "long_name": spec.long_name,
+                    "scale_factor": spec.scale_factor,
+                    "add_offset": spec.add_offset,
+                    "valid_min": np.int16(-INT16_FULL),
+                    "valid_max": np.int16(INT16_FULL),
+                }
+            )
         if self.truth:
             g = nc.createGroup("truth")
             g.decimation = self.truth_decimation
@@ -232,15 +255,22 @@ class CaptureWriter:
             g.createDimension("time_truth", n_truth)
             for name in self.truth:
                 chunk = max(1, min(self._chunk_len, n_truth))
-                g.createVariable(name, "f4", ("time_truth",), **_filters(*self._compression, 4 * chunk),
-                                 chunksizes=(chunk,))
+                g.createVariable(
+                    name,
+                    "f4",
+                    ("time_truth",),
+                    **_filters(*self._compression, 4 * chunk),
+                    chunksizes=(chunk,),
+                )
         _limit_chunk_cache(nc)
         self._nc = nc
         return self
 
     def _time_var(self, nc: netCDF4.Dataset, dim: str, n: int) -> None:
         chunk = max(1, min(self._chunk_len, n))
-        v = nc.createVariable(dim, "f8", (dim,), **_filters(*self._compression, 8 * chunk), chunksizes=(chunk,))
+        v = nc.createVariable(
+            dim, "f8", (dim,), **_filters(*self._compression, 8 * chunk), chunksizes=(chunk,)
+        )
         v.units = "s"
         v.standard_name = "time"
         v.sampling_rate = float(self._rate[dim])
@@ -275,15 +305,17 @@ class CaptureWriter:
         """Write one variable's next values and fold them into its CRC-32 for the read-back (in order: the
         writer appends sequentially)."""
         try:
-            self._nc[name][start:start + len(values)] = values
+            self._nc[name][start : start + len(values)] = values
         except RuntimeError as err:  # a chunk the cache flushed failed its filters
             raise self._unstorable(err) from None
         self._crc[name] = zlib.crc32(np.ascontiguousarray(values), self._crc.get(name, 0))
 
     def _unstorable(self, err: RuntimeError) -> CaptureError:
-        return UnshrinkableChunk(f"{self.path}: HDF5 could not store a chunk ({err}) with compression "
-                                 f"{self._compression[0]}, whose blosc filter fails on data it cannot shrink; "
-                                 f"zlib stores any data")
+        return UnshrinkableChunk(
+            f"{self.path}: HDF5 could not store a chunk ({err}) with compression "
+            f"{self._compression[0]}, whose blosc filter fails on data it cannot shrink; "
+            f"zlib stores any data"
+        )
 
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
         """The twin's true parameters, as attributes of /truth (states go through ``write``)."""
@@ -306,8 +338,11 @@ class CaptureWriter:
         if exc_type is not None:
             self.tmp.unlink(missing_ok=True)
             return
-        expected = {"time": self.n_samples, "time_slow": self.n_slow,
-                    "time_truth": -(-self.n_samples // self.truth_decimation) if self.truth else 0}
+        expected = {
+            "time": self.n_samples,
+            "time_slow": self.n_slow,
+            "time_truth": -(-self.n_samples // self.truth_decimation) if self.truth else 0,
+        }
         short = {d: p for d, p in self._pos.items() if p != expected[d]}
         if short:
             self.tmp.unlink(missing_ok=True)
@@ -315,22 +350,30 @@ class CaptureWriter:
         began = time.perf_counter()
         problem = _read_back(self.tmp, self._crc, self._chunk_len)
         self._seconds["reading back"] = time.perf_counter() - began
-        LOG.info("%s: %s", self.path, ", ".join(f"{what} {s:.2f} s" for what, s in self._seconds.items()))
+        LOG.info(
+            "%s: %s", self.path, ", ".join(f"{what} {s:.2f} s" for what, s in self._seconds.items())
+        )
         if problem:
             self.tmp.unlink(missing_ok=True)
             raise _fail(self.path, f"not renamed into place: {problem}")
         os.replace(self.tmp, self.path)
 
-    def scan_report(self) -> "ScanReport":
+    def scan_report(self) -> ScanReport:
         """What :func:`scan_capture` reports for the capture written, without reading it again: the
         counts are taken from the codes as they were written, which the read-back showed to be the
         codes on disk; the structure is checked as :func:`open_capture` checks it."""
         open_capture(self.path).close()
         fs = self._rate["time"]
         scanned = [c for c, spec in self.channels.items() if spec.dim == "time" or self.n_slow]
-        return ScanReport(str(self.path), self.n_samples, fs, self.n_samples / fs, tuple(self.channels),
-                          {c: self.stats.nan.get(c, 0) for c in scanned},
-                          {c: self.stats.clipped.get(c, 0) for c in scanned})
+        return ScanReport(
+            str(self.path),
+            self.n_samples,
+            fs,
+            self.n_samples / fs,
+            tuple(self.channels),
+            {c: self.stats.nan.get(c, 0) for c in scanned},
+            {c: self.stats.clipped.get(c, 0) for c in scanned},
+        )
 
 
 def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | None:
@@ -346,7 +389,7 @@ def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | Non
                 crc = 0
                 step = 16 * chunk_len
                 for start in range(0, var.shape[0], step):
-                    crc = zlib.crc32(np.ascontiguousarray(var[start:start + step]), crc)
+                    crc = zlib.crc32(np.ascontiguousarray(var[start : start + step]), crc)
                 if crc != written:
                     return f"variable {name} read back differs from what was written"
     except Exception as err:  # HDF5 checksum or structure errors surface as RuntimeError/OSError
@@ -368,12 +411,24 @@ def _filters(compression: str | None, complevel: int, chunk_bytes: int) -> dict[
     samples is (blosc adds a 16-byte header): those variables (the 10 Hz thermometers of a short
     run) are stored with zlib level 1 instead."""
     if compression is not None and compression not in COMPRESSIONS:
-        raise ValueError(f"capture compression {compression!r} is none of {', '.join(COMPRESSIONS)} (or none)")
+        raise ValueError(
+            f"capture compression {compression!r} is none of {', '.join(COMPRESSIONS)} (or none)"
+        )
     if compression is not None and compression.startswith("blosc"):
         if chunk_bytes >= BLOSC_MIN_CHUNK_BYTES:
-            return {"compression": compression, "complevel": complevel, "shuffle": False, "fletcher32": True}
+            return {
+                "compression": compression,
+                "complevel": complevel,
+                "shuffle": False,
+                "fletcher32": True,
+            }
         compression, complevel = "zlib", 1
-    return {"compression": compression, "complevel": complevel, "shuffle": compression is not None, "fletcher32": True}
+    return {
+        "compression": compression,
+        "complevel": complevel,
+        "shuffle": compression is not None,
+        "fletcher32": True,
+    }
 
 
 def _limit_chunk_cache(group: netCDF4.Dataset | netCDF4.Group) -> None:
@@ -403,7 +458,9 @@ class ChunkStats:
         ``codes == FILL`` when the caller has it already."""
         n_missing = int(np.count_nonzero(codes == FILL if missing is None else missing))
         self.nan[name] = self.nan.get(name, 0) + n_missing
-        self.clipped[name] = self.clipped.get(name, 0) + int(np.count_nonzero(np.abs(codes) == INT16_FULL))
+        self.clipped[name] = self.clipped.get(name, 0) + int(
+            np.count_nonzero(np.abs(codes) == INT16_FULL)
+        )
         return n_missing
 
 
@@ -426,7 +483,7 @@ class Capture:
     def close(self) -> None:
         self._nc.close()
 
-    def __enter__(self) -> "Capture":
+    def __enter__(self) -> Capture:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -472,11 +529,15 @@ class Capture:
         it here, with one line, instead of deep inside (empty reductions, division by zero)."""
         empty = [n for n in names if n in self.required and n not in self._finite_seen]
         if empty:
-            raise _fail(self.path, f"channel {empty[0]} is entirely NaN (all {self.length(dim)} samples missing): "
-                                   f"this analysis needs it")
+            raise _fail(
+                self.path,
+                f"channel {empty[0]} is entirely NaN (all {self.length(dim)} samples missing): "
+                f"this analysis needs it",
+            )
 
-    def read(self, names: Sequence[str], start: int = 0, stop: int | None = None,
-             dim: str = "time") -> dict[str, np.ndarray]:
+    def read(
+        self, names: Sequence[str], start: int = 0, stop: int | None = None, dim: str = "time"
+    ) -> dict[str, np.ndarray]:
         """Channels ``names`` over samples [start, stop) as float64 in SI units (NaN where missing)."""
         self._require(names)
         out = {}
@@ -486,15 +547,19 @@ class Capture:
             try:
                 codes = np.asarray(var[start:stop])
             except (RuntimeError, OSError) as err:  # HDF5 checksum or a damaged chunk
-                raise _fail(self.path, f"unreadable capture (channel {name}, samples {start}–"
-                                       f"{stop if stop is not None else self.length(dim)}: {err})") from None
+                raise _fail(
+                    self.path,
+                    f"unreadable capture (channel {name}, samples {start}–"
+                    f"{stop if stop is not None else self.length(dim)}: {err})",
+                ) from None
             out[name] = self._decode(name, codes)
         if start == 0 and (stop is None or stop >= self.length(dim)):
             self._check_not_all_missing(names, dim)
         return out
 
-    def iter_chunks(self, names: Sequence[str], chunk_len: int = 1 << 18,
-                    dim: str = "time") -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    def iter_chunks(
+        self, names: Sequence[str], chunk_len: int = 1 << 18, dim: str = "time"
+    ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
         """Stream ``names`` in chunks: yields (first sample index, {name: float64 array}).
 
         The time axis is checked chunk by chunk, so a gap anywhere in the file is caught
@@ -503,7 +568,9 @@ class Capture:
         n = self.length(dim)
         rate = self.fs if dim == "time" else float(self._nc["time_slow"].sampling_rate)
         tvar = self._nc[dim]
-        tvar.set_auto_mask(False)  # no masked array per chunk: a missing time fails the check as its fill value
+        tvar.set_auto_mask(
+            False
+        )  # no masked array per chunk: a missing time fails the check as its fill value
         progress = _Progress(f"{self.path} read", n)
         for start in range(0, n, chunk_len):
             stop = min(n, start + chunk_len)
@@ -511,8 +578,11 @@ class Capture:
             off = np.abs(t - np.arange(start, stop) / rate)
             if not off.max() <= 0.25 / rate:  # NaN fails too
                 k = start + int(np.argmax(~(off <= 0.25 / rate)))
-                raise _fail(self.path, f"time axis breaks at sample {k} (t = {t[k - start]:.6g} s, "
-                                       f"expected {k / rate:.6g} s at fs = {rate:g} Hz)")
+                raise _fail(
+                    self.path,
+                    f"time axis breaks at sample {k} (t = {t[k - start]:.6g} s, "
+                    f"expected {k / rate:.6g} s at fs = {rate:g} Hz)",
+                )
             yield start, self.read(names, start, stop, dim)
             progress(stop)
         self._check_not_all_missing(names, dim)
@@ -522,8 +592,10 @@ class Capture:
         if not self.has_truth:
             raise _fail(self.path, "has no /truth group (not a simulated capture)")
         g = self._nc.groups["truth"]
-        return ({k: g.getncattr(k) for k in g.ncattrs()},
-                {k: np.asarray(v[:]) for k, v in g.variables.items()})
+        return (
+            {k: g.getncattr(k) for k in g.ncattrs()},
+            {k: np.asarray(v[:]) for k, v in g.variables.items()},
+        )
 
     def _require(self, names: Sequence[str]) -> None:
         missing = [n for n in names if n not in self._nc.variables]
@@ -580,10 +652,12 @@ def read_header(path: os.PathLike | str) -> Header:
     try:
         with netCDF4.Dataset(path, "r") as nc:
             channels = [nc[v] for v in nc.variables if v in CHANNEL_UNITS]
-            return Header({k: nc.getncattr(k) for k in nc.ncattrs()},
-                          {v.name: getattr(v, "units", None) for v in channels},
-                          {v.name: int(v.shape[0]) for v in channels},
-                          {v.name: _full_scale(v) for v in channels})
+            return Header(
+                {k: nc.getncattr(k) for k in nc.ncattrs()},
+                {v.name: getattr(v, "units", None) for v in channels},
+                {v.name: int(v.shape[0]) for v in channels},
+                {v.name: _full_scale(v) for v in channels},
+            )
     except OSError as err:
         raise _fail(path, f"not a readable netCDF4 capture ({err.strerror or err})") from None
 
@@ -621,29 +695,44 @@ def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) ->
         var = nc[name]
         units = getattr(var, "units", None)
         if units != CHANNEL_UNITS[name][0]:
-            raise _fail(path, f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}")
+            raise _fail(
+                path,
+                f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}",
+            )
         if var.dtype != np.int16 or "scale_factor" not in var.ncattrs():
             raise _fail(path, f"channel {name} is not packed int16 with scale_factor/add_offset")
         compression = compression_of(var)
         if compression not in (*COMPRESSIONS, None):
-            raise _fail(path, f"channel {name} is compressed with {compression}: the contract allows "
-                              f"{', '.join(COMPRESSIONS)} or none")
+            raise _fail(
+                path,
+                f"channel {name} is compressed with {compression}: the contract allows "
+                f"{', '.join(COMPRESSIONS)} or none",
+            )
         scale, offset = float(var.scale_factor), float(getattr(var, "add_offset", 0.0))
         if not (math.isfinite(scale) and scale > 0 and math.isfinite(offset)):
-            raise _fail(path, f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}: "
-                              f"the packing needs a finite, positive scale and a finite offset")
+            raise _fail(
+                path,
+                f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}: "
+                f"the packing needs a finite, positive scale and a finite offset",
+            )
     t = nc["time"]
     t0, t1 = float(t[0]), float(t[n - 1])
     if abs(t0) > 0.25 / fs or abs(t1 - (n - 1) / fs) > 0.25 / fs + FS_RTOL * t1:
-        raise _fail(path, f"time axis runs {t0:.6g}..{t1:.6g} s, not 0..{(n - 1) / fs:.6g} s "
-                          f"for {n} samples at fs = {fs:g} Hz (gap or wrong fs)")
+        raise _fail(
+            path,
+            f"time axis runs {t0:.6g}..{t1:.6g} s, not 0..{(n - 1) / fs:.6g} s "
+            f"for {n} samples at fs = {fs:g} Hz (gap or wrong fs)",
+        )
     attrs = set(nc.ncattrs())
     if {"fr_nominal", "ns", "nf"} <= attrs:
         fr, ns, nf = float(nc.fr_nominal), int(nc.ns), int(nc.nf)
         expected = folded_fs(fr, ns, nf)
         if not math.isclose(fs, expected, rel_tol=FS_RTOL):
-            raise _fail(path, f"fs = {fs:g} Hz violates the folding equation (Eq 3.4/3.5): "
-                              f"fr = {fr:g} Hz, ns = {ns}, nf = {nf} need fs = {expected:g} Hz")
+            raise _fail(
+                path,
+                f"fs = {fs:g} Hz violates the folding equation (Eq 3.4/3.5): "
+                f"fr = {fr:g} Hz, ns = {ns}, nf = {nf} need fs = {expected:g} Hz",
+            )
 
 
 @dataclass(frozen=True)
@@ -659,14 +748,17 @@ class ScanReport:
     clipped: dict[str, int]
 
 
-def write_scan_report(scan: ScanReport, path: os.PathLike | str, inputs: Sequence[os.PathLike | str] = ()) -> None:
+def write_scan_report(
+    scan: ScanReport, path: os.PathLike | str, inputs: Sequence[os.PathLike | str] = ()
+) -> None:
     """A capture's QC report (qc/<experiment>.json): the scan and the provenance of the capture
     (and of whatever else it was checked against, say the manifest)."""
     write_json(asdict(scan) | {"provenance": provenance(list(inputs) or [scan.path])}, path)
 
 
-def scan_capture(path: os.PathLike | str, require: Sequence[str] = (),
-                 chunk_len: int = 1 << 18) -> ScanReport:
+def scan_capture(
+    path: os.PathLike | str, require: Sequence[str] = (), chunk_len: int = 1 << 18
+) -> ScanReport:
     """Stream a whole capture once: validates the time axis and counts NaN and clipped samples."""
     with open_capture(path, require) as cap:
         fast = [c for c in cap.channels if c not in SLOW_CHANNELS]
@@ -676,8 +768,15 @@ def scan_capture(path: os.PathLike | str, require: Sequence[str] = (),
         if slow and cap.n_slow:
             for _ in cap.iter_chunks(slow, chunk_len, dim="time_slow"):
                 pass
-        return ScanReport(str(path), cap.n, cap.fs, cap.duration, tuple(cap.channels),
-                          dict(cap.stats.nan), dict(cap.stats.clipped))
+        return ScanReport(
+            str(path),
+            cap.n,
+            cap.fs,
+            cap.duration,
+            tuple(cap.channels),
+            dict(cap.stats.nan),
+            dict(cap.stats.clipped),
+        )
 
 
 class SeriesWriter:
@@ -687,8 +786,13 @@ class SeriesWriter:
     :class:`CaptureWriter`, the file appears only when complete.
     """
 
-    def __init__(self, path: os.PathLike | str, variables: Mapping[str, str],
-                 attrs: Mapping[str, object] | None = None, dim: str = "block"):
+    def __init__(
+        self,
+        path: os.PathLike | str,
+        variables: Mapping[str, str],
+        attrs: Mapping[str, object] | None = None,
+        dim: str = "block",
+    ):
         self.path = Path(path)
         self.tmp: Path | None = None
         self.variables = dict(variables)  # name -> units
@@ -697,14 +801,15 @@ class SeriesWriter:
         self.n = 0
         self._nc: netCDF4.Dataset | None = None
 
-    def __enter__(self) -> "SeriesWriter":
+    def __enter__(self) -> SeriesWriter:
         self.tmp = temporary_path(self.path)
         nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
         nc.setncatts({k: _attr(v) for k, v in self.attrs.items()})
         nc.createDimension(self.dim, None)
         for name, units in self.variables.items():
-            nc.createVariable(name, "f8", (self.dim,), zlib=True, complevel=1, shuffle=True,
-                              chunksizes=(1 << 14,)).units = units
+            nc.createVariable(
+                name, "f8", (self.dim,), zlib=True, complevel=1, shuffle=True, chunksizes=(1 << 14,)
+            ).units = units
         _limit_chunk_cache(nc)
         self._nc = nc
         return self
@@ -713,7 +818,7 @@ class SeriesWriter:
         assert self._nc is not None, "use SeriesWriter inside a with block"
         n = len(next(iter(data.values())))
         for name in self.variables:
-            self._nc[name][self.n:self.n + n] = data[name]
+            self._nc[name][self.n : self.n + n] = data[name]
         self.n += n
 
     def __exit__(self, exc_type, exc, tb) -> None:
@@ -730,12 +835,18 @@ def series_scalars(path: os.PathLike | str) -> dict[str, float]:
     """The numeric attributes a :class:`SeriesWriter` stored with a series (say, a run's peaks)."""
     try:
         with netCDF4.Dataset(path) as nc:
-            return {k: float(v) for k in nc.ncattrs() if isinstance(v := nc.getncattr(k), (float, np.floating))}
+            return {
+                k: float(v)
+                for k in nc.ncattrs()
+                if isinstance(v := nc.getncattr(k), (float, np.floating))
+            }
     except OSError as err:
         raise _fail(path, f"not a readable netCDF4 series ({err.strerror or err})") from None
 
 
-def read_series(path: os.PathLike | str, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+def read_series(
+    path: os.PathLike | str, names: Sequence[str] | None = None
+) -> dict[str, np.ndarray]:
     """A derived series written by :class:`SeriesWriter`, whole (they are ns× smaller than captures)."""
     try:
         with netCDF4.Dataset(path) as nc:

@@ -12,16 +12,22 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
-from selfsense.io.capture import CHANNEL_UNITS, FS_RTOL, Header, CaptureError
+from selfsense.io.capture import CHANNEL_UNITS, FS_RTOL, CaptureError, Header
 
 #: the largest fraction of a channel's samples that may sit at the ADC's full scale
 CLIP_LIMIT = 0.01
 
 #: the usual slip that drives a channel of this unit into its rails (values 10³–10⁶ too large)
-WRONG_UNIT = {"m": "µm written as m", "V": "mV written as V", "A": "mA written as A", "N": "mN written as N",
-              "degC": "K written as degC"}
+WRONG_UNIT = {
+    "m": "µm written as m",
+    "V": "mV written as V",
+    "A": "mA written as A",
+    "N": "mN written as N",
+    "degC": "K written as degC",
+}
 
 
 def declared_channels(manifest: Mapping[str, Any]) -> set[str]:
@@ -40,10 +46,15 @@ def required_attributes(manifest: Mapping[str, Any]) -> tuple[str, ...]:
     return needed
 
 
-def check_agreement(path: os.PathLike | str, header: Header, manifest: Mapping[str, Any],
-                    manifest_path: os.PathLike | str) -> None:
+def check_agreement(
+    path: os.PathLike | str,
+    header: Header,
+    manifest: Mapping[str, Any],
+    manifest_path: os.PathLike | str,
+) -> None:
     """fs, channels and units of a capture against its manifest; CaptureError in one line naming
     both files on the first difference."""
+
     def fail(problem: str) -> CaptureError:
         return _both(path, problem, manifest_path)
 
@@ -53,8 +64,10 @@ def check_agreement(path: os.PathLike | str, header: Header, manifest: Mapping[s
         raise fail(f"fs = {float(fs):g} Hz, the manifest declares daq.fs = {declared_fs:g} Hz")
     extra = sorted(set(header.units) - declared_channels(manifest))
     if extra:
-        raise fail(f"channel {extra[0]} is not declared in the manifest's daq.channels "
-                   f"({', '.join(manifest['daq']['channels'])})")
+        raise fail(
+            f"channel {extra[0]} is not declared in the manifest's daq.channels "
+            f"({', '.join(manifest['daq']['channels'])})"
+        )
     sensors = manifest.get("sensors", {})
     for channel, units in header.units.items():
         wanted = sensors.get(channel, {}).get("units", CHANNEL_UNITS[channel][0])
@@ -62,37 +75,54 @@ def check_agreement(path: os.PathLike | str, header: Header, manifest: Mapping[s
             raise fail(f"channel {channel} is in {units!r}, the manifest declares {wanted!r}")
 
 
-def check_attributes(path: os.PathLike | str, header: Header, manifest: Mapping[str, Any],
-                     manifest_path: os.PathLike | str) -> None:
+def check_attributes(
+    path: os.PathLike | str,
+    header: Header,
+    manifest: Mapping[str, Any],
+    manifest_path: os.PathLike | str,
+) -> None:
     """The attributes this dataset's analyses read are all there (no default stands in for one)."""
     absent = [a for a in required_attributes(manifest) if a not in header.attrs]
     if absent:
-        raise _both(path, f"global attribute {absent[0]} is missing: this dataset's analyses read it "
-                          "(docs/capture-contract.md)", manifest_path)
+        raise _both(
+            path,
+            f"global attribute {absent[0]} is missing: this dataset's analyses read it "
+            "(docs/capture-contract.md)",
+            manifest_path,
+        )
 
 
 def _both(path: os.PathLike | str, problem: str, manifest_path: os.PathLike | str) -> CaptureError:
     return CaptureError(f"{path}: {problem} ({manifest_path})")
 
 
-def clipping_problem(channel: str, clipped: int, samples: int, lo: float, hi: float,
-                     manifest_path: os.PathLike | str) -> str | None:
+def clipping_problem(
+    channel: str, clipped: int, samples: int, lo: float, hi: float, manifest_path: os.PathLike | str
+) -> str | None:
     """Why a channel clipped in more than CLIP_LIMIT of its samples cannot be analysed, with the
     likely cause; None when it is within the limit."""
     if samples == 0 or clipped <= CLIP_LIMIT * samples:
         return None
     unit = CHANNEL_UNITS[channel][0]
     slip = WRONG_UNIT.get(unit, "a wrong unit")
-    return (f"channel {channel} is clipped in {100 * clipped / samples:.3g} % of its {samples} samples "
-            f"(more than {100 * CLIP_LIMIT:g} %): the ADC range [{lo:g}, {hi:g}] {unit} "
-            f"(daq.ranges.{channel} in {manifest_path}) is too narrow, or the values are in the wrong "
-            f"unit ({slip}?)")
+    return (
+        f"channel {channel} is clipped in {100 * clipped / samples:.3g} % of its {samples} samples "
+        f"(more than {100 * CLIP_LIMIT:g} %): the ADC range [{lo:g}, {hi:g}] {unit} "
+        f"(daq.ranges.{channel} in {manifest_path}) is too narrow, or the values are in the wrong "
+        f"unit ({slip}?)"
+    )
 
 
-def check_clipping(path: os.PathLike | str, clipped: Mapping[str, int], header: Header,
-                   manifest_path: os.PathLike | str) -> None:
+def check_clipping(
+    path: os.PathLike | str,
+    clipped: Mapping[str, int],
+    header: Header,
+    manifest_path: os.PathLike | str,
+) -> None:
     """CaptureError naming the first channel clipped beyond CLIP_LIMIT (counts from a scan)."""
     for channel, count in clipped.items():
-        problem = clipping_problem(channel, count, header.samples[channel], *header.ranges[channel], manifest_path)
+        problem = clipping_problem(
+            channel, count, header.samples[channel], *header.ranges[channel], manifest_path
+        )
         if problem:
             raise CaptureError(f"{path}: {problem}")

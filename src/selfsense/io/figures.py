@@ -20,8 +20,13 @@ UM, UF = 1e6, 1e6
 
 
 def _fig(nrows=1, ncols=1, **kw):
-    fig, ax = plt.subplots(nrows, ncols, figsize=(6.4, 2.2 + 2.2 * nrows) if nrows > 1 else (6.4, 4.2),
-                           constrained_layout=True, **kw)
+    fig, ax = plt.subplots(
+        nrows,
+        ncols,
+        figsize=(6.4, 2.2 + 2.2 * nrows) if nrows > 1 else (6.4, 4.2),
+        constrained_layout=True,
+        **kw,
+    )
     return fig, ax
 
 
@@ -41,10 +46,15 @@ def loop(x, y, xlabel, ylabel, title, labels=None):
 def loop_grid(rows, title):
     """One row of loops per item: rows are (name, panels) with panels as in :func:`loops`."""
     ncols = max(len(panels) for _, panels in rows)
-    fig, axes = plt.subplots(len(rows), ncols, figsize=(3.6 * ncols + 0.6, 2.6 * len(rows) + 0.6),
-                             constrained_layout=True, squeeze=False)
+    fig, axes = plt.subplots(
+        len(rows),
+        ncols,
+        figsize=(3.6 * ncols + 0.6, 2.6 * len(rows) + 0.6),
+        constrained_layout=True,
+        squeeze=False,
+    )
     for ax_row, (name, panels) in zip(axes, rows):
-        for ax in ax_row[len(panels):]:
+        for ax in ax_row[len(panels) :]:
             ax.axis("off")
         for ax, (x, y, xlabel, ylabel) in zip(ax_row, panels):
             # points, not a line: thinned to the figure's resolution, a long run at a fast drive keeps
@@ -63,7 +73,7 @@ def time_traces(t, traces: list[tuple[np.ndarray | dict[str, np.ndarray], str]],
     array or {legend: array} for several traces in one panel."""
     fig, axes = _fig(len(traces), 1, sharex=True)
     for ax, (values, label) in zip(np.atleast_1d(axes), traces):
-        for name, v in (values.items() if isinstance(values, dict) else [(None, values)]):
+        for name, v in values.items() if isinstance(values, dict) else [(None, values)]:
             ax.plot(t, v, lw=0.8, label=name)
         if isinstance(values, dict):
             ax.legend(fontsize=7)
@@ -92,11 +102,21 @@ def folding(fr: float, plans, periods: float = 2.5):
         duration = periods / plan.fr_folded
         t_fine = np.linspace(0, duration, 4000)
         k = np.arange(int(duration * plan.fs) + 1)
-        ax.plot(t_fine * 1e6, np.cos(2 * np.pi * fr * t_fine), lw=0.5, color="0.6", label=f"ripple {fr / 1e3:g} kHz")
+        ax.plot(
+            t_fine * 1e6,
+            np.cos(2 * np.pi * fr * t_fine),
+            lw=0.5,
+            color="0.6",
+            label=f"ripple {fr / 1e3:g} kHz",
+        )
         ax.plot(k / plan.fs * 1e6, np.cos(2 * np.pi * fr * k / plan.fs), "o", ms=3, label="samples")
         sign = -1 if plan.mirrored else 1
-        ax.plot(t_fine * 1e6, np.cos(sign * 2 * np.pi * plan.fr_folded * t_fine), lw=1,
-                label=f"folded {plan.fr_folded / 1e3:.4g} kHz")
+        ax.plot(
+            t_fine * 1e6,
+            np.cos(sign * 2 * np.pi * plan.fr_folded * t_fine),
+            lw=1,
+            label=f"folded {plan.fr_folded / 1e3:.4g} kHz",
+        )
         ax.set_ylabel(f"nf = {plan.nf}\nfs = {plan.fs / 1e3:.4g} kHz")
         ax.legend(loc="upper right", fontsize=7)
     np.atleast_1d(axes)[-1].set_xlabel("time [µs]")
@@ -108,8 +128,12 @@ def np_study(table: pd.DataFrame):
     """C_e error against np for several ripple-frequency wanders."""
     fig, axes = _fig(1, 2)
     for wander, rows in table.groupby("wander [Hz]"):
-        axes[0].plot(rows["np"], rows["rms error vs window mean [%]"], "o-", label=f"wander ±{wander:g} Hz")
-        axes[1].plot(rows["np"], rows["rms error vs instantaneous [%]"], "o-", label=f"wander ±{wander:g} Hz")
+        axes[0].plot(
+            rows["np"], rows["rms error vs window mean [%]"], "o-", label=f"wander ±{wander:g} Hz"
+        )
+        axes[1].plot(
+            rows["np"], rows["rms error vs instantaneous [%]"], "o-", label=f"wander ±{wander:g} Hz"
+        )
     axes[0].set(xlabel="np [periods]", ylabel="rms C_e error [%]", title="vs C_P over the window")
     axes[1].set(xlabel="np [periods]", ylabel="rms C_e error [%]", title="vs C_P at window centre")
     for ax in axes:
@@ -133,7 +157,7 @@ def model_vs_measured(xs, q_meas, q_model, i_meas, i_model, labels):
     """Fig 4.6: (a) charge–position and (b) current–position, measured and modelled."""
     fig, axes = _fig(1, 2)
     for i, label in enumerate(labels):
-        line, = axes[0].plot(xs[i], q_meas[i], lw=0.6, label=f"{label} measured")
+        (line,) = axes[0].plot(xs[i], q_meas[i], lw=0.6, label=f"{label} measured")
         axes[0].plot(xs[i], q_model[i], "--", lw=1, color=line.get_color(), label=f"{label} model")
         axes[1].plot(xs[i], np.asarray(i_meas[i]) * 1e3, lw=0.6, color=line.get_color())
         axes[1].plot(xs[i], np.asarray(i_model[i]) * 1e3, "--", lw=1, color=line.get_color())
@@ -169,8 +193,15 @@ def hysteresis_voltage(traces):
     for f, tr in traces.items():
         q = tr["q"] * 1e6
         for ax, case in zip(axes, (1, 2)):
-            line, = ax.plot(q, tr["U"], lw=0.6, label=f"U, {f:g} Hz")
-            ax.plot(q, tr[f"U_H case {case}"], lw=0.8, color=line.get_color(), ls="--", label=f"U_H, {f:g} Hz")
+            (line,) = ax.plot(q, tr["U"], lw=0.6, label=f"U, {f:g} Hz")
+            ax.plot(
+                q,
+                tr[f"U_H case {case}"],
+                lw=0.8,
+                color=line.get_color(),
+                ls="--",
+                label=f"U_H, {f:g} Hz",
+            )
     axes[0].set(title="(a) traditional model (ΔCx = 0)")
     axes[1].set(title="(b) proposed model (ΔCx < 0)")
     for ax in axes:
@@ -184,9 +215,18 @@ def observer_study(table):
     """Observer max error against ω_S for several added offset currents."""
     fig, ax = _fig()
     for offset, rows in table.groupby("added offset [mA]"):
-        ax.plot(rows["omega_S [rad/s]"] / (2 * np.pi), rows["max error [µm]"], "o-", label=f"+{offset:g} mA offset")
-    ax.set(xscale="log", xlabel="transition frequency ω_S/2π [Hz]", ylabel="max observer error [µm]",
-           title="Hybrid position observer: transition frequency against offset current")
+        ax.plot(
+            rows["omega_S [rad/s]"] / (2 * np.pi),
+            rows["max error [µm]"],
+            "o-",
+            label=f"+{offset:g} mA offset",
+        )
+    ax.set(
+        xscale="log",
+        xlabel="transition frequency ω_S/2π [Hz]",
+        ylabel="max observer error [µm]",
+        title="Hybrid position observer: transition frequency against offset current",
+    )
     ax.grid(alpha=0.3, which="both")
     ax.legend()
     return fig
@@ -204,8 +244,10 @@ def error_budget(table, sources):
         bottom += height
     ax.plot(runs, table["total rms [µm]"], "k_", ms=22, mew=2, label="error rms")
     ax.plot(runs, table["total max error [µm]"], "kv", label="error max (Tables 5.4, 6.1, 6.2)")
-    labels = [f"{f:g} Hz" if np.isfinite(f) else f"{run} {segment}" if isinstance(segment, str) else run
-              for run, f, segment in zip(table["run"], table["frequency [Hz]"], table["segment"])]
+    labels = [
+        f"{f:g} Hz" if np.isfinite(f) else f"{run} {segment}" if isinstance(segment, str) else run
+        for run, f, segment in zip(table["run"], table["frequency [Hz]"], table["segment"])
+    ]
     ax.set_xticks(runs, labels, rotation=30, ha="right", fontsize=7)
     ax.set(ylabel="rms over the run [µm]", title="Observer error budget against the twin's truth")
     ax.grid(alpha=0.3, axis="y")
@@ -241,14 +283,25 @@ def bode(table: pd.DataFrame, model_f, model_G, peaks: pd.DataFrame, thesis_hz: 
         if np.isfinite(row["peak frequency [Hz]"]):
             for ax in (mag, phase):
                 ax.axvline(row["peak frequency [Hz]"], ls=style, lw=0.8, color="gray")
-            mag.annotate(f"{row['response']} peak {row['peak frequency [Hz]']:.0f} Hz",
-                         (row["peak frequency [Hz]"], row["peak |G| [µm/µC]"]), fontsize=7,
-                         xytext=(-4, -12 - 10 * (style == ":")), textcoords="offset points", ha="right")
+            mag.annotate(
+                f"{row['response']} peak {row['peak frequency [Hz]']:.0f} Hz",
+                (row["peak frequency [Hz]"], row["peak |G| [µm/µC]"]),
+                fontsize=7,
+                xytext=(-4, -12 - 10 * (style == ":")),
+                textcoords="offset points",
+                ha="right",
+            )
     for ax in (mag, phase):
         ax.axvline(thesis_hz, ls="-.", lw=0.8, color="tab:red")
         ax.grid(alpha=0.3, which="both")
-    mag.annotate(f"thesis ≈ {thesis_hz:g} Hz", (thesis_hz, mag.get_ylim()[1]), fontsize=7, color="tab:red",
-                 xytext=(3, -10), textcoords="offset points")
+    mag.annotate(
+        f"thesis ≈ {thesis_hz:g} Hz",
+        (thesis_hz, mag.get_ylim()[1]),
+        fontsize=7,
+        color="tab:red",
+        xytext=(3, -10),
+        textcoords="offset points",
+    )
     mag.set(ylabel="|G| = |x/q| [µm/µC]", title=title)
     phase.set(xlabel="frequency [Hz]", ylabel="phase [deg]")
     mag.legend(fontsize=7, loc="upper left")
@@ -273,15 +326,22 @@ def frequency_effect(curves, gamma_curve: tuple[np.ndarray, np.ndarray], max_poi
     fig, axes = _fig(1, 2)
     for label, c in curves.items():
         step = max(1, len(c["x"]) // max_points)
-        colour = axes[0].plot(c["x"][::step] * UM, c["C_e"][::step] * UF, ".", ms=1, alpha=0.4)[0].get_color()
+        colour = (
+            axes[0]
+            .plot(c["x"][::step] * UM, c["C_e"][::step] * UF, ".", ms=1, alpha=0.4)[0]
+            .get_color()
+        )
         axes[0].plot([], [], "o", color=colour, label=label)
         axes[1].plot(c["centres"] * UM, c["rising"] * UM, ".-", color=colour, lw=0.9, ms=3)
         axes[1].plot(c["centres"] * UM, c["falling"] * UM, ".--", color=colour, lw=0.9, ms=3)
     axes[0].plot(gamma_curve[1] * UM, gamma_curve[0] * UF, "k-", lw=1, label="Γ (0.1 Hz fit)")
     axes[0].set(xlabel="x [µm]", ylabel="C_e [µF]", title="(a) capacitance against position")
     axes[1].axhline(0, color="k", lw=0.8)
-    axes[1].set(xlabel="x [µm]", ylabel="x − Γ(C_e) [µm]",
-                title="(b) distance from Γ, binned\n(solid: rising, dashed: falling)")
+    axes[1].set(
+        xlabel="x [µm]",
+        ylabel="x − Γ(C_e) [µm]",
+        title="(b) distance from Γ, binned\n(solid: rising, dashed: falling)",
+    )
     axes[0].legend(fontsize=7)
     for ax in axes:
         ax.grid(alpha=0.3)
@@ -290,7 +350,10 @@ def frequency_effect(curves, gamma_curve: tuple[np.ndarray, np.ndarray], max_poi
 
 def _boundary(block: dict, toward) -> np.ndarray:
     """Where a wire from the block's centre towards ``toward`` leaves the block's outline."""
-    c, d = np.asarray(block["xy"], float), np.asarray(toward, float) - np.asarray(block["xy"], float)
+    c, d = (
+        np.asarray(block["xy"], float),
+        np.asarray(toward, float) - np.asarray(block["xy"], float),
+    )
     if not np.any(d):
         return c
     if block.get("kind", "box") in ("sum", "mul"):
@@ -310,8 +373,13 @@ def block_diagram(panels, width: float = 12.0, extent: tuple[float, float] = (10
     points, the arrow at ``to``; ``label`` names the signal beside its longest segment and
     ``sign`` ("+", "−") is written where the wire enters a summing junction.
     """
-    fig, axes = plt.subplots(len(panels), 1, figsize=(width, width * extent[1] / extent[0] * len(panels)),
-                             constrained_layout=True, squeeze=False)
+    fig, axes = plt.subplots(
+        len(panels),
+        1,
+        figsize=(width, width * extent[1] / extent[0] * len(panels)),
+        constrained_layout=True,
+        squeeze=False,
+    )
     for ax, (title, blocks, wires) in zip(axes[:, 0], panels):
         ax.set(xlim=(0, extent[0]), ylim=(0, extent[1]), aspect="equal", title=title)
         ax.axis("off")
@@ -319,27 +387,54 @@ def block_diagram(panels, width: float = 12.0, extent: tuple[float, float] = (10
             kind = b.get("kind", "box")
             if kind in ("sum", "mul"):
                 ax.add_patch(plt.Circle(b["xy"], b.get("r", 1.8), fill=False, lw=1))
-                ax.text(*b["xy"], "Σ" if kind == "sum" else "×", ha="center", va="center", fontsize=10)
+                ax.text(
+                    *b["xy"], "Σ" if kind == "sum" else "×", ha="center", va="center", fontsize=10
+                )
             elif kind == "node":
                 ax.plot(*b["xy"], "ko", ms=3)
             else:
                 w, h = b["size"]
                 if kind == "box":
-                    ax.add_patch(plt.Rectangle((b["xy"][0] - w / 2, b["xy"][1] - h / 2), w, h, fill=False, lw=1))
-                ax.text(*b["xy"], b["text"], ha="center", va="center", fontsize=7.5, linespacing=1.3)
+                    ax.add_patch(
+                        plt.Rectangle(
+                            (b["xy"][0] - w / 2, b["xy"][1] - h / 2), w, h, fill=False, lw=1
+                        )
+                    )
+                ax.text(
+                    *b["xy"], b["text"], ha="center", va="center", fontsize=7.5, linespacing=1.3
+                )
         for src, dst, label, via, sign in wires:
             pts = [blocks[src]["xy"], *via, blocks[dst]["xy"]]
             pts[0], pts[-1] = _boundary(blocks[src], pts[1]), _boundary(blocks[dst], pts[-2])
             if len(pts) > 2:
                 ax.plot(*zip(*pts[:-1]), "k-", lw=0.9)
-            ax.annotate("", xy=pts[-1], xytext=pts[-2], arrowprops={"arrowstyle": "-|>", "lw": 0.9, "color": "k"})
+            ax.annotate(
+                "",
+                xy=pts[-1],
+                xytext=pts[-2],
+                arrowprops={"arrowstyle": "-|>", "lw": 0.9, "color": "k"},
+            )
             if label:  # beside the longest segment, above it or to its right
-                (x0, y0), (x1, y1) = max(zip(pts[:-1], pts[1:]), key=lambda seg: np.hypot(*np.subtract(*seg)))
+                (x0, y0), (x1, y1) = max(
+                    zip(pts[:-1], pts[1:]), key=lambda seg: np.hypot(*np.subtract(*seg))
+                )
                 vertical = abs(x1 - x0) < abs(y1 - y0)
-                ax.text((x0 + x1) / 2 + (0.8 if vertical else 0), (y0 + y1) / 2 + (0 if vertical else 0.8), label,
-                        ha="left" if vertical else "center", va="center" if vertical else "bottom", fontsize=8.5)
+                ax.text(
+                    (x0 + x1) / 2 + (0.8 if vertical else 0),
+                    (y0 + y1) / 2 + (0 if vertical else 0.8),
+                    label,
+                    ha="left" if vertical else "center",
+                    va="center" if vertical else "bottom",
+                    fontsize=8.5,
+                )
             if sign:  # right of the arrow's direction, so it keeps clear of the labels
                 end, before = np.asarray(pts[-1]), np.asarray(pts[-2])
                 d = (end - before) / np.hypot(*(end - before))
-                ax.text(*(end - 1.6 * d + 1.3 * np.array([d[1], -d[0]])), sign, ha="center", va="center", fontsize=9)
+                ax.text(
+                    *(end - 1.6 * d + 1.3 * np.array([d[1], -d[0]])),
+                    sign,
+                    ha="center",
+                    va="center",
+                    fontsize=9,
+                )
     return fig

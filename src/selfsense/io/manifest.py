@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import jsonschema
 import yaml
@@ -59,7 +60,9 @@ def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
         allowed = set(error.schema.get("properties", {}))
         extra = sorted(set(error.instance) - allowed)
         key = f"{_where(error)}.{extra[0]}" if error.absolute_path else extra[0]
-        raise ManifestError(f"{source}: unknown key {key} (allowed: {', '.join(sorted(allowed))})", key)
+        raise ManifestError(
+            f"{source}: unknown key {key} (allowed: {', '.join(sorted(allowed))})", key
+        )
     if error.validator == "required":
         raise ManifestError(f"{source}: {_where(error)}: {error.message}", _where(error))
     raise ManifestError(f"{source}: key {_where(error)}: {error.message}", _where(error))
@@ -71,7 +74,9 @@ def _check_finite(doc: Any, source: str | Path, where: str = "") -> None:
     if isinstance(doc, float) and not math.isfinite(doc):
         key = where or "(top level)"
         raise ManifestError(f"{source}: key {key}: {doc} is not a finite number", key)
-    items = doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    items = (
+        doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    )
     for k, v in items:
         _check_finite(v, source, f"{where}.{k}" if where else str(k))
 
@@ -94,15 +99,19 @@ _Loader.add_implicit_resolver(
 def load_yaml(path: str | Path) -> Any:
     """A YAML file (YAML 1.2 floats), its size and nesting bounded before it is built."""
     try:
-        text = (path if hasattr(path, "read_text") else Path(path)).read_text()  # a file or package data
+        text = (
+            path if hasattr(path, "read_text") else Path(path)
+        ).read_text()  # a file or package data
     except FileNotFoundError:
         raise ManifestError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as err:
         raise ManifestError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
     try:
         if len(text) > MAX_YAML_BYTES:
-            raise ManifestError(f"{path}: {len(text)} bytes, more than a manifest or config can need "
-                                f"({MAX_YAML_BYTES} at most)")
+            raise ManifestError(
+                f"{path}: {len(text)} bytes, more than a manifest or config can need "
+                f"({MAX_YAML_BYTES} at most)"
+            )
         depth = 0
         for event in yaml.parse(text, Loader=_Loader):  # events only: nothing is composed yet
             if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
@@ -120,18 +129,25 @@ def load_yaml(path: str | Path) -> Any:
 
 def check_dataset_name(name: str, source: str | Path) -> None:
     if not (isinstance(name, str) and DATASET_NAME.fullmatch(name)):
-        raise ManifestError(f"{source}: dataset name {name!r} must be letters, digits, '_' or '-' "
-                            "(no path separators or '..')", "datasets")
+        raise ManifestError(
+            f"{source}: dataset name {name!r} must be letters, digits, '_' or '-' "
+            "(no path separators or '..')",
+            "datasets",
+        )
 
 
 def check_experiment_name(name: str, source: str | Path) -> None:
     if not (isinstance(name, str) and EXPERIMENT_NAME.fullmatch(name)):
-        raise ManifestError(f"{source}: key experiments: experiment name {name!r} must be letters, digits "
-                            "or '_' (it becomes a file name and a Snakemake wildcard)", "experiments")
+        raise ManifestError(
+            f"{source}: key experiments: experiment name {name!r} must be letters, digits "
+            "or '_' (it becomes a file name and a Snakemake wildcard)",
+            "experiments",
+        )
 
 
-def validate_config(config: Mapping[str, Any], source: str | Path,
-                    overrides: Mapping[str, Any] | None = None) -> None:
+def validate_config(
+    config: Mapping[str, Any], source: str | Path, overrides: Mapping[str, Any] | None = None
+) -> None:
     """Validate the merged config. A fault in a key that ``--config`` set is blamed on
     ``--config``, not on the config files."""
     try:
@@ -140,7 +156,7 @@ def validate_config(config: Mapping[str, Any], source: str | Path,
             check_dataset_name(name, source)
     except ManifestError as err:
         if overrides and _sets(overrides, err.key):
-            raise ManifestError(f"--config{str(err)[len(str(source)):]}", err.key) from None
+            raise ManifestError(f"--config{str(err)[len(str(source)) :]}", err.key) from None
         raise
 
 
@@ -165,7 +181,9 @@ def load_config(path: str | Path) -> dict:
 def _fill_defaults(doc: dict, schema: Mapping[str, Any]) -> None:
     for key, sub in schema.get("properties", {}).items():
         if key not in doc and "default" in sub:
-            doc[key] = sub["default"] if not isinstance(sub["default"], dict) else dict(sub["default"])
+            doc[key] = (
+                sub["default"] if not isinstance(sub["default"], dict) else dict(sub["default"])
+            )
         if isinstance(doc.get(key), dict) and sub.get("type") == "object":
             _fill_defaults(doc[key], sub)
 
@@ -178,25 +196,35 @@ def load_dataset(raw_dir: str | Path, name: str) -> dict:
     manifest = load_yaml(path)
     validate_document(manifest, "dataset.schema.yaml", path)
     if manifest["name"] != name:
-        raise ManifestError(f"{path}: key name: {manifest['name']!r} does not match its folder {name!r}")
+        raise ManifestError(
+            f"{path}: key name: {manifest['name']!r} does not match its folder {name!r}"
+        )
     for channel, (lo, hi) in manifest["daq"]["ranges"].items():
         if not lo < hi:
-            raise ManifestError(f"{path}: key daq.ranges.{channel}: [{lo:g}, {hi:g}] must be [low, high] "
-                                f"with low < high (the ADC's full scale)", f"daq.ranges.{channel}")
+            raise ManifestError(
+                f"{path}: key daq.ranges.{channel}: [{lo:g}, {hi:g}] must be [low, high] "
+                f"with low < high (the ADC's full scale)",
+                f"daq.ranges.{channel}",
+            )
     for experiment in manifest.get("experiments", ()):
         check_experiment_name(experiment, path)
     return manifest
 
 
-def require_keys(manifest: Mapping[str, Any], keys: Sequence[str], source: str | Path, why: str) -> None:
+def require_keys(
+    manifest: Mapping[str, Any], keys: Sequence[str], source: str | Path, why: str
+) -> None:
     """Keys (dotted) an analysis computes with and the schema leaves optional: the first one
     absent stops with one line naming the file, the key and the analysis, before anything runs."""
     for key in keys:
         node: Any = manifest
         for part in key.split("."):
             if not isinstance(node, Mapping) or part not in node:
-                raise ManifestError(f"{source}: key {key} is missing: {why} computes with it "
-                                    "(src/selfsense/io/schemas/dataset.schema.yaml)", key)
+                raise ManifestError(
+                    f"{source}: key {key} is missing: {why} computes with it "
+                    "(src/selfsense/io/schemas/dataset.schema.yaml)",
+                    key,
+                )
             node = node[part]
 
 
@@ -226,8 +254,9 @@ def protocol_duration(protocol: Mapping[str, Any]) -> float:
     return float(protocol.get("warmup", 0.0)) + int(protocol.get("repeat", 1)) * per_pass
 
 
-def expand_protocols(protocol_names: list[str], campaign: str,
-                     directory: str | Path = PROTOCOLS) -> dict[str, Experiment]:
+def expand_protocols(
+    protocol_names: list[str], campaign: str, directory: str | Path = PROTOCOLS
+) -> dict[str, Experiment]:
     """The experiment catalogue for a campaign: sets expanded to <name>_s<k>, smoke overrides applied."""
     experiments: dict[str, Experiment] = {}
     for chapter in protocol_names:
@@ -244,8 +273,13 @@ def expand_protocols(protocol_names: list[str], campaign: str,
             names = [f"{name}_s{k}" for k in range(1, sets + 1)] if repeated else [name]
             for n in names:
                 experiments[n] = Experiment(
-                    name=n, chapter=chapter,
-                    protocol={k: entry[k] for k in ("quantity", "segments", "repeat", "warmup") if k in entry},
+                    name=n,
+                    chapter=chapter,
+                    protocol={
+                        k: entry[k]
+                        for k in ("quantity", "segments", "repeat", "warmup")
+                        if k in entry
+                    },
                     load_stiffness=float(entry.get("load_stiffness", 0.0)),
                     control=entry.get("control", "open_loop"),
                     compensation=entry.get("compensation"),

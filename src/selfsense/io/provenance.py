@@ -16,17 +16,29 @@ import os
 import re
 import subprocess
 import sys
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pandas only for annotations: ≈ 0.25 s of every job's start-up otherwise
     import pandas as pd
 
-PACKAGES = ("selfsense", "numpy", "scipy", "pandas", "xarray", "netCDF4", "statsmodels",
-            "numba", "control", "matplotlib", "snakemake")
+PACKAGES = (
+    "selfsense",
+    "numpy",
+    "scipy",
+    "pandas",
+    "xarray",
+    "netCDF4",
+    "statsmodels",
+    "numba",
+    "control",
+    "matplotlib",
+    "snakemake",
+)
 
 
 def temporary_path(path: str | os.PathLike, hidden: bool = False) -> Path:
@@ -47,7 +59,9 @@ def temporary_path(path: str | os.PathLike, hidden: bool = False) -> Path:
         if tag and not _running(int(tag.group(1))):
             stale.unlink(missing_ok=True)
     tag = f"{os.getpid()}-{os.urandom(4).hex()}"
-    return path.with_name(f".{path.stem}.{tag}.part{path.suffix}" if hidden else f"{path.name}.{tag}.part")
+    return path.with_name(
+        f".{path.stem}.{tag}.part{path.suffix}" if hidden else f"{path.name}.{tag}.part"
+    )
 
 
 def _running(pid: int) -> bool:
@@ -93,13 +107,21 @@ def _sha256(path: str, size: int, mtime_ns: int, block: int = 1 << 20) -> str:
 def code_version() -> dict[str, Any]:
     root = Path.cwd()  # the checkout the workflow runs in (the package may be installed elsewhere)
     try:
-        describe = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=root,
-                                  capture_output=True, text=True, timeout=10).stdout.strip()
+        describe = subprocess.run(
+            ["git", "describe", "--always", "--dirty", "--tags"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         describe = ""
-    return {"git_describe": describe or "unknown", "dirty": describe.endswith("-dirty"),
-            "python": sys.version.split()[0],
-            "packages": {p: _version(p) for p in PACKAGES}}
+    return {
+        "git_describe": describe or "unknown",
+        "dirty": describe.endswith("-dirty"),
+        "python": sys.version.split()[0],
+        "packages": {p: _version(p) for p in PACKAGES},
+    }
 
 
 def _version(package: str) -> str:
@@ -109,13 +131,19 @@ def _version(package: str) -> str:
         return "not installed"
 
 
-def provenance(inputs: Iterable[str | os.PathLike], config: Mapping[str, Any] | None = None,
-               seed: int | None = None, **extra: Any) -> dict[str, Any]:
+def provenance(
+    inputs: Iterable[str | os.PathLike],
+    config: Mapping[str, Any] | None = None,
+    seed: int | None = None,
+    **extra: Any,
+) -> dict[str, Any]:
     config = dict(config or {})
     return {
         "inputs": {str(p): sha256(p) for p in inputs},
         "config": config,
-        "config_sha256": hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest(),
+        "config_sha256": hashlib.sha256(
+            json.dumps(config, sort_keys=True, default=str).encode()
+        ).hexdigest(),
         "code": code_version(),
         "seed": seed,
         **extra,
@@ -129,7 +157,10 @@ def write_json(obj: Any, path: str | os.PathLike) -> None:
 
 def read_records(paths: Iterable[str | os.PathLike]) -> list[dict[str, Any]]:
     """JSON reports written with :func:`write_json`, without their provenance (a summary table's rows)."""
-    return [{k: v for k, v in json.loads(Path(p).read_text()).items() if k != "provenance"} for p in paths]
+    return [
+        {k: v for k, v in json.loads(Path(p).read_text()).items() if k != "provenance"}
+        for p in paths
+    ]
 
 
 def _jsonable(value: Any) -> Any:
@@ -138,22 +169,38 @@ def _jsonable(value: Any) -> Any:
     return str(value)
 
 
-def write_table(table: pd.DataFrame, path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (),
-                config: Mapping[str, Any] | None = None, seed: int | None = None, **extra: Any) -> None:
+def write_table(
+    table: pd.DataFrame,
+    path: str | os.PathLike,
+    inputs: Iterable[str | os.PathLike] = (),
+    config: Mapping[str, Any] | None = None,
+    seed: int | None = None,
+    **extra: Any,
+) -> None:
     """CSV (tidy, units in headers, fixed float format) plus its JSON provenance sidecar."""
     with atomic_path(path) as tmp:
         table.to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
     write_json(provenance(inputs, config, seed, **extra), f"{path}.json")
 
 
-def save_figure(fig, path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (),
-                config: Mapping[str, Any] | None = None, **extra: Any) -> None:
+def save_figure(
+    fig,
+    path: str | os.PathLike,
+    inputs: Iterable[str | os.PathLike] = (),
+    config: Mapping[str, Any] | None = None,
+    **extra: Any,
+) -> None:
     """PNG at ``path`` and a PDF beside it, each atomically, plus the provenance sidecar."""
     path = Path(path)
     for target in (path, path.with_suffix(".pdf")):
         with atomic_path(target) as tmp:
-            fig.savefig(tmp, format=target.suffix[1:], dpi=150, bbox_inches="tight",
-                        metadata={"CreationDate": None} if target.suffix == ".pdf" else {"Software": None})
+            fig.savefig(
+                tmp,
+                format=target.suffix[1:],
+                dpi=150,
+                bbox_inches="tight",
+                metadata={"CreationDate": None} if target.suffix == ".pdf" else {"Software": None},
+            )
     write_json(provenance(inputs, config, **extra), f"{path}.json")
 
 
@@ -165,16 +212,20 @@ def script_logging(log_path: str | os.PathLike | None) -> logging.Logger:
     handler.setFormatter(logging.Formatter("%(levelname)s %(message)s"))
     logger.handlers[:] = [handler]
     if log_path:
-        sys.excepthook = _log_then_raise(logger, sys.__excepthook__)  # once, however often this runs
+        sys.excepthook = _log_then_raise(
+            logger, sys.__excepthook__
+        )  # once, however often this runs
     return logger
 
 
 def _log_then_raise(logger: logging.Logger, hook):
     """An excepthook that first writes the failure's one-line reason to the rule's log:
     Snakemake points the user at that file, and the traceback goes only to the terminal."""
+
     def excepthook(kind, error, tb):
         logger.error("%s", one_line_reason(error))
         hook(kind, error, tb)
+
     return excepthook
 
 

@@ -13,14 +13,19 @@ loses 1.3 % of its stroke to the averaging (the table states the rate each captu
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
 from selfsense.io.capture import DISPLACEMENT, open_capture
-from selfsense.io.figures import UF, UM, loop_grid, placeholder  # plt: after figures has chosen the Agg backend
+from selfsense.io.figures import (  # plt: after figures has chosen the Agg backend
+    UF,
+    UM,
+    loop_grid,
+    placeholder,
+)
 from selfsense.methods.metrics import branch_gap, branch_means, direction
 
 #: a capture is reduced to at most this many block means
@@ -48,7 +53,9 @@ class Reduced:
     data: dict[str, np.ndarray]
 
 
-def block_means(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], fs: float, factor: int) -> Reduced:
+def block_means(
+    chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], fs: float, factor: int
+) -> Reduced:
     """Block means of ``factor`` samples over chunks whose length is a multiple of ``factor``
     (the last one may be shorter: its tail block is the mean of what is left)."""
     parts: dict[str, list[np.ndarray]] = {}
@@ -88,7 +95,12 @@ def _ends(u: np.ndarray, y: np.ndarray) -> tuple[float, float, float, float]:
     """(u_low, y_low, u_high, y_high): the means near the voltage's two extremes."""
     lo, hi = np.nanmin(u), np.nanmax(u)
     near_lo, near_hi = u <= lo + END_FRACTION * (hi - lo), u >= hi - END_FRACTION * (hi - lo)
-    return float(u[near_lo].mean()), float(y[near_lo].mean()), float(u[near_hi].mean()), float(y[near_hi].mean())
+    return (
+        float(u[near_lo].mean()),
+        float(y[near_lo].mean()),
+        float(u[near_hi].mean()),
+        float(y[near_hi].mean()),
+    )
 
 
 def _has_loop(up: np.ndarray) -> bool:
@@ -100,8 +112,13 @@ def loop_measures(u: np.ndarray, x: np.ndarray, up: np.ndarray) -> dict[str, flo
     stroke = float(np.ptp(x))
     u_lo, x_lo, u_hi, x_hi = _ends(u, x)
     end_gain = (x_hi - x_lo) / (u_hi - u_lo)
-    out = {"stroke": stroke, "gain_ls": _slope(u, x), "gain_end": end_gain,
-           "loop_width": np.nan, "nonlinearity": np.nan}
+    out = {
+        "stroke": stroke,
+        "gain_ls": _slope(u, x),
+        "gain_end": end_gain,
+        "loop_width": np.nan,
+        "nonlinearity": np.nan,
+    }
     if _has_loop(up):
         # the chord is taken off sample by sample: a bin's samples do not sit at its centre
         _, rise, fall = branch_means(u, x - (x_lo + end_gain * (u - u_lo)), up)
@@ -110,8 +127,9 @@ def loop_measures(u: np.ndarray, x: np.ndarray, up: np.ndarray) -> dict[str, flo
     return out
 
 
-def creep_after_step(t: np.ndarray, u: np.ndarray, x: np.ndarray, settle_s: float,
-                     min_hold_s: float) -> dict[str, float]:
+def creep_after_step(
+    t: np.ndarray, u: np.ndarray, x: np.ndarray, settle_s: float, min_hold_s: float
+) -> dict[str, float]:
     """Creep of a held step (the thesis's Chapter 5 creep run): x at the end of the final hold
     minus x ``settle_s`` after the step, and as % of the step's displacement. NaN when the
     capture does not end in a hold of at least ``min_hold_s`` after a step of ≥ 20 % of its range."""
@@ -123,15 +141,19 @@ def creep_after_step(t: np.ndarray, u: np.ndarray, x: np.ndarray, settle_s: floa
     if span == 0 or moving.size == 0:
         return none
     start = moving[-1] + 1
-    before = float(u[max(0, start - tail):start].mean())
+    before = float(u[max(0, start - tail) : start].mean())
     hold_s = float(t[-1] - t[start]) if start < len(t) else 0.0
     if hold_s < max(min_hold_s, settle_s) or abs(final - before) < 0.2 * span:
         return none
     settled = int(np.searchsorted(t, t[start] + settle_s))
     x0 = float(x[settled])
-    step = x0 - float(x[max(0, start - tail):start].mean())
+    step = x0 - float(x[max(0, start - tail) : start].mean())
     creep = float(x[-tail:].mean()) - x0
-    return {"creep": creep, "creep_percent": 100 * creep / abs(step) if step else np.nan, "hold_s": hold_s}
+    return {
+        "creep": creep,
+        "creep_percent": 100 * creep / abs(step) if step else np.nan,
+        "hold_s": hold_s,
+    }
 
 
 def charge(current: np.ndarray, fs: float) -> np.ndarray:
@@ -140,10 +162,11 @@ def charge(current: np.ndarray, fs: float) -> np.ndarray:
     return np.cumsum(current - current.mean()) / fs
 
 
-def charge_measures(u: np.ndarray, x: np.ndarray, q: np.ndarray, up: np.ndarray) -> dict[str, float]:
+def charge_measures(
+    u: np.ndarray, x: np.ndarray, q: np.ndarray, up: np.ndarray
+) -> dict[str, float]:
     """dx/dq [m/C] and the q–U slope [F] by least squares, the q–U loop width [% of charge range]."""
-    out = {"dx_dq": _slope(q, x), "capacitance": _slope(u, q),
-           "q_loop_width": np.nan}
+    out = {"dx_dq": _slope(q, x), "capacitance": _slope(u, q), "q_loop_width": np.nan}
     if _has_loop(up):
         out["q_loop_width"] = 100 * branch_gap(u, q, up) / float(np.ptp(q))
     return out
@@ -151,16 +174,23 @@ def charge_measures(u: np.ndarray, x: np.ndarray, q: np.ndarray, up: np.ndarray)
 
 #: the table's columns: (heading, key of the measures, scale from SI)
 COLUMNS = (
-    ("stroke [µm]", "stroke", UM), ("gain (least squares) [µm/V]", "gain_ls", UM),
-    ("gain (end points) [µm/V]", "gain_end", UM), ("x–U loop width [% of stroke]", "loop_width", 1.0),
+    ("stroke [µm]", "stroke", UM),
+    ("gain (least squares) [µm/V]", "gain_ls", UM),
+    ("gain (end points) [µm/V]", "gain_end", UM),
+    ("x–U loop width [% of stroke]", "loop_width", 1.0),
     ("nonlinearity vs end-point chord [% of stroke]", "nonlinearity", 1.0),
-    ("creep after step [µm]", "creep", UM), ("creep [% of step]", "creep_percent", 1.0), ("hold [s]", "hold_s", 1.0),
-    ("dx/dq [µm/µC]", "dx_dq", 1.0), ("q–U slope [µF]", "capacitance", UF),
+    ("creep after step [µm]", "creep", UM),
+    ("creep [% of step]", "creep_percent", 1.0),
+    ("hold [s]", "hold_s", 1.0),
+    ("dx/dq [µm/µC]", "dx_dq", 1.0),
+    ("q–U slope [µF]", "capacitance", UF),
     ("q–U loop width [% of charge range]", "q_loop_width", 1.0),
 )
 
 
-def characterise(reduced: Reduced, x_channel: str, settle_s: float, min_hold_s: float) -> dict[str, float]:
+def characterise(
+    reduced: Reduced, x_channel: str, settle_s: float, min_hold_s: float
+) -> dict[str, float]:
     """Every measure of one reduced capture, in SI units (see :data:`COLUMNS`)."""
     d = reduced.data
     ok = np.isfinite(d["U"]) & np.isfinite(d[x_channel])
@@ -175,25 +205,51 @@ def characterise(reduced: Reduced, x_channel: str, settle_s: float, min_hold_s: 
 
 
 #: the dataset table's columns, in order
-TABLE_COLUMNS = ["experiment", "displacement channel", "rate used [Hz]", *(c[0] for c in COLUMNS), "note"]
+TABLE_COLUMNS = [
+    "experiment",
+    "displacement channel",
+    "rate used [Hz]",
+    *(c[0] for c in COLUMNS),
+    "note",
+]
 
 
-def row(experiment: str, measures: Mapping[str, float], x_channel: str | None, rate: float | None,
-        note: str = "") -> dict:
+def row(
+    experiment: str,
+    measures: Mapping[str, float],
+    x_channel: str | None,
+    rate: float | None,
+    note: str = "",
+) -> dict:
     """One row of the dataset's table (µm, µF; empty where the capture does not allow it)."""
-    values = {heading: measures[key] * scale if key in measures else np.nan for heading, key, scale in COLUMNS}
-    return ({"experiment": experiment, "displacement channel": x_channel or "", "rate used [Hz]": rate}
-            | values | {"note": note})
+    values = {
+        heading: measures[key] * scale if key in measures else np.nan
+        for heading, key, scale in COLUMNS
+    }
+    return (
+        {"experiment": experiment, "displacement channel": x_channel or "", "rate used [Hz]": rate}
+        | values
+        | {"note": note}
+    )
 
 
 def instruments(manifest: Mapping) -> list[dict]:
     """The manifest's description of the actuator and of each channel's sensor, one row per
     property, for the report (values as the manifest gives them, units in the key's name)."""
-    rows = [{"item": "actuator", "property": k, "value": str(v)} for k, v in manifest.get("actuator", {}).items()]
+    rows = [
+        {"item": "actuator", "property": k, "value": str(v)}
+        for k, v in manifest.get("actuator", {}).items()
+    ]
     for channel in manifest["daq"]["channels"]:
         sensor = manifest.get("sensors", {}).get(channel, {})
         item = f"channel {channel}"
-        rows += [{"item": item, "property": "ADC range", "value": str(manifest["daq"]["ranges"][channel])}]
+        rows += [
+            {
+                "item": item,
+                "property": "ADC range",
+                "value": str(manifest["daq"]["ranges"][channel]),
+            }
+        ]
         rows += [{"item": item, "property": k, "value": str(v)} for k, v in sensor.items()]
     return rows
 
@@ -214,21 +270,29 @@ def loop_panels(reduced: Reduced, x_channel: str, name: str, max_points: int = 2
     u = d["U"][::step]
     panels = [(u, d[x_channel][::step] * UM, "U [V]", f"{x_channel} [µm]")]
     if "I" in d:
-        panels.append((u, charge(np.nan_to_num(d["I"]), reduced.fs)[::step] * UF, "U [V]", "q = ∫I dt [µC]"))
+        panels.append(
+            (u, charge(np.nan_to_num(d["I"]), reduced.fs)[::step] * UF, "U [V]", "q = ∫I dt [µC]")
+        )
     return LoopPanels(name, tuple(panels))
 
 
-def characterise_capture(path, settle_s: float, min_hold_s: float) -> tuple[dict, LoopPanels | None]:
+def characterise_capture(
+    path, settle_s: float, min_hold_s: float
+) -> tuple[dict, LoopPanels | None]:
     """One capture streamed once: its table row, and its loops (None without U or a displacement)."""
     name = Path(path).stem
     with open_capture(path) as cap:
         x = displacement_channel(cap.channels)
         if "U" not in cap.channels or x is None:
-            return row(name, {}, x, None, "no drive voltage U and displacement in this capture"), None
+            return row(
+                name, {}, x, None, "no drive voltage U and displacement in this capture"
+            ), None
         names = ["U", x] + (["I"] if "I" in cap.channels else [])
         factor = reduction_factor(cap.n)
         reduced = block_means(cap.iter_chunks(names, factor * (1 << 14)), cap.fs, factor)
-    return row(name, characterise(reduced, x, settle_s, min_hold_s), x, reduced.fs), loop_panels(reduced, x, name)
+    return row(name, characterise(reduced, x, settle_s, min_hold_s), x, reduced.fs), loop_panels(
+        reduced, x, name
+    )
 
 
 def loop_page(captures: Sequence[LoopPanels], title: str):

@@ -12,7 +12,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:  # pandas and python-control where used: ≈ 0.7 s of a closed-loop simulation's start-up
+if (
+    TYPE_CHECKING
+):  # pandas and python-control where used: ≈ 0.7 s of a closed-loop simulation's start-up
     import control as ct
     import pandas as pd
 
@@ -42,7 +44,9 @@ class IntegralController:
         return ct.feedback(self.loop(), 1)
 
 
-def tracking_prediction(gains: IntegralController, frequencies_hz, amplitude: float) -> pd.DataFrame:
+def tracking_prediction(
+    gains: IntegralController, frequencies_hz, amplitude: float
+) -> pd.DataFrame:
     """Predicted tracking error amplitude |1 − T(jω)|·A and phase lag of T, per frequency.
 
     Explains why the loop tracks at 10 Hz and loses the 125 Hz profile: the Type-I loop's
@@ -54,6 +58,12 @@ def tracking_prediction(gains: IntegralController, frequencies_hz, amplitude: fl
     rows = []
     for f in frequencies_hz:
         h = complex(T(2j * np.pi * f))
-        rows.append({"frequency [Hz]": f, "|T|": abs(h), "phase lag [deg]": -np.degrees(np.angle(h)),
-                     "predicted error amplitude [µm]": abs(1 - h) * amplitude * 1e6})
+        rows.append(
+            {
+                "frequency [Hz]": f,
+                "|T|": abs(h),
+                "phase lag [deg]": -np.degrees(np.angle(h)),
+                "predicted error amplitude [µm]": abs(1 - h) * amplitude * 1e6,
+            }
+        )
     return pd.DataFrame(rows)

@@ -8,9 +8,10 @@ position segments give a reference x_R that open-loop runs turn into U = x_R·k/
 from __future__ import annotations
 
 import bisect
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +32,9 @@ class Segment:
 
     def value(self, tau: np.ndarray) -> np.ndarray:
         if self.frequency > 0:
-            out = self.lo + (self.hi - self.lo) * 0.5 * (1 - np.cos(2 * np.pi * self.frequency * tau))
+            out = self.lo + (self.hi - self.lo) * 0.5 * (
+                1 - np.cos(2 * np.pi * self.frequency * tau)
+            )
         else:
             out = np.full_like(tau, self.hi)
         for amplitude, freq in self.terms:
@@ -86,12 +89,13 @@ def drive_from_protocol(protocol: Mapping[str, Any], scale: float = 1.0) -> Driv
     warmup = float(protocol.get("warmup", 0.0)) * scale
     segments = [Segment(duration=warmup)] if warmup > 0 else []
     for seg in list(protocol["segments"]) * int(protocol.get("repeat", 1)):
-        segments.append(Segment(
-            duration=float(seg["duration"]) * scale,
-            frequency=float(seg.get("frequency", 0.0)),
-            lo=float(seg.get("lo", 0.0)) * unit,
-            hi=float(seg.get("hi", 0.0)) * unit,
-            terms=tuple((float(a) * unit, float(f)) for a, f in seg.get("terms", ())),
-        ))
+        segments.append(
+            Segment(
+                duration=float(seg["duration"]) * scale,
+                frequency=float(seg.get("frequency", 0.0)),
+                lo=float(seg.get("lo", 0.0)) * unit,
+                hi=float(seg.get("hi", 0.0)) * unit,
+                terms=tuple((float(a) * unit, float(f)) for a, f in seg.get("terms", ())),
+            )
+        )
     return Drive(quantity, tuple(segments))
-

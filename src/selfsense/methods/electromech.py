@@ -66,8 +66,12 @@ def kinematics(t: np.ndarray, x: np.ndarray, window_s: float = 2.5e-3) -> Kinema
 
     dt = float(np.median(np.diff(t)))
     n = max(5, int(round(window_s / dt)) | 1)
-    return Kinematics(t, np.asarray(x, dtype=float), savgol_filter(x, n, 3, deriv=1, delta=dt),
-                      savgol_filter(x, n, 3, deriv=2, delta=dt))
+    return Kinematics(
+        t,
+        np.asarray(x, dtype=float),
+        savgol_filter(x, n, 3, deriv=1, delta=dt),
+        savgol_filter(x, n, 3, deriv=2, delta=dt),
+    )
 
 
 @dataclass(frozen=True)
@@ -85,7 +89,9 @@ class ChargeFit:
         return self.a1 * x + self.a2 * x * x
 
 
-def fit_charge_position(t: np.ndarray, x: np.ndarray, q_measured: np.ndarray, quadratic: bool) -> ChargeFit:
+def fit_charge_position(
+    t: np.ndarray, x: np.ndarray, q_measured: np.ndarray, quadratic: bool
+) -> ChargeFit:
     """Least squares of the measured (integrated) charge on position, with offset drift terms."""
     columns = [np.ones_like(t), t, x] + ([x * x] if quadratic else [])
     design = np.column_stack(columns)
@@ -93,8 +99,13 @@ def fit_charge_position(t: np.ndarray, x: np.ndarray, q_measured: np.ndarray, qu
     coef, *_ = np.linalg.lstsq(design[ok], q_measured[ok], rcond=None)
     residual = q_measured[ok] - design[ok] @ coef
     q0, I0, a1 = coef[:3]
-    return ChargeFit(float(a1), float(coef[3]) if quadratic else 0.0, float(q0), float(I0),
-                     float(np.sqrt(np.mean(residual ** 2))))
+    return ChargeFit(
+        float(a1),
+        float(coef[3]) if quadratic else 0.0,
+        float(q0),
+        float(I0),
+        float(np.sqrt(np.mean(residual**2))),
+    )
 
 
 def capacitance_line(C_e: np.ndarray, x: np.ndarray) -> tuple[float, float]:
@@ -142,7 +153,9 @@ class ModelParameters:
     def charge(self, kin: Kinematics) -> np.ndarray:
         """Model charge from measured motion: Eq 4.17 (Case 1) or Eq 4.20 (Case 2)."""
         u_p = self.piezo_voltage(kin)
-        return self.C_P0 * u_p + 0.5 * self.dC_x * u_p * u_p / self.k_over_alpha + self.alpha * kin.x
+        return (
+            self.C_P0 * u_p + 0.5 * self.dC_x * u_p * u_p / self.k_over_alpha + self.alpha * kin.x
+        )
 
 
 def alpha_from_slope(slope: float, C_P: float, k: float) -> float:
@@ -172,7 +185,9 @@ def fit_damping(params: ModelParameters, kin: Kinematics, q: np.ndarray, b0: flo
         model = replace(params, b=abs(vec[0])).charge(kin)
         return float(np.mean((q[ok] - model[ok]) ** 2))
 
-    result = minimize(cost, [b0], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-30, "maxiter": 400})
+    result = minimize(
+        cost, [b0], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-30, "maxiter": 400}
+    )
     return float(abs(result.x[0]))
 
 
@@ -189,8 +204,16 @@ class SetIdentification:
     x_max: float
 
 
-def identify_set(t: np.ndarray, C_e: np.ndarray, x: np.ndarray, q_measured: np.ndarray, I: np.ndarray,
-                 k_static: float, m: float, b0: float = 100.0) -> SetIdentification:
+def identify_set(
+    t: np.ndarray,
+    C_e: np.ndarray,
+    x: np.ndarray,
+    q_measured: np.ndarray,
+    I: np.ndarray,
+    k_static: float,
+    m: float,
+    b0: float = 100.0,
+) -> SetIdentification:
     """Identify Case 1 and Case 2 from one set's series (4 kHz ripple-block rate, SI)."""
     kin = kinematics(t, x)
     C_P0, dC_x = capacitance_line(C_e, kin.x)
@@ -210,8 +233,9 @@ def identify_set(t: np.ndarray, C_e: np.ndarray, x: np.ndarray, q_measured: np.n
     return SetIdentification(case1, case2, lin, quad, a_i, k_i, float(np.ptp(kin.x)))
 
 
-def current_velocity_check(kin: Kinematics, current: np.ndarray, C_P0: float, dC_x: float,
-                           min_speed_fraction: float = 0.5) -> tuple[float, float]:
+def current_velocity_check(
+    kin: Kinematics, current: np.ndarray, C_P0: float, dC_x: float, min_speed_fraction: float = 0.5
+) -> tuple[float, float]:
     """α and k from I/ẋ = (C_P0 k/α + α) + ΔCx (k/α) x (Eq 4.19), where |ẋ| is large.
 
     Near the stroke's ends ẋ → 0 and the ratio is meaningless, so only samples faster than
@@ -235,15 +259,21 @@ class MaterialProperties:
 
 def material_properties(p: ModelParameters, geometry: Geometry, x_max: float) -> MaterialProperties:
     """C_T = C_P + α²/k, ε_T = C_T t_P/(ε0 A n_l), d33 = α t_P/(L_P k), k33² = 1 − C_P/C_T."""
-    C_T = p.C_P0 + p.alpha ** 2 / p.k
+    C_T = p.C_P0 + p.alpha**2 / p.k
     eps_T = C_T * geometry.layer_thickness / (EPS0 * geometry.area * geometry.layers)
     d33 = p.alpha * geometry.layer_thickness / (geometry.active_length * p.k)
     k33 = float(np.sqrt(1 - p.C_P0 / C_T))
     return MaterialProperties(C_T, eps_T, d33, k33, x_max * p.k_over_alpha)
 
 
-def sensitivity(fit: ChargeFit, C_P0: float, dC_x: float, geometry: Geometry, x_max: float,
-                changes: dict[str, tuple[float, float]]) -> dict[str, dict[str, float]]:
+def sensitivity(
+    fit: ChargeFit,
+    C_P0: float,
+    dC_x: float,
+    geometry: Geometry,
+    x_max: float,
+    changes: dict[str, tuple[float, float]],
+) -> dict[str, dict[str, float]]:
     """Table 4.3: Case 2 re-identified with C_P0 and ΔCx scaled, the charge fit unchanged.
 
     ``changes`` maps a column label to (factor on C_P0, factor on ΔCx).
@@ -255,7 +285,13 @@ def sensitivity(fit: ChargeFit, C_P0: float, dC_x: float, geometry: Geometry, x_
         alpha = fit.a1 - c0 * k_over_alpha
         p = ModelParameters(2, c0, dc, alpha * k_over_alpha, alpha, 0.0, 0.0)
         mp = material_properties(p, geometry, x_max)
-        out[label] = {"k": p.k, "alpha": p.alpha, "d33": mp.d33, "k33": mp.k33, "U_P_max": mp.U_P_max}
+        out[label] = {
+            "k": p.k,
+            "alpha": p.alpha,
+            "d33": mp.d33,
+            "k33": mp.k33,
+            "U_P_max": mp.U_P_max,
+        }
     return out
 
 
@@ -268,16 +304,20 @@ def geometry_from_actuator(actuator: dict, where: str = "actuator") -> Geometry:
     try:
         w, d, _ = actuator["dimensions_mm"]
         area = w * d * 1e-6
-        return Geometry(area, actuator["layer_thickness_um"] * 1e-6, actuator["active_volume_mm3"] * 1e-9 / area)
+        return Geometry(
+            area, actuator["layer_thickness_um"] * 1e-6, actuator["active_volume_mm3"] * 1e-9 / area
+        )
     except KeyError as err:
-        raise ValueError(f"{where}: missing key {err.args[0]} needed for the material properties") from None
+        raise ValueError(
+            f"{where}: missing key {err.args[0]} needed for the material properties"
+        ) from None
 
 
 #: the model parameters later stages read from the identification's model record
 MODEL_KEYS = ("C_P0", "dC_x", "k", "alpha", "b", "m")
 
 
-def model_record(case2: "pd.DataFrame") -> dict[str, float]:
+def model_record(case2: pd.DataFrame) -> dict[str, float]:
     """The identified model for later stages: the mean of each parameter over the Case 2 sets,
     and k/α [V/m], which splits the hysteresis voltage off the drive for the loss power (Eq 7.7–7.11).
 

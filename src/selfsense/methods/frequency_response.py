@@ -28,15 +28,14 @@ Choices, with the reasons:
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Mapping, Sequence
 
 import control
 import numpy as np
 import pandas as pd
 import scipy.optimize
 import scipy.signal
-
 
 #: Fig 5.3 / Chapter 5 text: "the electromechanical resonance frequency (700 Hz)"
 THESIS_RESONANCE_HZ = 700.0
@@ -72,7 +71,9 @@ def sweep_plan(segments: Sequence, fs: float, settle_s: float) -> SweepPlan:
     """
     first = segments[0] if segments else None
     if first is None or first.frequency > 0 or first.hi != 0:
-        raise ValueError("a sweep must start with a hold at 0 V: the laser's zero for C_P's operating point")
+        raise ValueError(
+            "a sweep must start with a hold at 0 V: the laser's zero for C_P's operating point"
+        )
     points, t = [], 0.0
     for seg in segments:
         f = seg.frequency
@@ -120,8 +121,9 @@ class Measured:
         return float(np.mean(self.position))
 
 
-def measure(rest_x: np.ndarray, points: Iterable[tuple[SweepPoint, Mapping[str, np.ndarray]]],
-            fs: float) -> Measured:
+def measure(
+    rest_x: np.ndarray, points: Iterable[tuple[SweepPoint, Mapping[str, np.ndarray]]], fs: float
+) -> Measured:
     """G(jω) = X/Q per point (Eq 5.2) from ``x_laser`` [m] and ``I`` [A] over each point's window.
 
     ``points`` yields (point, {"x_laser": …, "I": …}) — one window at a time, so a caller can
@@ -132,12 +134,22 @@ def measure(rest_x: np.ndarray, points: Iterable[tuple[SweepPoint, Mapping[str, 
     for point, data in points:
         f = point.frequency
         X, I = phasor(data["x_laser"], f, fs), phasor(data["I"], f, fs)
-        rows.append((f, X / charge_phasor(I, f, fs), abs(X), abs(I), float(np.mean(data["x_laser"])) - x_rest))
+        rows.append(
+            (
+                f,
+                X / charge_phasor(I, f, fs),
+                abs(X),
+                abs(I),
+                float(np.mean(data["x_laser"])) - x_rest,
+            )
+        )
     f, G, xa, ia, pos = (np.array(c) for c in zip(*rows))
     return Measured(f.astype(float), G.astype(complex), xa, ia, pos)
 
 
-def transfer_function(model: Mapping[str, float], position: float = 0.0) -> control.TransferFunction:
+def transfer_function(
+    model: Mapping[str, float], position: float = 0.0
+) -> control.TransferFunction:
     """Eq 5.2, G(s) = 1/((C_P/α)(m s² + b s + k) + α), with C_P = C_P0 + ΔCx·position (Eq 4.4).
 
     ``model`` holds C_P0 [F], dC_x [F/m], alpha [N/V], k [N/m], m [kg], b [N s/m] (as
@@ -158,8 +170,12 @@ def model_peak(G: control.TransferFunction, f_lo: float, f_hi: float) -> tuple[f
     grid = np.geomspace(f_lo, f_hi, 2000)
     i = int(np.argmax(np.abs(evaluate(G, grid))))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-    best = scipy.optimize.minimize_scalar(lambda f: -abs(evaluate(G, np.array([f]))[0]), bounds=(lo, hi),
-                                          method="bounded", options={"xatol": 1e-6 * grid[i]})
+    best = scipy.optimize.minimize_scalar(
+        lambda f: -abs(evaluate(G, np.array([f]))[0]),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-6 * grid[i]},
+    )
     return float(best.x), float(-best.fun)
 
 
@@ -172,9 +188,9 @@ def measured_peak(frequency: np.ndarray, magnitude: np.ndarray) -> tuple[float, 
     i = int(np.argmax(mag))
     if i == 0 or i == len(f) - 1:
         return math.nan, math.nan
-    c2, c1, c0 = np.polyfit(f[i - 1:i + 2], np.log(mag[i - 1:i + 2]), 2)
+    c2, c1, c0 = np.polyfit(f[i - 1 : i + 2], np.log(mag[i - 1 : i + 2]), 2)
     f_peak = -c1 / (2 * c2)
-    return float(f_peak), float(np.exp(c0 + c1 * f_peak + c2 * f_peak ** 2))
+    return float(f_peak), float(np.exp(c0 + c1 * f_peak + c2 * f_peak**2))
 
 
 def response_table(measured: Measured, G: control.TransferFunction) -> pd.DataFrame:
@@ -184,18 +200,20 @@ def response_table(measured: Measured, G: control.TransferFunction) -> pd.DataFr
     """
     model = evaluate(G, measured.frequency)
     ratio = measured.G / model
-    return pd.DataFrame({
-        "frequency [Hz]": measured.frequency,
-        "measured |G| [µm/µC]": np.abs(measured.G),
-        "measured phase [deg]": np.degrees(np.angle(measured.G)),
-        "model |G| [µm/µC]": np.abs(model),
-        "model phase [deg]": np.degrees(np.angle(model)),
-        "magnitude error [%]": 100 * (np.abs(ratio) - 1),
-        "phase error [deg]": np.degrees(np.angle(ratio)),
-        "x amplitude [µm]": measured.x_amplitude * 1e6,
-        "I amplitude [mA]": measured.I_amplitude * 1e3,
-        "mean position [µm]": measured.position * 1e6,
-    })
+    return pd.DataFrame(
+        {
+            "frequency [Hz]": measured.frequency,
+            "measured |G| [µm/µC]": np.abs(measured.G),
+            "measured phase [deg]": np.degrees(np.angle(measured.G)),
+            "model |G| [µm/µC]": np.abs(model),
+            "model phase [deg]": np.degrees(np.angle(model)),
+            "magnitude error [%]": 100 * (np.abs(ratio) - 1),
+            "phase error [deg]": np.degrees(np.angle(ratio)),
+            "x amplitude [µm]": measured.x_amplitude * 1e6,
+            "I amplitude [mA]": measured.I_amplitude * 1e3,
+            "mean position [µm]": measured.position * 1e6,
+        }
+    )
 
 
 def resonance_table(measured: Measured, G: control.TransferFunction, m: float) -> pd.DataFrame:
@@ -203,18 +221,24 @@ def resonance_table(measured: Measured, G: control.TransferFunction, m: float) -
     mass ``m`` [kg], an input), beside the thesis's ≈ 700 Hz; and the mass that would put the
     model's peak on the measured one, m·(f_model/f_measured)² (Eq 5.2's poles go as 1/√m)."""
     f_meas, g_meas = measured_peak(measured.frequency, np.abs(measured.G))
-    f_model, g_model = model_peak(G, float(measured.frequency.min()), float(measured.frequency.max()))
-    return pd.DataFrame({
-        "response": ["measured", "model"],
-        "peak frequency [Hz]": [f_meas, f_model],
-        "peak |G| [µm/µC]": [g_meas, g_model],
-        "moving mass [kg]": [m * (f_model / f_meas) ** 2, m],
-        "thesis Fig 5.3 [Hz]": [THESIS_RESONANCE_HZ, THESIS_RESONANCE_HZ],
-    })
+    f_model, g_model = model_peak(
+        G, float(measured.frequency.min()), float(measured.frequency.max())
+    )
+    return pd.DataFrame(
+        {
+            "response": ["measured", "model"],
+            "peak frequency [Hz]": [f_meas, f_model],
+            "peak |G| [µm/µC]": [g_meas, g_model],
+            "moving mass [kg]": [m * (f_model / f_meas) ** 2, m],
+            "thesis Fig 5.3 [Hz]": [THESIS_RESONANCE_HZ, THESIS_RESONANCE_HZ],
+        }
+    )
 
 
 def measure_sweep(capture, segments: Sequence, settle_s: float) -> Measured:
     """:func:`measure` over an open stepped-sine capture whose drive has ``segments``, one window at a time."""
     plan = sweep_plan(segments, capture.fs, settle_s)
     rest = capture.read(["x_laser"], *plan.rest)["x_laser"]
-    return measure(rest, ((p, capture.read(CHANNELS, p.start, p.stop)) for p in plan.points), capture.fs)
+    return measure(
+        rest, ((p, capture.read(CHANNELS, p.start, p.stop)) for p in plan.points), capture.fs
+    )

@@ -36,10 +36,10 @@ sequential per-term ANOVA such as ``statsmodels.stats.anova_lm`` produces.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, Sequence
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.polynomial import Legendre, Polynomial
@@ -216,7 +216,11 @@ class GammaFit:
         if self.has_temperature != (temperature is not None):
             need = "requires a" if self.has_temperature else "takes no"
             raise ValueError(f"this Γ fit {need} temperature argument")
-        t = None if temperature is None else np.broadcast_to(np.asarray(temperature, float), c.shape)
+        t = (
+            None
+            if temperature is None
+            else np.broadcast_to(np.asarray(temperature, float), c.shape)
+        )
         c_flat, t_flat = _check_inputs(C=c.ravel(), temperature=None if t is None else t.ravel())
         x_um = self.design.matrix(c_flat * _UF_PER_F, t_flat) @ np.asarray(self.results.params)
         return (x_um / _UM_PER_M).reshape(c.shape)
@@ -241,7 +245,9 @@ def fit_gamma(
         raise ValueError(f"order must be an integer >= 1, got {order!r}")
     if interaction and temperature is None:
         raise ValueError("interaction=True needs a temperature")
-    return _fit(C, x, temperature, order=int(order), log=False, interaction=interaction, basis=basis)
+    return _fit(
+        C, x, temperature, order=int(order), log=False, interaction=interaction, basis=basis
+    )
 
 
 def fit_log_gamma(C: ArrayLike, x: ArrayLike, basis: Basis = "scaled") -> GammaFit:
@@ -373,7 +379,10 @@ def _stats_table(
     import pandas as pd
 
     return pd.DataFrame(
-        [{"model": label} | {col: get(fit) for col, get in columns.items()} for label, fit in fits.items()]
+        [
+            {"model": label} | {col: get(fit) for col, get in columns.items()}
+            for label, fit in fits.items()
+        ]
     )
 
 
@@ -438,13 +447,15 @@ class GammaPolynomial:
     g: float = 0.0  # µm/°C (Γ_T, Eq 7.13)
 
     @classmethod
-    def from_fit(cls, fit: GammaFit) -> "GammaPolynomial":
+    def from_fit(cls, fit: GammaFit) -> GammaPolynomial:
         coefs = fit.coefficients
-        powers = tuple(float(coefs[f"b{i}"]) for i in range(sum(1 for n in coefs.index if n.startswith("b"))))
+        powers = tuple(
+            float(coefs[f"b{i}"]) for i in range(sum(1 for n in coefs.index if n.startswith("b")))
+        )
         return cls(powers, float(coefs.get("g", 0.0)))
 
     @classmethod
-    def from_record(cls, record: Mapping) -> "GammaPolynomial":
+    def from_record(cls, record: Mapping) -> GammaPolynomial:
         """The Γ a :meth:`record` holds (e.g. read back from ``gamma.json``)."""
         return cls(tuple(record["coefficients"]), record["g"])
 
@@ -470,24 +481,37 @@ def load_gamma(path: str | Path) -> GammaPolynomial:
     return GammaPolynomial.from_record(json.loads(Path(path).read_text()))
 
 
-def printed_range(printed: GammaPolynomial, x_max_um: float, temperature: float = 0.0) -> tuple[float, float]:
+def printed_range(
+    printed: GammaPolynomial, x_max_um: float, temperature: float = 0.0
+) -> tuple[float, float]:
     """The C interval [µF] on which a printed Γ (or Γ_T at ``temperature`` [°C]) runs
     monotonically from x = 0 to ``x_max_um``: the range of C its fit covered. A polynomial of
     order 5 has several such stretches; the widest is the physical one (C falls by ≈ 1 µF over
     the stroke, Table 4.2), the others are wiggles outside the data."""
     p = Polynomial(printed.coefficients) + printed.g * temperature
-    crossings = {level: sorted(r.real for r in (p - level).roots() if abs(r.imag) < 1e-9 and r.real > 0)
-                 for level in (0.0, x_max_um)}
+    crossings = {
+        level: sorted(r.real for r in (p - level).roots() if abs(r.imag) < 1e-9 and r.real > 0)
+        for level in (0.0, x_max_um)
+    }
     turns = [r.real for r in p.deriv().roots() if abs(r.imag) < 1e-9]
-    spans = [(min(a, b), max(a, b)) for a in crossings[0.0] for b in crossings[x_max_um]
-             if not any(min(a, b) < t < max(a, b) for t in turns)]
+    spans = [
+        (min(a, b), max(a, b))
+        for a in crossings[0.0]
+        for b in crossings[x_max_um]
+        if not any(min(a, b) < t < max(a, b) for t in turns)
+    ]
     if not spans:
         raise ValueError(f"the printed Γ does not run monotonically from 0 to {x_max_um:g} µm")
     return max(spans, key=lambda s: s[1] - s[0])
 
 
-def curve_difference(ours: GammaPolynomial, printed: GammaPolynomial, x_max_um: float,
-                     temperatures: Sequence[float] = (0.0,), points: int = 2001) -> dict[str, float]:
+def curve_difference(
+    ours: GammaPolynomial,
+    printed: GammaPolynomial,
+    x_max_um: float,
+    temperatures: Sequence[float] = (0.0,),
+    points: int = 2001,
+) -> dict[str, float]:
     """max |Γ_ours(C) − Γ_printed(C)| [µm] over the printed curve's C range (per temperature for
     Γ_T): how the fitted curves compare, which the ill-conditioned coefficients cannot say."""
     worst, lows, highs = 0.0, [], []
@@ -495,17 +519,32 @@ def curve_difference(ours: GammaPolynomial, printed: GammaPolynomial, x_max_um: 
         lo, hi = printed_range(printed, x_max_um, T)
         C = np.linspace(lo, hi, points)
         T_arr = np.full_like(C, T)
-        diff = ours.predict(C / _UF_PER_F, T_arr) * _UM_PER_M - printed.predict(C / _UF_PER_F, T_arr) * _UM_PER_M
+        diff = (
+            ours.predict(C / _UF_PER_F, T_arr) * _UM_PER_M
+            - printed.predict(C / _UF_PER_F, T_arr) * _UM_PER_M
+        )
         worst = max(worst, float(np.max(np.abs(diff))))
         lows.append(lo)
         highs.append(hi)
     return {"C low [µF]": min(lows), "C high [µF]": max(highs), "max |Γ − Γ_thesis| [µm]": worst}
 
 
-def curve_table(fits: Mapping[str, GammaPolynomial], printed: GammaPolynomial, x_max_um: float,
-                temperatures: Sequence[float] = (0.0,)) -> pd.DataFrame:
+def curve_table(
+    fits: Mapping[str, GammaPolynomial],
+    printed: GammaPolynomial,
+    x_max_um: float,
+    temperatures: Sequence[float] = (0.0,),
+) -> pd.DataFrame:
     """One row per fit (e.g. "thesis order", "our order"): its order and :func:`curve_difference`."""
     import pandas as pd
 
-    return pd.DataFrame([{"fit": name, "order": fit.order, **curve_difference(fit, printed, x_max_um, temperatures)}
-                         for name, fit in fits.items()])
+    return pd.DataFrame(
+        [
+            {
+                "fit": name,
+                "order": fit.order,
+                **curve_difference(fit, printed, x_max_um, temperatures),
+            }
+            for name, fit in fits.items()
+        ]
+    )

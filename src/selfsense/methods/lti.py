@@ -17,8 +17,9 @@ import numba
 import numpy as np
 
 
-def tustin(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray,
-           dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def tustin(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(Ad, Bd, Cd, Dd) of x' = Ax + Bu, y = Cx + Du sampled at dt by the bilinear transform
     (s = 2/dt·(z − 1)/(z + 1)), as ``scipy.signal.cont2discrete(..., method="bilinear")``."""
     eye = np.eye(A.shape[0])
@@ -43,8 +44,8 @@ def bilinear(b: np.ndarray, a: np.ndarray, fs: float) -> tuple[np.ndarray, np.nd
     zp1 = np.polynomial.Polynomial((+1, 1)) / fac
     zm1 = np.polynomial.Polynomial((-1, 1)) * fac
     N = max(len(a), len(b)) - 1
-    numerator = sum(b_ * zp1 ** (N - q) * zm1 ** q for q, b_ in enumerate(b[::-1]))
-    denominator = sum(a_ * zp1 ** (N - p) * zm1 ** p for p, a_ in enumerate(a[::-1]))
+    numerator = sum(b_ * zp1 ** (N - q) * zm1**q for q, b_ in enumerate(b[::-1]))
+    denominator = sum(a_ * zp1 ** (N - p) * zm1**p for p, a_ in enumerate(a[::-1]))
     num, den = numerator.coef[::-1], np.trim_zeros(denominator.coef[::-1], "f")
     return num / den[0], den / den[0]
 

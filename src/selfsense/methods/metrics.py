@@ -11,8 +11,13 @@ def direction(drive: np.ndarray) -> np.ndarray:
     return np.where(d >= 0, 1, -1)
 
 
-def branch_means(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray, bins: int = 40,
-                 min_count: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def branch_means(
+    horizontal: np.ndarray,
+    vertical: np.ndarray,
+    rising: np.ndarray,
+    bins: int = 40,
+    min_count: int = 1,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A loop as two curves: the vertical quantity averaged per bin of the horizontal one, per branch.
 
     The horizontal axis is binned over the range both branches cover; each branch is averaged
@@ -36,17 +41,25 @@ def branch_means(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarra
     return 0.5 * (edges[:-1] + edges[1:]), means(inside & (up > 0)), means(inside & (up < 0))
 
 
-def branch_gap(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray, bins: int = 40) -> float:
+def branch_gap(
+    horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray, bins: int = 40
+) -> float:
     """Largest vertical distance between the rising and falling branches of a loop
     (of their bin means, :func:`branch_means`), in the vertical quantity's units."""
     _, rise, fall = branch_means(horizontal, vertical, rising, bins)
     return float(np.nanmax(np.abs(rise - fall)))
 
 
-def hysteresis_percent(horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray) -> tuple[float, float]:
+def hysteresis_percent(
+    horizontal: np.ndarray, vertical: np.ndarray, rising: np.ndarray
+) -> tuple[float, float]:
     """Loop width in % of range: (along the vertical axis, along the horizontal axis)."""
-    vertical_width = branch_gap(horizontal, vertical, rising) / np.ptp(vertical[np.isfinite(vertical)])
-    horizontal_width = branch_gap(vertical, horizontal, rising) / np.ptp(horizontal[np.isfinite(horizontal)])
+    vertical_width = branch_gap(horizontal, vertical, rising) / np.ptp(
+        vertical[np.isfinite(vertical)]
+    )
+    horizontal_width = branch_gap(vertical, horizontal, rising) / np.ptp(
+        horizontal[np.isfinite(horizontal)]
+    )
     return 100 * vertical_width, 100 * horizontal_width
 
 
@@ -55,5 +68,9 @@ def error_stats(estimate: np.ndarray, truth: np.ndarray) -> dict[str, float]:
     err = np.asarray(estimate) - np.asarray(truth)
     stroke = float(np.ptp(truth))
     max_err = float(np.nanmax(np.abs(err)))
-    return {"max_error": max_err, "rms_error": float(np.sqrt(np.nanmean(err ** 2))),
-            "stroke": stroke, "max_error_percent": 100 * max_err / stroke}
+    return {
+        "max_error": max_err,
+        "rms_error": float(np.sqrt(np.nanmean(err**2))),
+        "stroke": stroke,
+        "max_error_percent": 100 * max_err / stroke,
+    }

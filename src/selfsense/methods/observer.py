@@ -123,12 +123,12 @@ class HPOGains:
         a0: float = THESIS_A0,
         omega_s: float = THESIS_OMEGA_S,
         zeta_s: float = THESIS_ZETA_S,
-    ) -> "HPOGains":
+    ) -> HPOGains:
         """Gains for a given charge–position gain ``a0`` [C/m] (e.g. one identified from data)."""
         return cls(a0=float(a0), omega_s=float(omega_s), zeta_s=float(zeta_s))
 
     @classmethod
-    def from_record(cls, record: Mapping) -> "HPOGains":
+    def from_record(cls, record: Mapping) -> HPOGains:
         """The gains a :meth:`record` holds (e.g. read back from ``observer.json``)."""
         return cls(record["a0"], record["omega_s"], record["zeta_s"])
 
@@ -471,4 +471,3 @@ class HybridPositionObserver:
         xhat, i0hat = hpo_update(*self.matrices, self.state, float(current), float(xcp))
         self.last_offset = i0hat
         return xhat
-

@@ -163,9 +163,13 @@ def hold_from_record(
     v, i, x = (np.asarray(y, float) for y in (voltage, current, displacement))
     velocity = float(np.polyfit(t, x, 1)[0])
     v_mean, i_mean = float(np.mean(v)), float(np.mean(i))
-    return HoldEstimate(R=float(hold_resistance(v_mean, i_mean - velocity / a)),
-                        R_ohm=float(hold_resistance(v_mean, i_mean)),
-                        voltage=v_mean, current=i_mean, velocity=velocity)
+    return HoldEstimate(
+        R=float(hold_resistance(v_mean, i_mean - velocity / a)),
+        R_ohm=float(hold_resistance(v_mean, i_mean)),
+        voltage=v_mean,
+        current=i_mean,
+        velocity=velocity,
+    )
 
 
 # ---------------------------------------------------------------------------
@@ -236,7 +240,13 @@ IMPEDANCE_MODELS: Mapping[str, ImpedanceModel] = MappingProxyType(
         ),
         "quadratic": ImpedanceModel(
             # Note c multiplies i**2 here, so its unit is 1/A^2 (~1e14 for nA-scale data).
-            "quadratic", 11, "X = R/(c*i**2 + 1)", _x_quadratic, ("c",), (1e14,), ("1/A^2",)
+            "quadratic",
+            11,
+            "X = R/(c*i**2 + 1)",
+            _x_quadratic,
+            ("c",),
+            (1e14,),
+            ("1/A^2",),
         ),
     }
 )
@@ -511,7 +521,9 @@ def impedance_from_ramp(
     )
 
 
-def charging_current(current: ArrayLike, voltage: ArrayLike, impedance: float) -> NDArray[np.float64]:
+def charging_current(
+    current: ArrayLike, voltage: ArrayLike, impedance: float
+) -> NDArray[np.float64]:
     """i_c = i_t - V/X (Eqs. 4, 13): the part of the measured current that reaches the capacitance."""
     return np.asarray(current, float) - np.asarray(voltage, float) / impedance
 
@@ -522,7 +534,9 @@ def constant_stretches(command: ArrayLike) -> NDArray[np.int64]:
     return np.concatenate([[0], np.cumsum(np.diff(c) != 0)])
 
 
-def velocity_spread(time: ArrayLike, displacement: ArrayLike, command: ArrayLike, window: float) -> float:
+def velocity_spread(
+    time: ArrayLike, displacement: ArrayLike, command: ArrayLike, window: float
+) -> float:
     """How far a ramp's speed is from constant (the paper's test of X, Figs. 3-5), in %.
 
     Standard deviation of |velocity| over its mean, on the samples at least one
@@ -531,7 +545,11 @@ def velocity_spread(time: ArrayLike, displacement: ArrayLike, command: ArrayLike
     t = np.asarray(time, float)
     speed = np.abs(ramp_velocity(t, displacement, window))
     changes = t[1:][np.diff(np.asarray(command, float)) != 0]
-    away = np.all(np.abs(t[:, None] - changes[None, :]) >= window, axis=1) if changes.size else np.ones(t.size, bool)
+    away = (
+        np.all(np.abs(t[:, None] - changes[None, :]) >= window, axis=1)
+        if changes.size
+        else np.ones(t.size, bool)
+    )
     return float(100.0 * np.std(speed[away]) / np.mean(speed[away]))
 
 
@@ -552,7 +570,9 @@ def ramp_velocity(time: ArrayLike, displacement: ArrayLike, window: float) -> ND
 # ---------------------------------------------------------------------------
 def displacement_from_current(time: ArrayLike, current: ArrayLike, a: float) -> NDArray[np.float64]:
     """Eq. (2): delta(t) = a * int_0^t i dt (loss-free charge-displacement law)."""
-    return a * cumulative_trapezoid(np.asarray(current, float), np.asarray(time, float), initial=0.0)
+    return a * cumulative_trapezoid(
+        np.asarray(current, float), np.asarray(time, float), initial=0.0
+    )
 
 
 def current_for_velocity(velocity: ArrayLike, a: float) -> NDArray[np.float64] | float:
@@ -721,7 +741,7 @@ def branch_hysteresis_percent(required: ArrayLike, measured: ArrayLike, min_swin
         start = first + (first > 0)
         up = 1 if req[turn] > req[first] else -1
         rising = np.where(np.arange(start, last + 1) <= turn, up, -up)
-        gaps.append(branch_gap(req[start:last + 1], meas[start:last + 1], rising))
+        gaps.append(branch_gap(req[start : last + 1], meas[start : last + 1], rising))
     if not gaps:
         raise ValueError("the record has no rising and falling branch to compare")
     return 100.0 * max(gaps) / float(np.ptp(meas))
@@ -732,8 +752,9 @@ def _mean_near(time: NDArray, values: NDArray, t0: float, half_width: float) -> 
     return float(np.mean(values[sel]))
 
 
-def drift_percent(time: ArrayLike, displacement: ArrayLike, t_hold: float, duration: float,
-                  average: float = 1.0) -> float:
+def drift_percent(
+    time: ArrayLike, displacement: ArrayLike, t_hold: float, duration: float, average: float = 1.0
+) -> float:
     """Drift of a held position in % of that position (Fig. 11).
 
     Position ``duration`` s after the hold starts against the position at its
@@ -747,8 +768,13 @@ def drift_percent(time: ArrayLike, displacement: ArrayLike, t_hold: float, durat
     return 100.0 * (end - start) / start
 
 
-def repeatability(time: ArrayLike, required: ArrayLike, measured: ArrayLike, min_swing: float,
-                  average: float = 1.0) -> pd.DataFrame:
+def repeatability(
+    time: ArrayLike,
+    required: ArrayLike,
+    measured: ArrayLike,
+    min_swing: float,
+    average: float = 1.0,
+) -> pd.DataFrame:
     """Peaks of every cycle of a repeated ramp (Fig. 10): one row per cycle.
 
     Columns: cycle, time [s] of its maximum, max and min of the measured
@@ -765,8 +791,16 @@ def repeatability(time: ArrayLike, required: ArrayLike, measured: ArrayLike, min
     for cycle, (hi, lo) in enumerate(zip(highs, lows)):
         top = _mean_near(t, meas, t[hi], average / 2)
         bottom = _mean_near(t, meas, t[lo], average / 2)
-        rows.append({"cycle": cycle + 1, "time [s]": float(t[hi]), "max [m]": top, "min [m]": bottom,
-                     "midpoint [m]": 0.5 * (top + bottom), "peak-to-peak [m]": top - bottom})
+        rows.append(
+            {
+                "cycle": cycle + 1,
+                "time [s]": float(t[hi]),
+                "max [m]": top,
+                "min [m]": bottom,
+                "midpoint [m]": 0.5 * (top + bottom),
+                "peak-to-peak [m]": top - bottom,
+            }
+        )
     if not rows:
         raise ValueError("the record has no complete cycle")
     return pd.DataFrame(rows)

@@ -170,8 +170,12 @@ def plan_from_fs(
 def plan_from_capture(capture, n_periods: int) -> SamplingPlan:
     """The plan an open :class:`~selfsense.io.capture.Capture` was sampled with, from its ``fs`` and its
     ``fr_nominal``/``ns`` attributes, checked as :func:`plan_from_fs` checks it (Eq 3.3-3.5)."""
-    return plan_from_fs(capture.fs, float(capture.attribute("fr_nominal")), int(capture.attribute("ns")),
-                        int(n_periods))
+    return plan_from_fs(
+        capture.fs,
+        float(capture.attribute("fr_nominal")),
+        int(capture.attribute("ns")),
+        int(n_periods),
+    )
 
 
 def table_3_1(fr: float = 100e3) -> pd.DataFrame:
@@ -291,7 +295,9 @@ class PeriodWindows:
         windows completed, sums ordered channel-major then weight."""
         x = np.asarray(chunks, dtype=np.float64)
         if x.ndim != 2 or x.shape[0] != self._tail.shape[0]:
-            raise ValueError(f"expected {self._tail.shape[0]} equally long 1-D chunks, got shape {x.shape}")
+            raise ValueError(
+                f"expected {self._tail.shape[0]} equally long 1-D chunks, got shape {x.shape}"
+            )
         ns = self.ns
         # Prepending the leftover keeps every folded period aligned to global
         # multiples of ns, which is what references the phase to sample 0.
@@ -303,11 +309,13 @@ class PeriodWindows:
         # einsum reduces each period row with the same fixed-length kernel,
         # so a period's sum does not depend on which chunk carried it.
         new_sums = np.stack([np.einsum("ij,j->i", ch, w) for ch in periods for w in self._weights])
-        sums = np.concatenate((self._period_sums, new_sums.reshape(len(self._period_sums), n_new)), axis=1)
+        sums = np.concatenate(
+            (self._period_sums, new_sums.reshape(len(self._period_sums), n_new)), axis=1
+        )
         first_period = self._periods_done - self._period_sums.shape[1]
         self._periods_done += n_new
         keep = min(sums.shape[1], self.n_periods - 1)
-        self._period_sums = sums[:, sums.shape[1] - keep:].copy()
+        self._period_sums = sums[:, sums.shape[1] - keep :].copy()
         window = _moving_sum(sums, self.n_periods)
         last_period = first_period + self.n_periods - 1 + np.arange(window.shape[1], dtype=np.int64)
         return (last_period + 1) * ns - 1, window
@@ -377,13 +385,30 @@ def impedance_series(chunks, plan: SamplingPlan, fs: float, companions=("U", "x_
             charge = float(q[-1]) if q.size else charge
             extra.append(q)
         _, avg = means.process(*(data[c] for c in companions), *extra)
-        out = {"time": (blocks.sample_index - (plan.block_len - 1) / 2) / fs,
-               "C_e": blocks.C_e, "R_e": blocks.R_e, "A_V": blocks.A_V, "B_V": blocks.B_V,
-               "A_I": blocks.A_I, "B_I": blocks.B_I}
+        out = {
+            "time": (blocks.sample_index - (plan.block_len - 1) / 2) / fs,
+            "C_e": blocks.C_e,
+            "R_e": blocks.R_e,
+            "A_V": blocks.A_V,
+            "B_V": blocks.B_V,
+            "A_I": blocks.A_I,
+            "B_I": blocks.B_I,
+        }
         out |= dict(zip(companions + derived, avg))
         yield out
 
 
 #: units of the series :func:`impedance_series` yields (for writing them)
-SERIES_UNITS = {"time": "s", "C_e": "F", "R_e": "ohm", "A_V": "V", "B_V": "V", "A_I": "A", "B_I": "A",
-                "U": "V", "x_laser": "m", "I": "A", "q": "C"}
+SERIES_UNITS = {
+    "time": "s",
+    "C_e": "F",
+    "R_e": "ohm",
+    "A_V": "V",
+    "B_V": "V",
+    "A_I": "A",
+    "B_I": "A",
+    "U": "V",
+    "x_laser": "m",
+    "I": "A",
+    "q": "C",
+}

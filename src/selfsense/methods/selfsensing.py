@@ -6,7 +6,8 @@ One object serves the offline analysis of captures and the real-time loop inside
 
 from __future__ import annotations
 
-from typing import Iterable, Mapping, NamedTuple
+from collections.abc import Iterable, Mapping
+from typing import NamedTuple
 
 import numpy as np
 
@@ -34,8 +35,14 @@ class SelfSensingChain:
     in the capture) keeps the previous x_CP, so one bad window cannot poison the observer.
     """
 
-    def __init__(self, plan: SamplingPlan, gamma: GammaPolynomial, gains: HPOGains, fs: float,
-                 method: str = "tustin"):
+    def __init__(
+        self,
+        plan: SamplingPlan,
+        gamma: GammaPolynomial,
+        gains: HPOGains,
+        fs: float,
+        method: str = "tustin",
+    ):
         self.extractor = RippleExtractor(plan)
         self.gamma = gamma
         self.observer = HybridPositionObserver(gains, fs, method)
@@ -64,7 +71,9 @@ class SelfSensingChain:
         self.n += len(ur)
         return {"x_hat": x_hat, "x_cp": held, "i0_hat": i0_hat, "current": current}
 
-    def against_laser(self, chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]]) -> Iterable[LaserChunk]:
+    def against_laser(
+        self, chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]]
+    ) -> Iterable[LaserChunk]:
         """Stream a capture's ``(start, channels)`` chunks (Ur, Ir, I, x_laser) through the chain.
 
         The laser is taken relative to its first sample, the zero the observer starts from: every
@@ -79,7 +88,9 @@ class SelfSensingChain:
             yield LaserChunk(start, (start + np.arange(len(x))) / self.observer.fs, x, out)
 
 
-def audit_realtime(capture, gamma: GammaPolynomial, gains: HPOGains, n_periods: int) -> dict[str, float]:
+def audit_realtime(
+    capture, gamma: GammaPolynomial, gains: HPOGains, n_periods: int
+) -> dict[str, float]:
     """The self-sensing chain recomputed offline from a closed-loop capture's raw channels against
     the real-time estimate x̂ its loop logged: max |offline − logged| and the log's resolution [m]."""
     worst = 0.0

@@ -598,8 +598,10 @@ def _profile_fit(y, basis, t_span, dt_min, tau_bounds, props, T_amb, T0, n_grid=
     h = 1e-6 * tau
     e_p, s_p = basis(tau + h)
     e_m, s_m = basis(tau - h)
-    d_tau = ((T_amb_hat * (1 - e_p) + T0_hat * e_p + gamma * s_p)
-             - (T_amb_hat * (1 - e_m) + T0_hat * e_m + gamma * s_m)) / (2 * h)
+    d_tau = (
+        (T_amb_hat * (1 - e_p) + T0_hat * e_p + gamma * s_p)
+        - (T_amb_hat * (1 - e_m) + T0_hat * e_m + gamma * s_m)
+    ) / (2 * h)
     J = np.column_stack([d_tau, X])
     dof = y.size - J.shape[1]
     tau_se = gamma_se = float("nan")
@@ -689,7 +691,9 @@ def identify_step(
         em1 = np.expm1(-tau_rel / tau)
         return 1.0 + em1, -P * em1
 
-    return _profile_fit(T, basis, float(tau_rel[-1]), dt_min, tau_bounds, props, T_amb, _check_T0(T0))
+    return _profile_fit(
+        T, basis, float(tau_rel[-1]), dt_min, tau_bounds, props, T_amb, _check_T0(T0)
+    )
 
 
 def identify_series(

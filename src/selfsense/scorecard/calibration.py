@@ -14,20 +14,32 @@ runs of a calibration search (scripts/calibrate_twin.py). Pure: documents and ta
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import pandas as pd
 
 from selfsense.io.manifest import ManifestError, load_yaml, validate_document
-from selfsense.scorecard.registry import WITHIN, Locator, NotComputed
-from selfsense.scorecard.registry import lookup
+from selfsense.scorecard.registry import WITHIN, Locator, NotComputed, lookup
 from selfsense.scorecard.scoring import judge
 
 #: the columns of results/<dataset>/twin/calibration.csv
-COLUMNS = ["signature", "thesis source", "thesis says", "thesis value", "twin value", "unit", "band low",
-           "band high", "within", "source table", "justification", "note"]
+COLUMNS = [
+    "signature",
+    "thesis source",
+    "thesis says",
+    "thesis value",
+    "twin value",
+    "unit",
+    "band low",
+    "band high",
+    "within",
+    "source table",
+    "justification",
+    "note",
+]
 
 
 @dataclass(frozen=True)
@@ -79,12 +91,25 @@ def parse_targets(doc: Any, source: str | Path = "workflow/twin_calibration.yaml
     for i, item in enumerate(doc["signatures"]):
         low, high = item["band"]
         if not low < high:
-            raise ManifestError(f"{source}: key signatures.{i}.band: [{low:g}, {high:g}] must be [low, high] "
-                                "with low < high")
+            raise ManifestError(
+                f"{source}: key signatures.{i}.band: [{low:g}, {high:g}] must be [low, high] "
+                "with low < high"
+            )
         where = item["locate"].get("where", {})
-        targets.append(Target(item["id"], item["signature"], item["source"], item["thesis_says"], float(item["thesis"]),
-                              item["unit"], float(low), float(high), item["justification"],
-                              Locator(item["locate"]["table"], item["locate"]["column"], tuple(where.items()))))
+        targets.append(
+            Target(
+                item["id"],
+                item["signature"],
+                item["source"],
+                item["thesis_says"],
+                float(item["thesis"]),
+                item["unit"],
+                float(low),
+                float(high),
+                item["justification"],
+                Locator(item["locate"]["table"], item["locate"]["column"], tuple(where.items())),
+            )
+        )
     ids = [t.id for t in targets]
     twice = sorted({i for i in ids if ids.count(i) > 1})
     if twice:
@@ -92,7 +117,9 @@ def parse_targets(doc: Any, source: str | Path = "workflow/twin_calibration.yaml
     free = {}
     for name, (low, high) in doc["free"].items():
         if not low < high:
-            raise ManifestError(f"{source}: key free.{name}: [{low:g}, {high:g}] must be [low, high] with low < high")
+            raise ManifestError(
+                f"{source}: key free.{name}: [{low:g}, {high:g}] must be [low, high] with low < high"
+            )
         free[name] = (float(low), float(high))
     return Calibration(tuple(targets), free)
 
@@ -101,7 +128,9 @@ def load_targets(path: str | Path) -> Calibration:
     return parse_targets(load_yaml(path), path)
 
 
-def calibration_table(targets: tuple[Target, ...] | list[Target], tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+def calibration_table(
+    targets: tuple[Target, ...] | list[Target], tables: Mapping[str, pd.DataFrame]
+) -> pd.DataFrame:
     """One row per target: the twin's value read from ``tables`` (relative path → table, the ones
     made for a dataset) and whether it lands in the band. A table not made for the dataset, or
     one whose stage left the number out (a campaign too short to identify τ), gives a row that
@@ -109,9 +138,20 @@ def calibration_table(targets: tuple[Target, ...] | list[Target], tables: Mappin
     (a target to fix, as in the scorecard)."""
     rows = []
     for t in targets:
-        row = {"signature": t.signature, "thesis source": t.source, "thesis says": t.thesis_says,
-               "thesis value": t.thesis, "twin value": None, "unit": t.unit, "band low": t.low, "band high": t.high,
-               "within": None, "source table": t.locate.describe(), "justification": t.justification, "note": ""}
+        row = {
+            "signature": t.signature,
+            "thesis source": t.source,
+            "thesis says": t.thesis_says,
+            "thesis value": t.thesis,
+            "twin value": None,
+            "unit": t.unit,
+            "band low": t.low,
+            "band high": t.high,
+            "within": None,
+            "source table": t.locate.describe(),
+            "justification": t.justification,
+            "note": "",
+        }
         if t.locate.table not in tables:
             row["note"] = f"not measured (no {t.locate.table})"
         else:

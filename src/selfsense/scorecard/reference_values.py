@@ -10,7 +10,8 @@ whoever wrote the reference down, before the result.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import pandas as pd
 
@@ -25,10 +26,25 @@ CHARACTERISE = "characterise/summary.csv"
 #: the capture the reference names, by default the one with the largest stroke
 QUANTITIES = {
     "stroke_um": ("stroke", "µm", CHARACTERISE, "stroke [µm]"),
-    "gain_um_per_V": ("gain x/U (least squares)", "µm/V", CHARACTERISE, "gain (least squares) [µm/V]"),
-    "loop_width_percent": ("x–U loop width", "% of stroke", CHARACTERISE, "x–U loop width [% of stroke]"),
+    "gain_um_per_V": (
+        "gain x/U (least squares)",
+        "µm/V",
+        CHARACTERISE,
+        "gain (least squares) [µm/V]",
+    ),
+    "loop_width_percent": (
+        "x–U loop width",
+        "% of stroke",
+        CHARACTERISE,
+        "x–U loop width [% of stroke]",
+    ),
     "capacitance_uF": ("capacitance (q–U slope)", "µF", CHARACTERISE, "q–U slope [µF]"),
-    "stiffness_N_per_um": ("stiffness (blocked force / free stroke)", "N/µm", "ch4/static_stiffness.csv", "k [N/µm]"),
+    "stiffness_N_per_um": (
+        "stiffness (blocked force / free stroke)",
+        "N/µm",
+        "ch4/static_stiffness.csv",
+        "k [N/µm]",
+    ),
 }
 
 
@@ -56,11 +72,25 @@ def entries(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> 
             capture = _capture(ref, tables)
             where = (("experiment", capture or ""),)
             quantity = f"{quantity} ({capture})" if capture else quantity
-        band = Band("the dataset's own band", f"the manifest's band for its reference value ({ref['source']})",
-                    Tolerance(rel=float(ref["tolerance_percent"])))
-        out.append(Entry(section=SECTION, kind=KIND, chapter="reference", source=ref["source"],
-                         model=manifest.get("model"), quantity=quantity, unit=unit, published=float(ref["value"]),
-                         band=band, locate=Locator(table, column, where)))
+        band = Band(
+            "the dataset's own band",
+            f"the manifest's band for its reference value ({ref['source']})",
+            Tolerance(rel=float(ref["tolerance_percent"])),
+        )
+        out.append(
+            Entry(
+                section=SECTION,
+                kind=KIND,
+                chapter="reference",
+                source=ref["source"],
+                model=manifest.get("model"),
+                quantity=quantity,
+                unit=unit,
+                published=float(ref["value"]),
+                band=band,
+                locate=Locator(table, column, where),
+            )
+        )
     return out
 
 

@@ -5,14 +5,15 @@ where its reproduction is read from (one cell of a results table), and its kind.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from selfsense.verify.error_budget import AT_MAX, AT_MAX_SPREAD
 from selfsense.io.manifest import ManifestError, validate_document
+from selfsense.verify.error_budget import AT_MAX, AT_MAX_SPREAD
 
 WITHIN = "within band"
 OUT = "out of band"
@@ -28,9 +29,26 @@ RECOVERY = "twin recovery"
 KINDS = ("emergent", "closed form", "recovery", "calibration")
 EMERGENT = "emergent"
 
-COLUMNS = ["section", "kind", "chapter", "source", "quantity", "unit", "published", "reproduced", "deviation",
-           "deviation [%]", "band low", "band high", "band", "tolerance", "justification", "verdict", "read from",
-           "note"]
+COLUMNS = [
+    "section",
+    "kind",
+    "chapter",
+    "source",
+    "quantity",
+    "unit",
+    "published",
+    "reproduced",
+    "deviation",
+    "deviation [%]",
+    "band low",
+    "band high",
+    "band",
+    "tolerance",
+    "justification",
+    "verdict",
+    "read from",
+    "note",
+]
 
 #: a value this close to a band edge (relative) counts as on it: CSV round trips are not exact
 EDGE_RTOL = 1e-9
@@ -43,8 +61,12 @@ BUDGET_TABLE = "twin/error_budget.csv"
 #: how a measured cause's part of a note starts (Cause.note), which the summary counts by
 CAUSE_MARK = "Measured"
 
-CAUSE_TABLES = {BUDGET_TABLE: "the observer error", "twin/tracking_budget.csv": "the tracking error",
-                "twin/charge_budget.csv": "the charge–position error", "twin/controller_budget.csv": "the controller error"}
+CAUSE_TABLES = {
+    BUDGET_TABLE: "the observer error",
+    "twin/tracking_budget.csv": "the tracking error",
+    "twin/charge_budget.csv": "the charge–position error",
+    "twin/controller_budget.csv": "the controller error",
+}
 
 
 class RegistryError(ManifestError):
@@ -62,6 +84,7 @@ class Tolerance:
     entry's unit, ``rel`` in percent of |published|, ``digit`` in units of the last printed digit)
     or a ``factor``, on a ``scale``: linear (p ± h), log ([p/f, p·f] with f = factor or 1 + h/p,
     for a positive quantity) or log1m (the same for 1 − value, for goodness of fit)."""
+
     abs: float | None = None
     rel: float | None = None
     digit: float | None = None
@@ -83,15 +106,24 @@ class Tolerance:
             half = self.half_width(published, printed)
             return published - half, published + half
         ref = published if self.scale == "log" else 1.0 - published
-        factor = self.factor if self.factor is not None else 1.0 + self.half_width(ref, printed) / ref
+        factor = (
+            self.factor if self.factor is not None else 1.0 + self.half_width(ref, printed) / ref
+        )
         if self.scale == "log":
             return ref / factor, ref * factor
         return 1.0 - ref * factor, 1.0 - ref / factor
 
     def describe(self, unit: str) -> str:
         unit = f" {unit}" if unit else ""
-        text = (f"±{self.abs:g}{unit}" if self.abs is not None else f"±{self.rel:g} %" if self.rel is not None
-                else f"±{self.digit:g} of the last printed digit" if self.digit is not None else f"×/÷ {self.factor:g}")
+        text = (
+            f"±{self.abs:g}{unit}"
+            if self.abs is not None
+            else f"±{self.rel:g} %"
+            if self.rel is not None
+            else f"±{self.digit:g} of the last printed digit"
+            if self.digit is not None
+            else f"×/÷ {self.factor:g}"
+        )
         if self.scale == "log" and self.factor is None:
             text = f"+{text.removeprefix('±')}, same factor below"
         return text + {"linear": "", "log": "", "log1m": " on 1 − value"}[self.scale]
@@ -108,6 +140,7 @@ def last_digit(printed: str) -> float:
 class Band:
     """The rule for one kind of quantity: its tolerance (None: information, no verdict), the side
     it bounds when the source states a bound, and the reason, written once in the registry."""
+
     name: str
     justification: str
     tolerance: Tolerance | None = None
@@ -144,12 +177,14 @@ class Cause:
     quote: tuple[str, ...] = ()
     located: tuple[str, ...] = ()
 
-    def at(self, row: pd.Series, name: str) -> "Cause":
+    def at(self, row: pd.Series, name: str) -> Cause:
         """The cause with its ``located`` columns selected at their values in ``row`` (of table ``name``)."""
         absent = [c for c in self.located if c not in row.index]
         if absent:
             raise LookupError(f"{name} has no column {absent[0]!r} to select the cause's row by")
-        return replace(self, where=self.where + tuple((c, row[c]) for c in self.located), located=())
+        return replace(
+            self, where=self.where + tuple((c, row[c]) for c in self.located), located=()
+        )
 
     def note(self, table: pd.DataFrame, largest: int = 3) -> str:
         """The scorecard's note from the table this cause names."""
@@ -159,20 +194,32 @@ class Cause:
             absent = [c for c in self.quote if c not in table.columns]
             if absent:
                 raise LookupError(f"{self.table} has no column {absent[0]!r}")
-            return (f"{CAUSE_MARK} ({self.table}, {selector}): "
-                    + ", ".join(f"{c} = {_quoted(row[c])}" for c in self.quote))
+            return f"{CAUSE_MARK} ({self.table}, {selector}): " + ", ".join(
+                f"{c} = {_quoted(row[c])}" for c in self.quote
+            )
         if self.statistic == "σ":
             suffix, style = AT_MAX_SPREAD, ".3f"
-            head = (f"σ over the tests of {CAUSE_TABLES[self.table]}'s max, "
-                    f"{float(row['total max σ over tests [µm]']):.3f} µm; the σ of its largest sources at each test's max are ")
+            head = (
+                f"σ over the tests of {CAUSE_TABLES[self.table]}'s max, "
+                f"{float(row['total max σ over tests [µm]']):.3f} µm; the σ of its largest sources at each test's max are "
+            )
         else:
             suffix, style = AT_MAX, "+.2f"
-            head = (f"at {CAUSE_TABLES[self.table]}'s max, {float(row['total at max [µm]']):+.2f} µm, "
-                    "its largest sources are ")
-        sources = {c.removesuffix(suffix): float(row[c]) for c in table.columns if c.endswith(suffix) and pd.notna(row[c])}
+            head = (
+                f"at {CAUSE_TABLES[self.table]}'s max, {float(row['total at max [µm]']):+.2f} µm, "
+                "its largest sources are "
+            )
+        sources = {
+            c.removesuffix(suffix): float(row[c])
+            for c in table.columns
+            if c.endswith(suffix) and pd.notna(row[c])
+        }
         top = sorted(sources.items(), key=lambda kv: -abs(kv[1]))[:largest]
-        return (f"{CAUSE_MARK} cause ({self.table}, {selector}): {head}"
-                + ", ".join(f"{name} {value:{style}}" for name, value in top) + " µm")
+        return (
+            f"{CAUSE_MARK} cause ({self.table}, {selector}): {head}"
+            + ", ".join(f"{name} {value:{style}}" for name, value in top)
+            + " µm"
+        )
 
 
 def _quoted(value: Any) -> str:
@@ -200,7 +247,9 @@ class Entry:
     truth: str | None = None
     printed: str | None = None  # the published number as printed, where trailing zeros matter
     cause: Cause | None = None  # the measured table row that explains the number's error
-    centre: Locator | None = None  # the model on the twin's truth the band is centred on, if not the published
+    centre: Locator | None = (
+        None  # the model on the twin's truth the band is centred on, if not the published
+    )
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -211,9 +260,8 @@ class Entry:
         return self.band.tolerance
 
 
-
-
 # --- the registry -------------------------------------------------------------------------------
+
 
 def parse_registry(doc: Any, source: str = "workflow/scorecard.yaml") -> list[Entry]:
     """Validate the registry document against its schema and expand groups into entries."""
@@ -227,13 +275,17 @@ def parse_registry(doc: Any, source: str = "workflow/scorecard.yaml") -> list[En
             entries.append(_entry(group, item, where))
             named = names.get(entries[-1].band.name)
             if named is not None and named != entries[-1].band:
-                raise RegistryError(f"{where}: its band is named {named.name!r} like a rule of `bands:` "
-                                    "but differs from it: name the rule by its alias, or give the band a name of its own")
+                raise RegistryError(
+                    f"{where}: its band is named {named.name!r} like a rule of `bands:` "
+                    "but differs from it: name the rule by its alias, or give the band a name of its own"
+                )
     seen: set[tuple[str, str, str]] = set()
     for entry in entries:
         if entry.key in seen:
-            raise RegistryError(f"{source}: {entry.source}, {entry.quantity!r} is listed twice for "
-                                f"model {entry.model}")
+            raise RegistryError(
+                f"{source}: {entry.source}, {entry.quantity!r} is listed twice for "
+                f"model {entry.model}"
+            )
         seen.add(entry.key)
     return entries
 
@@ -252,25 +304,49 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
     section = group.get("section", PUBLISHED)
     locate = _locator({**group.get("locate", {}), **item.get("locate", {})}, where)
     if truth is not None and (section != RECOVERY or locate is None):
-        raise RegistryError(f"{where}: published: {{truth: <column>}} needs section: {RECOVERY} and a "
-                            "locate (the truth is read from the located row)")
+        raise RegistryError(
+            f"{where}: published: {{truth: <column>}} needs section: {RECOVERY} and a "
+            "locate (the truth is read from the located row)"
+        )
     band = _band(value["band"], where)
     bound = value.get("bound", band.bound)
-    if truth is None and band.tolerance is not None and band.tolerance.scale != "linear" and not bound:
+    if (
+        truth is None
+        and band.tolerance is not None
+        and band.tolerance.scale != "linear"
+        and not bound
+    ):
         ref = published if band.tolerance.scale == "log" else 1 - published
         if ref <= 0:
-            raise RegistryError(f"{where}: band {band.name!r} is on a log scale, which needs "
-                                f"{'a positive value' if band.tolerance.scale == 'log' else 'a value below 1'}")
+            raise RegistryError(
+                f"{where}: band {band.name!r} is on a log scale, which needs "
+                f"{'a positive value' if band.tolerance.scale == 'log' else 'a value below 1'}"
+            )
     cause = _cause(group.get("cause", {}), item.get("cause", {}), where)
     centre = _locator(item.get("centre", {}), where)
     if centre is not None and (value["kind"] != "recovery" or truth is not None):
-        raise RegistryError(f"{where}: a centre is for a published recovery number (the twin's truth as "
-                            "the source's model reads it); a twin recovery row reads its truth with published: {truth: ...}")
-    return Entry(section=section, kind=value["kind"], chapter=group["chapter"], source=group["source"],
-                 model=group["model"], quantity=item["quantity"], unit=value["unit"],
-                 published=None if truth else float(published), band=band, bound=bound,
-                 note=value.get("note", ""), locate=locate, truth=truth, printed=item.get("printed"),
-                 cause=cause, centre=centre)
+        raise RegistryError(
+            f"{where}: a centre is for a published recovery number (the twin's truth as "
+            "the source's model reads it); a twin recovery row reads its truth with published: {truth: ...}"
+        )
+    return Entry(
+        section=section,
+        kind=value["kind"],
+        chapter=group["chapter"],
+        source=group["source"],
+        model=group["model"],
+        quantity=item["quantity"],
+        unit=value["unit"],
+        published=None if truth else float(published),
+        band=band,
+        bound=bound,
+        note=value.get("note", ""),
+        locate=locate,
+        truth=truth,
+        printed=item.get("printed"),
+        cause=cause,
+        centre=centre,
+    )
 
 
 def _cause(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Cause | None:
@@ -278,11 +354,18 @@ def _cause(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Cau
     if not group and not item:
         return None
     merged = {**group, **item, "where": {**group.get("where", {}), **item.get("where", {})}}
-    cause = Cause(merged.get("table", BUDGET_TABLE), tuple(merged["where"].items()), merged.get("statistic", "max"),
-                  tuple(merged.get("quote", ())), tuple(merged.get("located", ())))
+    cause = Cause(
+        merged.get("table", BUDGET_TABLE),
+        tuple(merged["where"].items()),
+        merged.get("statistic", "max"),
+        tuple(merged.get("quote", ())),
+        tuple(merged.get("located", ())),
+    )
     if not cause.quote and cause.table not in CAUSE_TABLES:
-        raise RegistryError(f"{where}: cause table {cause.table!r} is none of {', '.join(CAUSE_TABLES)}: "
-                            "another table's cause names the columns it quotes")
+        raise RegistryError(
+            f"{where}: cause table {cause.table!r} is none of {', '.join(CAUSE_TABLES)}: "
+            "another table's cause names the columns it quotes"
+        )
     if cause.quote and cause.statistic != "max":
         raise RegistryError(f"{where}: a cause that quotes columns has no statistic")
     return cause
@@ -292,10 +375,16 @@ def _locator(locate: Mapping[str, Any], where: str) -> Locator | None:
     if not locate:
         return None
     if "table" not in locate or "column" not in locate:
-        raise RegistryError(f"{where}: locate needs both table and column (or neither, while no "
-                            "stage makes the table)")
-    return Locator(locate["table"], locate["column"], tuple(locate.get("where", {}).items()),
-                   float(locate.get("scale", 1.0)))
+        raise RegistryError(
+            f"{where}: locate needs both table and column (or neither, while no "
+            "stage makes the table)"
+        )
+    return Locator(
+        locate["table"],
+        locate["column"],
+        tuple(locate.get("where", {}).items()),
+        float(locate.get("scale", 1.0)),
+    )
 
 
 def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[Entry]:
@@ -303,17 +392,24 @@ def applicable(entries: Sequence[Entry], manifest: Mapping[str, Any]) -> list[En
     actuator has no published numbers here); twin recovery only where the twin made the
     captures; no published rows where the dataset gives its own reference values (they replace
     the source's: :mod:`selfsense.scorecard.reference_values`)."""
-    return [e for e in entries if e.model == manifest.get("model")
-            and (e.section != RECOVERY or ("twin" in manifest and manifest.get("source") != "measured"))
-            and (e.section != PUBLISHED or "reference" not in manifest)]
+    return [
+        e
+        for e in entries
+        if e.model == manifest.get("model")
+        and (e.section != RECOVERY or ("twin" in manifest and manifest.get("source") != "measured"))
+        and (e.section != PUBLISHED or "reference" not in manifest)
+    ]
 
 
 def tables_read(entries: Sequence[Entry]) -> list[str]:
     """Tables (relative to results/<dataset>/) the entries read, in registry order."""
-    return list(dict.fromkeys([e.locate.table for e in entries if e.locate]
-                              + [e.cause.table for e in entries if e.cause]
-                              + [e.centre.table for e in entries if e.centre]))
-
+    return list(
+        dict.fromkeys(
+            [e.locate.table for e in entries if e.locate]
+            + [e.cause.table for e in entries if e.cause]
+            + [e.centre.table for e in entries if e.centre]
+        )
+    )
 
 
 def printed(entries: Sequence[Entry], model: str, source: str, quantity: str) -> float:
@@ -329,13 +425,17 @@ def printed(entries: Sequence[Entry], model: str, source: str, quantity: str) ->
 THESIS_STROKE = ("Table 5.4", "max stroke, 0.1 Hz")
 
 
-def printed_gamma(entries: Sequence[Entry], source: str, coefficients: Sequence[str], g: str | None = None):
+def printed_gamma(
+    entries: Sequence[Entry], source: str, coefficients: Sequence[str], g: str | None = None
+):
     """The Γ (Table 5.2) or Γ_T (Table 7.3) ``source`` prints, from the registry's ``coefficients``
     (b0…b5) and ``g``, and the stroke [µm] its C range spans (:func:`selfsense.methods.gamma.printed_range`)."""
     from selfsense.scorecard.gamma import GammaPolynomial
 
-    gamma = GammaPolynomial(tuple(printed(entries, "stack", source, q) for q in coefficients),
-                            printed(entries, "stack", source, g) if g else 0.0)
+    gamma = GammaPolynomial(
+        tuple(printed(entries, "stack", source, q) for q in coefficients),
+        printed(entries, "stack", source, g) if g else 0.0,
+    )
     return gamma, printed(entries, "stack", *THESIS_STROKE)
 
 
@@ -367,8 +467,10 @@ def one_row(table: pd.DataFrame, where: Sequence[tuple[str, Any]], name: str) ->
     for key, wanted in where:
         match &= _matches(table[key], wanted)
     if match.sum() != 1:
-        raise LookupError(f"{int(match.sum())} rows of {name} match "
-                          f"{', '.join(f'{k} = {v}' for k, v in where) or '(no selector)'}")
+        raise LookupError(
+            f"{int(match.sum())} rows of {name} match "
+            f"{', '.join(f'{k} = {v}' for k, v in where) or '(no selector)'}"
+        )
     return table.loc[match].iloc[0]
 
 

@@ -6,15 +6,27 @@ from __future__ import annotations
 
 import html
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import pandas as pd
 
-from selfsense.scorecard.registry import (CAUSE_MARK, COLUMNS, EMERGENT, INFORMATION, KINDS, MISSING, NOT_YET, OUT,
-    VERDICTS, WITHIN)
+from selfsense.scorecard.registry import (
+    CAUSE_MARK,
+    COLUMNS,
+    EMERGENT,
+    INFORMATION,
+    KINDS,
+    MISSING,
+    NOT_YET,
+    OUT,
+    VERDICTS,
+    WITHIN,
+)
 from selfsense.scorecard.scoring import counts
 
 # --- renderings ---------------------------------------------------------------------------------
+
 
 def summary(cards: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """Counts per dataset, kind and chapter (and a "total" row per dataset and kind): the numbers
@@ -25,12 +37,24 @@ def summary(cards: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
             part = card[card["kind"] == kind]
             if not len(part):
                 continue
-            groups = [(str(c), g) for c, g in part.groupby("chapter", sort=False)] + [("total", part)]
+            groups = [(str(c), g) for c, g in part.groupby("chapter", sort=False)] + [
+                ("total", part)
+            ]
             for chapter, g in groups:
                 n = counts(g)
-                rows.append({"dataset": dataset, "kind": kind, "chapter": chapter, "numbers": len(g),
-                             "reproduced": n[WITHIN] + n[OUT], **n})
-    return pd.DataFrame(rows, columns=["dataset", "kind", "chapter", "numbers", "reproduced", *VERDICTS])
+                rows.append(
+                    {
+                        "dataset": dataset,
+                        "kind": kind,
+                        "chapter": chapter,
+                        "numbers": len(g),
+                        "reproduced": n[WITHIN] + n[OUT],
+                        **n,
+                    }
+                )
+    return pd.DataFrame(
+        rows, columns=["dataset", "kind", "chapter", "numbers", "reproduced", *VERDICTS]
+    )
 
 
 def headline(counts_: pd.DataFrame) -> str:
@@ -38,8 +62,14 @@ def headline(counts_: pd.DataFrame) -> str:
     lines = []
     for dataset, part in counts_[counts_["chapter"] == "total"].groupby("dataset", sort=False):
         by_kind = part.set_index("kind")
-        parts = [f"**{_rst(dataset)}**: " + (_kind_tally(by_kind.loc[EMERGENT], "emergent") if EMERGENT in by_kind.index
-                                            else "no emergent numbers")]
+        parts = [
+            f"**{_rst(dataset)}**: "
+            + (
+                _kind_tally(by_kind.loc[EMERGENT], "emergent")
+                if EMERGENT in by_kind.index
+                else "no emergent numbers"
+            )
+        ]
         parts += [_kind_tally(by_kind.loc[k], k) for k in KINDS[1:] if k in by_kind.index]
         lines.append("; ".join(parts) + ".")
     return "\n\n".join(lines)
@@ -57,21 +87,31 @@ def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
     `pending_rst`): the report's landing text is centred vertically, so a long one starts above the
     top of the window, out of reach."""
     table = summary(_filled(cards))
-    return headline(table) + "\n\n" + "\n".join(_table(table[table["kind"] == EMERGENT], "Emergent numbers by chapter")) \
-        + "\n\nClosed-form, recovery and calibration numbers are checks of the method and the twin, not " \
-          "reproductions (docs/scorecard.md, \"Kinds of numbers\").\n"
+    return (
+        headline(table)
+        + "\n\n"
+        + "\n".join(_table(table[table["kind"] == EMERGENT], "Emergent numbers by chapter"))
+        + "\n\nClosed-form, recovery and calibration numbers are checks of the method and the twin, not "
+        'reproductions (docs/scorecard.md, "Kinds of numbers").\n'
+    )
 
 
 def out_of_band_rst(cards: Mapping[str, pd.DataFrame]) -> str:
     """A page: per dataset, every number out of band by source (with the registry's note saying
     why) and every number missing from its table."""
-    return _lists_page(cards, "Numbers out of band, and missing from their tables",
-                       lambda card: _out_of_band(card) + _missing(card), "None: every reproduced number is within band.")
+    return _lists_page(
+        cards,
+        "Numbers out of band, and missing from their tables",
+        lambda card: _out_of_band(card) + _missing(card),
+        "None: every reproduced number is within band.",
+    )
 
 
 def pending_rst(cards: Mapping[str, pd.DataFrame]) -> str:
     """A page: per dataset, the numbers no stage reproduces yet, by chapter and source."""
-    return _lists_page(cards, "Numbers not reproduced yet", _pending, "None: every number is reproduced.")
+    return _lists_page(
+        cards, "Numbers not reproduced yet", _pending, "None: every number is reproduced."
+    )
 
 
 def rst_html(text: str) -> str:
@@ -79,9 +119,17 @@ def rst_html(text: str) -> str:
     page never shows a "problematic" marker)."""
     from docutils.core import publish_string
 
-    return publish_string(text, writer="html5", settings_overrides={
-        "halt_level": 2, "report_level": 2, "output_encoding": "unicode", "embed_stylesheet": True,
-        "_disable_config": True})
+    return publish_string(
+        text,
+        writer="html5",
+        settings_overrides={
+            "halt_level": 2,
+            "report_level": 2,
+            "output_encoding": "unicode",
+            "embed_stylesheet": True,
+            "_disable_config": True,
+        },
+    )
 
 
 def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
@@ -90,11 +138,22 @@ def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
 
 
 def _table(table: pd.DataFrame, title: str) -> list[str]:
-    lines = [f".. list-table:: {title}", "   :header-rows: 1", "",
-             "   * - dataset", "     - chapter", "     - within band", "     - out of band", "     - not reproduced yet"]
+    lines = [
+        f".. list-table:: {title}",
+        "   :header-rows: 1",
+        "",
+        "   * - dataset",
+        "     - chapter",
+        "     - within band",
+        "     - out of band",
+        "     - not reproduced yet",
+    ]
     for _, row in table.iterrows():
-        lines += [f"   * - {_rst(row['dataset'])}", f"     - {_chapter(row['chapter'])}",
-                  *(f"     - {row[v]}" for v in (WITHIN, OUT, NOT_YET))]
+        lines += [
+            f"   * - {_rst(row['dataset'])}",
+            f"     - {_chapter(row['chapter'])}",
+            *(f"     - {row[v]}" for v in (WITHIN, OUT, NOT_YET)),
+        ]
     return lines
 
 
@@ -111,16 +170,25 @@ def _out_of_band(card: pd.DataFrame) -> list[str]:
     counts = [f"{measured} of {len(out)} with a measured cause"]
     if unexplained:
         counts.append(f"{unexplained} without a note in workflow/scorecard.yaml saying why")
-    return [f"- Out of band, by source ({'; '.join(counts)}):",
-            *_by_source(out, lambda row: f"{_describe(row)}." + (f" Why: {_rst(row['note'])}" if row["note"] else ""))]
+    return [
+        f"- Out of band, by source ({'; '.join(counts)}):",
+        *_by_source(
+            out,
+            lambda row: (
+                f"{_describe(row)}." + (f" Why: {_rst(row['note'])}" if row["note"] else "")
+            ),
+        ),
+    ]
 
 
 def _missing(card: pd.DataFrame) -> list[str]:
     missing = card[card["verdict"] == MISSING]
     if not len(missing):
         return []
-    return ["- Missing from their tables (a locator to fix):",
-            *_by_source(missing, lambda row: f"{_rst(row['quantity'])}: {_rst(row['note'])}")]
+    return [
+        "- Missing from their tables (a locator to fix):",
+        *_by_source(missing, lambda row: f"{_rst(row['quantity'])}: {_rst(row['note'])}"),
+    ]
 
 
 def _pending(card: pd.DataFrame) -> list[str]:
@@ -130,7 +198,10 @@ def _pending(card: pd.DataFrame) -> list[str]:
     lines = [f"- Not reproduced yet, by chapter and source ({len(pending)} numbers):", ""]
     for chapter, part in pending.groupby("chapter", sort=False):
         per_source = part.groupby("source", sort=False).size()
-        lines.append(f"  - {_chapter(chapter)}: " + ", ".join(f"{_rst(src)} ({n})" for src, n in per_source.items()))
+        lines.append(
+            f"  - {_chapter(chapter)}: "
+            + ", ".join(f"{_rst(src)} ({n})" for src, n in per_source.items())
+        )
     return lines + [""]
 
 
@@ -161,11 +232,15 @@ def _chapter(chapter: Any) -> str:
 def _describe(row: pd.Series) -> str:
     unit = _rst(f" {row['unit']}" if row["unit"] else "")
     lo, hi = row["band low"], row["band high"]
-    band_text = (f"≤ {hi:.6g}" if pd.isna(lo) else f"≥ {lo:.6g}" if pd.isna(hi) else f"{lo:.6g} … {hi:.6g}")
+    band_text = (
+        f"≤ {hi:.6g}" if pd.isna(lo) else f"≥ {lo:.6g}" if pd.isna(hi) else f"{lo:.6g} … {hi:.6g}"
+    )
     change = "" if pd.isna(row["deviation [%]"]) else f" ({row['deviation [%]']:+.1f} %)"
     kind = "" if row.get("kind", EMERGENT) == EMERGENT else f" ({row['kind']})"
-    return (f"{_rst(row['quantity'])}{kind}: published {row['published']:.6g}{unit}, "
-            f"reproduced {row['reproduced']:.6g}{unit}{change}, band {band_text}{unit}")
+    return (
+        f"{_rst(row['quantity'])}{kind}: published {row['published']:.6g}{unit}, "
+        f"reproduced {row['reproduced']:.6g}{unit}{change}, band {band_text}{unit}"
+    )
 
 
 def _rst(text: Any) -> str:
@@ -179,15 +254,19 @@ def scorecard_html(card: pd.DataFrame, title: str) -> str:
     head = "".join(f"<th>{html.escape(c)}</th>" for c in COLUMNS)
     body = "\n".join(
         f'<tr class="{row["verdict"].replace(" ", "-")}">'
-        + "".join(f"<td>{html.escape(_cell(row[c]))}</td>" for c in COLUMNS) + "</tr>"
-        for _, row in card.iterrows())
-    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>\n"
-            "<style>body{font-family:sans-serif;font-size:13px} table{border-collapse:collapse}"
-            " td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top}"
-            " .within-band{background:#e6f4e6} .out-of-band{background:#fbe3e3}"
-            " .not-reproduced-yet{color:#777} .missing-from-table{background:#fff1c2}</style></head>\n"
-            f"<body><h1>{html.escape(title)}</h1><p>{html.escape(tally)}</p>\n"
-            f"<table><thead><tr>{head}</tr></thead><tbody>\n{body}\n</tbody></table></body></html>\n")
+        + "".join(f"<td>{html.escape(_cell(row[c]))}</td>" for c in COLUMNS)
+        + "</tr>"
+        for _, row in card.iterrows()
+    )
+    return (
+        f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>{html.escape(title)}</title>\n'
+        "<style>body{font-family:sans-serif;font-size:13px} table{border-collapse:collapse}"
+        " td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top}"
+        " .within-band{background:#e6f4e6} .out-of-band{background:#fbe3e3}"
+        " .not-reproduced-yet{color:#777} .missing-from-table{background:#fff1c2}</style></head>\n"
+        f"<body><h1>{html.escape(title)}</h1><p>{html.escape(tally)}</p>\n"
+        f"<table><thead><tr>{head}</tr></thead><tbody>\n{body}\n</tbody></table></body></html>\n"
+    )
 
 
 def _cell(value: Any) -> str:
@@ -196,23 +275,30 @@ def _cell(value: Any) -> str:
     return "" if value is None else str(value)
 
 
-
 # --- the numbers the documentation quotes ---------------------------------------------------------
 
 #: a block of a Markdown page written by scripts/update_docs.py (never by hand) sits between these
-BEGIN, END = "<!-- scorecard:{name} begin (scripts/update_docs.py writes this block) -->", "<!-- scorecard:{name} end -->"
+BEGIN, END = (
+    "<!-- scorecard:{name} begin (scripts/update_docs.py writes this block) -->",
+    "<!-- scorecard:{name} end -->",
+)
 
 
 def counts_markdown(counts_: pd.DataFrame, campaign: str) -> str:
     """The README's numbers: emergent published numbers within band per dataset and chapter, then
     the other kinds, from the summary the pipeline writes (results/scorecard_counts.csv)."""
-    lines = [f"Published numbers within their band on the `{campaign}` campaign (from `results/scorecard_counts.csv`):",
-             "", "| dataset | chapter | emergent: within band / reproduced | closed form | recovery | calibration |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"Published numbers within their band on the `{campaign}` campaign (from `results/scorecard_counts.csv`):",
+        "",
+        "| dataset | chapter | emergent: within band / reproduced | closed form | recovery | calibration |",
+        "|---|---|---|---|---|---|",
+    ]
     for (dataset, chapter), part in counts_.groupby(["dataset", "chapter"], sort=False):
         cells = {row["kind"]: f"{row[WITHIN]} / {row['reproduced']}" for _, row in part.iterrows()}
         name = "**total**" if chapter == "total" else _chapter(chapter)
-        lines.append(f"| {dataset} | {name} | " + " | ".join(cells.get(k, "–") for k in KINDS) + " |")
+        lines.append(
+            f"| {dataset} | {name} | " + " | ".join(cells.get(k, "–") for k in KINDS) + " |"
+        )
     return "\n".join(lines)
 
 
@@ -227,7 +313,9 @@ def deviations_markdown(cards: Mapping[str, pd.DataFrame]) -> str:
             lines.append(f"- {_chapter(chapter)}:")
             for _, row in part.iterrows():
                 unit = f" {row['unit']}" if row["unit"] else ""
-                lines.append(f"  - {row['source']}, {row['quantity']}: {row['published']:.4g} → {row['reproduced']:.4g}{unit}")
+                lines.append(
+                    f"  - {row['source']}, {row['quantity']}: {row['published']:.4g} → {row['reproduced']:.4g}{unit}"
+                )
         lines.append("")
     return "\n".join(lines).rstrip()
 

@@ -8,17 +8,34 @@ scorecard also shows how much is still to come.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import pandas as pd
 
-from selfsense.scorecard.registry import (COLUMNS, EDGE_RTOL, INFORMATION, LEFT_OUT, MISSING, NOT_YET, OUT, VERDICTS,
-    WITHIN, Entry, NotComputed, applicable, lookup, one_row)
+from selfsense.scorecard.registry import (
+    COLUMNS,
+    EDGE_RTOL,
+    INFORMATION,
+    LEFT_OUT,
+    MISSING,
+    NOT_YET,
+    OUT,
+    VERDICTS,
+    WITHIN,
+    Entry,
+    NotComputed,
+    applicable,
+    lookup,
+    one_row,
+)
+
 
 @dataclass(frozen=True)
 class Score:
     """One scored entry: its published value and band, the reproduced one (None when not reproduced)."""
+
     entry: Entry
     published: float
     band: tuple[float, float]
@@ -28,9 +45,8 @@ class Score:
     cause: str = ""  # what was measured of the number's error (Cause.note)
 
 
-
-
 # --- scoring ------------------------------------------------------------------------------------
+
 
 def band(published: float, entry: Entry) -> tuple[float, float]:
     """The band an entry's reproduction must land in; (-inf, inf) for an information row."""
@@ -45,25 +61,27 @@ def band(published: float, entry: Entry) -> tuple[float, float]:
 
 
 def judge(reproduced: float, lo: float, hi: float) -> str:
-    inside = lo <= reproduced <= hi or any(math.isfinite(edge) and math.isclose(reproduced, edge, rel_tol=EDGE_RTOL)
-                                           for edge in (lo, hi))
+    inside = lo <= reproduced <= hi or any(
+        math.isfinite(edge) and math.isclose(reproduced, edge, rel_tol=EDGE_RTOL)
+        for edge in (lo, hi)
+    )
     return WITHIN if inside else OUT
-
-
-
-
-
-
 
 
 def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
     """Score one entry against the tables made for a dataset (relative path → table)."""
     published = math.nan if entry.published is None else entry.published
     if entry.locate is None:
-        return Score(entry, published, band(published, entry), detail="no stage makes this number yet")
+        return Score(
+            entry, published, band(published, entry), detail="no stage makes this number yet"
+        )
     if entry.locate.table not in tables:
-        return Score(entry, published, band(published, entry),
-                     detail=f"{entry.locate.table} is not made for this dataset")
+        return Score(
+            entry,
+            published,
+            band(published, entry),
+            detail=f"{entry.locate.table} is not made for this dataset",
+        )
     table = tables[entry.locate.table]
     centre = entry.centre if entry.centre is not None and entry.centre.table in tables else None
     try:
@@ -71,37 +89,59 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
             published = lookup(entry.locate, table, entry.truth)
         reproduced = lookup(entry.locate, table)
         middle = published if centre is None else lookup(centre, tables[centre.table])
-    except NotComputed as err:  # the stage's own statement that it has no value (say, a short campaign)
+    except (
+        NotComputed
+    ) as err:  # the stage's own statement that it has no value (say, a short campaign)
         return Score(entry, published, band(published, entry), detail=f"{LEFT_OUT}{err}")
     except LookupError as err:  # the table no longer has the row or column: a locator to fix
         return Score(entry, published, band(published, entry), verdict=MISSING, detail=str(err))
-    detail = "" if centre is None else f"band centred on the model on the twin's truth, {middle:.4g} ({centre.describe()})"
+    detail = (
+        ""
+        if centre is None
+        else f"band centred on the model on the twin's truth, {middle:.4g} ({centre.describe()})"
+    )
     limits = band(middle, entry)
     verdict = INFORMATION if entry.tolerance is None else judge(reproduced, *limits)
     cause, measured = "", entry.cause
     if measured and measured.located:
-        measured = measured.at(one_row(table, entry.locate.where, entry.locate.table), entry.locate.table)
+        measured = measured.at(
+            one_row(table, entry.locate.where, entry.locate.table), entry.locate.table
+        )
     if measured and measured.table in tables:
         cause = measured.note(tables[measured.table])
     return Score(entry, published, limits, reproduced, verdict, detail, cause)
 
 
-def scorecard(entries: Sequence[Entry], tables: Mapping[str, pd.DataFrame], manifest: Mapping[str, Any]) -> pd.DataFrame:
+def scorecard(
+    entries: Sequence[Entry], tables: Mapping[str, pd.DataFrame], manifest: Mapping[str, Any]
+) -> pd.DataFrame:
     """One row per registry entry that applies to the dataset, in registry order."""
-    return pd.DataFrame([_row(score(e, tables)) for e in applicable(entries, manifest)], columns=COLUMNS)
+    return pd.DataFrame(
+        [_row(score(e, tables)) for e in applicable(entries, manifest)], columns=COLUMNS
+    )
 
 
 def _row(s: Score) -> dict[str, Any]:
     e, p, r = s.entry, s.published, s.reproduced
     lo, hi = s.band
     return {
-        "section": e.section, "kind": e.kind, "chapter": e.chapter, "source": e.source, "quantity": e.quantity,
-        "unit": e.unit, "published": p, "reproduced": r,
+        "section": e.section,
+        "kind": e.kind,
+        "chapter": e.chapter,
+        "source": e.source,
+        "quantity": e.quantity,
+        "unit": e.unit,
+        "published": p,
+        "reproduced": r,
         "deviation": None if r is None else r - p,
         "deviation [%]": None if r is None or p == 0 else 100.0 * (r - p) / abs(p),
-        "band low": lo if math.isfinite(lo) else None, "band high": hi if math.isfinite(hi) else None,
-        "band": e.band.name, "tolerance": _tolerance_text(e, p), "justification": e.band.justification,
-        "verdict": s.verdict, "read from": e.locate.describe() if e.locate else "",
+        "band low": lo if math.isfinite(lo) else None,
+        "band high": hi if math.isfinite(hi) else None,
+        "band": e.band.name,
+        "tolerance": _tolerance_text(e, p),
+        "justification": e.band.justification,
+        "verdict": s.verdict,
+        "read from": e.locate.describe() if e.locate else "",
         "note": "; ".join(t for t in (s.detail, e.note, s.cause) if t),
     }
 
@@ -111,12 +151,16 @@ def _tolerance_text(e: Entry, published: float) -> str:
         return "no verdict"
     if not e.bound:
         return e.tolerance.describe(e.unit)
-    lo, hi = e.tolerance.limits(published, e.printed) if not math.isnan(published) else (published, published)
+    lo, hi = (
+        e.tolerance.limits(published, e.printed)
+        if not math.isnan(published)
+        else (published, published)
+    )
     sign, widen, edge = ("≤", "+", hi) if e.bound == "upper" else ("≥", "−", lo)
-    return f"{sign} published" + (f" {widen} {abs(edge - published):g}" if edge != published else "")
+    return f"{sign} published" + (
+        f" {widen} {abs(edge - published):g}" if edge != published else ""
+    )
 
 
 def counts(card: pd.DataFrame) -> dict[str, int]:
     return {v: int((card["verdict"] == v).sum()) for v in VERDICTS}
-
-

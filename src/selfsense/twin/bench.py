@@ -17,19 +17,27 @@ from __future__ import annotations
 
 import math
 import zlib as _zlib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from selfsense import __version__
-from selfsense.io.capture import TWIN_COMPRESSION, SLOW_CHANNELS, CaptureWriter, ScanReport, channel_spec
-from selfsense.twin import kernel
+from selfsense.io.capture import (
+    SLOW_CHANNELS,
+    TWIN_COMPRESSION,
+    CaptureWriter,
+    ScanReport,
+    channel_spec,
+)
 from selfsense.methods.drive import Drive
+from selfsense.twin import kernel
 from selfsense.twin.instruments import HighPass, RippleSource, SlowProcess, resolve, small_signal
-from selfsense.twin.record import NOISY, TRUTH, record
 from selfsense.twin.params import TwinParams
+from selfsense.twin.record import NOISY, TRUTH, record
+
 
 @dataclass(frozen=True)
 class DaqPlan:
@@ -54,7 +62,9 @@ class Controller(Protocol):
     def command(self, t: np.ndarray) -> np.ndarray:
         """Drive voltage for the block starting at t[0] (from what was observed before it)."""
 
-    def observe(self, t: np.ndarray, measured: Mapping[str, np.ndarray]) -> Mapping[str, np.ndarray]:
+    def observe(
+        self, t: np.ndarray, measured: Mapping[str, np.ndarray]
+    ) -> Mapping[str, np.ndarray]:
         """See one block of measured channels; return the block's real-time logs."""
 
 
@@ -66,8 +76,15 @@ def experiment_seed(seed: int, experiment: str) -> np.random.SeedSequence:
 class Bench:
     """One run of the bench: owns the twin's state, the instruments' state and the RNG."""
 
-    def __init__(self, params: TwinParams, daq: DaqPlan, seed: np.random.SeedSequence,
-                 load_stiffness: float = 0.0, T_amb: float | None = None, drive_leak: bool = True):
+    def __init__(
+        self,
+        params: TwinParams,
+        daq: DaqPlan,
+        seed: np.random.SeedSequence,
+        load_stiffness: float = 0.0,
+        T_amb: float | None = None,
+        drive_leak: bool = True,
+    ):
         self.p = params
         self.daq = daq
         rng = np.random.default_rng(seed)
@@ -77,7 +94,9 @@ class Bench:
         self.state = kernel.initial_state(self.kc, self.T_amb)
         self.load_stiffness = load_stiffness
         # the real-time loop and the capture both see the ADC's quantised values
-        self.adc = {c: channel_spec(c, *daq.ranges[c]) for c in daq.channels if c not in SLOW_CHANNELS}
+        self.adc = {
+            c: channel_spec(c, *daq.ranges[c]) for c in daq.channels if c not in SLOW_CHANNELS
+        }
         ins = params.instruments
         self.ripple = RippleSource(params.ripple, daq.fs, rng)
         self.hp_u = HighPass(params.ripple.highpass_hz, daq.fs)
@@ -95,13 +114,25 @@ class Bench:
         ``signals``)."""
         ins, n, gauss = self.p.instruments, len(t), self.noise_rng.standard_normal
         f_r, u = self.ripple.carrier(t)
-        return {"f_r": f_r, "u_ripple": u, "h": self.hp_u.response(f_r),
-                "I_offset": ins.I_offset + self.offset_drift(t), "laser_drift": self.laser_drift(t),
-                **{f"noise_{c}": getattr(ins, NOISY[c]) * gauss(n) for c in NOISY}}
+        return {
+            "f_r": f_r,
+            "u_ripple": u,
+            "h": self.hp_u.response(f_r),
+            "I_offset": ins.I_offset + self.offset_drift(t),
+            "laser_drift": self.laser_drift(t),
+            **{f"noise_{c}": getattr(ins, NOISY[c]) * gauss(n) for c in NOISY},
+        }
 
-    def step(self, t: np.ndarray, U: np.ndarray, F_ext: np.ndarray | None = None,
-             signals: Mapping[str, np.ndarray] | None = None, truth_every: int = 1, truth_first: int = 0,
-             compiled: bool = True):
+    def step(
+        self,
+        t: np.ndarray,
+        U: np.ndarray,
+        F_ext: np.ndarray | None = None,
+        signals: Mapping[str, np.ndarray] | None = None,
+        truth_every: int = 1,
+        truth_first: int = 0,
+        compiled: bool = True,
+    ):
         """Advance over the samples at times t with drive U; returns (measured, truth) dicts, the
         truth at samples truth_first, truth_first + truth_every, … of these.
 
@@ -132,20 +163,36 @@ class Bench:
             "Ur": (u * h).real + self.hp_u.leak(U) + sig["noise_Ur"],
             "Ir": (i * h).real + self.hp_i.leak(I) + sig["noise_Ir"],
             "x_laser": resolve(x + sig["laser_drift"], ins.laser_resolution),
-            "F": (ins.F_preload + (self.p.stack.k_spring + self.load_stiffness) * x
-                  + self.p.stack.m * a + sig["noise_F"]),
+            "F": (
+                ins.F_preload
+                + (self.p.stack.k_spring + self.load_stiffness) * x
+                + self.p.stack.m * a
+                + sig["noise_F"]
+            ),
         }
         measured = {c: self.adc[c].quantize(v) if c in self.adc else v for c, v in measured.items()}
-        truth = {"x": x, "q": q, "U_P": U_P, "U_H": U_H, "T": T, "C_P": C_P, "C_e": C_e,
-                 "R_e": R_e, "I_offset": sig["I_offset"], "U_drive": U}
+        truth = {
+            "x": x,
+            "q": q,
+            "U_P": U_P,
+            "U_H": U_H,
+            "T": T,
+            "C_P": C_P,
+            "C_e": C_e,
+            "R_e": R_e,
+            "I_offset": sig["I_offset"],
+            "U_drive": U,
+        }
         return measured, truth
 
     def temperatures(self, T: np.ndarray) -> dict[str, np.ndarray]:
         """The three IR thermometers: each sees its share of the rise above ambient, plus noise."""
         ins = self.p.instruments
         rise = T - self.T_amb
-        return {name: self.T_amb + share * rise + ins.T_noise * self.noise_rng.standard_normal(len(T))
-                for name, share in zip(("T_top", "T_mid", "T_bot"), ins.T_gradient)}
+        return {
+            name: self.T_amb + share * rise + ins.T_noise * self.noise_rng.standard_normal(len(T))
+            for name, share in zip(("T_top", "T_mid", "T_bot"), ins.T_gradient)
+        }
 
 
 def simulate_capture(
@@ -176,19 +223,35 @@ def simulate_capture(
         fast += [c for c in controller.logs if c not in fast]
         chunk_len = controller.block_len * max(1, chunk_len // controller.block_len)
     specs = [channel_spec(c, *daq.ranges[c]) for c in fast + slow]
-    bench = Bench(params, daq, experiment_seed(seed, experiment), load_stiffness, drive_leak=drive_leak)
+    bench = Bench(
+        params, daq, experiment_seed(seed, experiment), load_stiffness, drive_leak=drive_leak
+    )
     k_over_alpha = params.stack.k / params.stack.alpha
     all_attrs = dict(attrs) | {
-        "experiment": experiment, "seed": int(seed), "fs": fs, "software_version": __version__,
-        "source": "simulated", "drive_quantity": drive.quantity,
+        "experiment": experiment,
+        "seed": int(seed),
+        "fs": fs,
+        "software_version": __version__,
+        "source": "simulated",
+        "drive_quantity": drive.quantity,
     }
     for key in ("fr_nominal", "ns", "nf", "n_periods"):
         if getattr(daq, key) is not None:
             all_attrs[key] = getattr(daq, key)
     path = Path(path)
-    with CaptureWriter(path, all_attrs, specs, n, n_slow, params.instruments.T_rate,
-                       chunk_len=chunk_len, compression=compression, complevel=complevel,
-                       truth=TRUTH, truth_decimation=truth_decimation) as w:
+    with CaptureWriter(
+        path,
+        all_attrs,
+        specs,
+        n,
+        n_slow,
+        params.instruments.T_rate,
+        chunk_len=chunk_len,
+        compression=compression,
+        complevel=complevel,
+        truth=TRUTH,
+        truth_decimation=truth_decimation,
+    ) as w:
         w.write_truth_attrs(params.truth_attrs())
         # the states are recorded at the samples on a grid that holds both the truth's and the
         # thermometers' samples (the truth's own when they share it, as at 48 kHz, 12 and 10 Hz)
@@ -205,17 +268,22 @@ def simulate_capture(
                 measured |= logs
                 states = {k: v[first::grid] for k, v in states.items()}
             w.write({c: measured[c] for c in fast})
-            w.write({k: _every(v, start + first, grid, truth_decimation) for k, v in states.items()},
-                    dim="time_truth")
+            w.write(
+                {k: _every(v, start + first, grid, truth_decimation) for k, v in states.items()},
+                dim="time_truth",
+            )
             if slow:
-                w.write(bench.temperatures(_every(states["T"], start + first, grid, slow_every)), dim="time_slow")
+                w.write(
+                    bench.temperatures(_every(states["T"], start + first, grid, slow_every)),
+                    dim="time_slow",
+                )
     return w.scan_report()
 
 
 def _every(values: np.ndarray, origin: int, grid: int, period: int) -> np.ndarray:
     """Of ``values`` at samples origin, origin + grid, … (origin a multiple of grid, which divides
     period), those at the multiples of ``period``."""
-    return values[(-origin % period) // grid::period // grid]
+    return values[(-origin % period) // grid :: period // grid]
 
 
 def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
@@ -226,12 +294,20 @@ def _closed_loop_chunk(bench: Bench, controller: Controller, t: np.ndarray):
         measured, truth = bench.step(t[:idle], np.zeros(idle))
         parts.append((measured, truth, controller.observe(t[:idle], measured)))
     b, rest = controller.block_len, t[idle:]
-    signals = bench.time_signals(rest)  # once for the chunk: per 12-sample block they cost a third of a step
+    signals = bench.time_signals(
+        rest
+    )  # once for the chunk: per 12-sample block they cost a third of a step
     if getattr(controller, "compiled", False) and len(rest):
         parts.append(controller.run_blocks(bench, rest, signals))
-        return tuple({k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3))
+        return tuple(
+            {k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3)
+        )
     for s in range(0, len(rest), b):
-        tb = rest[s:s + b]
-        measured, truth = bench.step(tb, controller.command(tb), signals={k: v[s:s + b] for k, v in signals.items()})
+        tb = rest[s : s + b]
+        measured, truth = bench.step(
+            tb, controller.command(tb), signals={k: v[s : s + b] for k, v in signals.items()}
+        )
         parts.append((measured, truth, controller.observe(tb, measured)))
-    return tuple({k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3))
+    return tuple(
+        {k: np.concatenate([p[i][k] for p in parts]) for k in parts[0][i]} for i in range(3)
+    )

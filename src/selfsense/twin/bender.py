@@ -35,22 +35,33 @@ that the tests hold it to.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numba
 import numpy as np
 from scipy.optimize import brentq
 
 from selfsense import __version__
-from selfsense.methods import powerloss as pl
 from selfsense.io.capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, channel_spec
 from selfsense.io.manifest import Experiment
-from selfsense.twin.bench import DaqPlan, experiment_seed
+from selfsense.methods import powerloss as pl
 from selfsense.methods.drive import Drive, drive_from_protocol
+from selfsense.twin.bench import DaqPlan, experiment_seed
 from selfsense.twin.instruments import SlowProcess
-from selfsense.twin.maxwell import MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step, slide_anchors, slide_anchors_reference, span
+from selfsense.twin.maxwell import (
+    MAX_ITERATIONS,
+    KernelConstants,
+    balanced,
+    maxwell,
+    maxwell_reference,
+    newton_step,
+    slide_anchors,
+    slide_anchors_reference,
+    span,
+)
 from selfsense.twin.params import CreepParams, HysteresisParams, build_sections
 
 #: kernel output columns, in order
@@ -109,7 +120,7 @@ class BenderParams:
     instruments: BenderInstruments
 
     @classmethod
-    def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> "BenderParams":
+    def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> BenderParams:
         return build_sections(cls, twin, where)
 
     def truth_attrs(self) -> dict[str, float | np.ndarray]:
@@ -117,8 +128,9 @@ class BenderParams:
         out: dict[str, float | np.ndarray] = {}
         for part in fields(self):
             for key, value in asdict(getattr(self, part.name)).items():
-                out[f"{part.name}_{key}"] = (np.asarray(value, float) if isinstance(value, tuple)
-                                             else float(value))
+                out[f"{part.name}_{key}"] = (
+                    np.asarray(value, float) if isinstance(value, tuple) else float(value)
+                )
         return out
 
 
@@ -136,7 +148,7 @@ class Compensation:
     c: float = 0.0
 
     @classmethod
-    def from_protocol(cls, entry: Mapping[str, Any] | None) -> "Compensation":
+    def from_protocol(cls, entry: Mapping[str, Any] | None) -> Compensation:
         if not entry:
             return cls()
         if "impedance" in entry:
@@ -144,26 +156,65 @@ class Compensation:
         return cls("model_10", R=float(entry["R"]), c=float(entry["c"]))
 
     def attrs(self) -> dict[str, object]:
-        return {"compensation": self.kind, "compensation_X": self.X, "compensation_R": self.R,
-                "compensation_c": self.c}
+        return {
+            "compensation": self.kind,
+            "compensation_X": self.X,
+            "compensation_R": self.R,
+            "compensation_c": self.c,
+        }
 
 
-_SCALARS = ("C", "R", "c", "gain", "u_max", "kp", "ki", "kd", "fs", "meter_decay",
-            "meter_resolution", "meter_offset", "comp_kind", "comp_X", "comp_R", "comp_c")
+_SCALARS = (
+    "C",
+    "R",
+    "c",
+    "gain",
+    "u_max",
+    "kp",
+    "ki",
+    "kd",
+    "fs",
+    "meter_decay",
+    "meter_resolution",
+    "meter_offset",
+    "comp_kind",
+    "comp_X",
+    "comp_R",
+    "comp_c",
+)
 #: state layout: Q, V, meter output, last reading, PID integral, previous error, has-previous flag
 _HEAD = 7
 
 
-def kernel_constants(p: BenderParams, fs: float, compensation: Compensation = Compensation()) -> KernelConstants:
+def kernel_constants(
+    p: BenderParams, fs: float, compensation: Compensation = Compensation()
+) -> KernelConstants:
     act, ins = p.actuator, p.instruments
-    values = dict(C=act.C, R=act.R, c=act.c, gain=p.amplifier.gain, u_max=p.amplifier.u_max,
-                  kp=p.pid.kp, ki=p.pid.ki, kd=p.pid.kd, fs=fs,
-                  meter_decay=math.exp(-1.0 / (fs * ins.meter_tau)),
-                  meter_resolution=ins.meter_resolution, meter_offset=ins.meter_offset,
-                  comp_kind=COMPENSATIONS[compensation.kind], comp_X=compensation.X,
-                  comp_R=compensation.R, comp_c=compensation.c)
-    return KernelConstants.build(_HEAD, np.array([values[k] for k in _SCALARS]), p.hysteresis, p.creep,
-                                 lambda tau: np.exp(-1.0 / (fs * tau)))
+    values = dict(
+        C=act.C,
+        R=act.R,
+        c=act.c,
+        gain=p.amplifier.gain,
+        u_max=p.amplifier.u_max,
+        kp=p.pid.kp,
+        ki=p.pid.ki,
+        kd=p.pid.kd,
+        fs=fs,
+        meter_decay=math.exp(-1.0 / (fs * ins.meter_tau)),
+        meter_resolution=ins.meter_resolution,
+        meter_offset=ins.meter_offset,
+        comp_kind=COMPENSATIONS[compensation.kind],
+        comp_X=compensation.X,
+        comp_R=compensation.R,
+        comp_c=compensation.c,
+    )
+    return KernelConstants.build(
+        _HEAD,
+        np.array([values[k] for k in _SCALARS]),
+        p.hysteresis,
+        p.creep,
+        lambda tau: np.exp(-1.0 / (fs * tau)),
+    )
 
 
 def initial_state(kc: KernelConstants) -> np.ndarray:
@@ -192,10 +243,17 @@ def run_kernel(mode, drive, noise, sc, C_h, v_h, creep_decay, creep_R, state, ou
     h = 1.0 / fs
     nh = C_h.size
     nc = creep_R.size
-    q_b = state[_HEAD:_HEAD + nh]
-    U_c = state[_HEAD + nh:_HEAD + nh + nc]
-    Q, V, m, reading, integral, prev_e, has_prev = (state[0], state[1], state[2], state[3],
-                                                     state[4], state[5], state[6])
+    q_b = state[_HEAD : _HEAD + nh]
+    U_c = state[_HEAD + nh : _HEAD + nh + nc]
+    Q, V, m, reading, integral, prev_e, has_prev = (
+        state[0],
+        state[1],
+        state[2],
+        state[3],
+        state[4],
+        state[5],
+        state[6],
+    )
     vmax = span(v_h)
     for n in range(drive.size):
         i_t = 0.0
@@ -259,16 +317,29 @@ def run_kernel(mode, drive, noise, sc, C_h, v_h, creep_decay, creep_R, state, ou
     state[4], state[5], state[6] = integral, prev_e, has_prev
 
 
-def run(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelConstants, state: np.ndarray) -> np.ndarray:
+def run(
+    mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelConstants, state: np.ndarray
+) -> np.ndarray:
     """Fast path: the numba kernel over one chunk; returns an (n, N_OUT) array."""
     out = np.empty((len(drive), N_OUT))
-    run_kernel(MODES[mode], np.ascontiguousarray(drive, float), np.ascontiguousarray(noise, float),
-               kc.scalars, kc.C_h, kc.v_h, kc.creep_decay, kc.creep_R, state, out)
+    run_kernel(
+        MODES[mode],
+        np.ascontiguousarray(drive, float),
+        np.ascontiguousarray(noise, float),
+        kc.scalars,
+        kc.C_h,
+        kc.v_h,
+        kc.creep_decay,
+        kc.creep_R,
+        state,
+        out,
+    )
     return out
 
 
-def run_reference(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelConstants,
-                  state: np.ndarray) -> np.ndarray:
+def run_reference(
+    mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelConstants, state: np.ndarray
+) -> np.ndarray:
     """Plain-Python reference of :func:`run_kernel`: Brent's method for the voltage balance, the
     library's :class:`~selfsense.methods.powerloss.CurrentPID` and Eq 13/15 from :mod:`selfsense.methods.powerloss`."""
     sc = dict(zip(_SCALARS, kc.scalars))
@@ -300,15 +371,22 @@ def run_reference(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelCon
         uc_sum = float(U_c.sum())
         target = V - uc_sum
         vmax = float(kc.v_h.sum())
-        q = brentq(lambda q: q / sc["C"] + u_h(q) - target, sc["C"] * (target - vmax) - 1e-9,
-                   sc["C"] * (target + vmax) + 1e-9, xtol=1e-24, rtol=4 * np.finfo(float).eps)
+        q = brentq(
+            lambda q: q / sc["C"] + u_h(q) - target,
+            sc["C"] * (target - vmax) - 1e-9,
+            sc["C"] * (target + vmax) + 1e-9,
+            xtol=1e-24,
+            rtol=4 * np.finfo(float).eps,
+        )
         slide_anchors_reference(q, q_b, kc.C_h, kc.v_h)
         i_C = (q - Q) * sc["fs"]
         i_l = float(pl.leakage_current(i_C, V, sc["R"], sc["c"]))
         current = i_C + i_l
         m = m * sc["meter_decay"] + (1.0 - sc["meter_decay"]) * current
-        reading = float(np.round((m + sc["meter_offset"] + noise[n]) / sc["meter_resolution"])
-                        * sc["meter_resolution"])
+        reading = float(
+            np.round((m + sc["meter_offset"] + noise[n]) / sc["meter_resolution"])
+            * sc["meter_resolution"]
+        )
         out[n] = (V, current, reading, q, u_h(q), uc_sum, i_t, i_C, i_l)
         U_c[:] = U_c * kc.creep_decay + i_C * kc.creep_R * (1.0 - kc.creep_decay)
         Q = q
@@ -322,8 +400,13 @@ def run_reference(mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelCon
 class BenderBench:
     """One run of the bender bench: the twin's state, the instruments and the RNG."""
 
-    def __init__(self, params: BenderParams, fs: float, seed: np.random.SeedSequence,
-                 compensation: Compensation = Compensation()):
+    def __init__(
+        self,
+        params: BenderParams,
+        fs: float,
+        seed: np.random.SeedSequence,
+        compensation: Compensation = Compensation(),
+    ):
         self.p = params
         self.kc = kernel_constants(params, fs, compensation)
         self.state = initial_state(self.kc)
@@ -346,8 +429,17 @@ class BenderBench:
             "i_cmd": drive if mode == "current" else np.zeros(n),
             "x_disp": x + self.x_drift(t) + ins.x_noise * gauss(n),
         }
-        truth = {"x": x, "Q": Q, "V": V, "U_H": U_H, "U_c": U_c, "I": I, "i_C": i_C, "i_l": i_l,
-                 "X": pl.get_impedance_model(10)(i_C, act.R, act.c)}
+        truth = {
+            "x": x,
+            "Q": Q,
+            "V": V,
+            "U_H": U_H,
+            "U_c": U_c,
+            "I": I,
+            "i_C": i_C,
+            "i_l": i_l,
+            "X": pl.get_impedance_model(10)(i_C, act.R, act.c),
+        }
         return measured, truth
 
 
@@ -368,17 +460,37 @@ def simulate_bender_capture(
     """Run one experiment on the bender twin and write its capture (atomically, chunk by chunk);
     returns its QC scan."""
     if drive.quantity not in MODES:
-        raise ValueError(f"{experiment}: the bender is driven by voltage or current, not {drive.quantity!r}")
+        raise ValueError(
+            f"{experiment}: the bender is driven by voltage or current, not {drive.quantity!r}"
+        )
     fs = daq.fs
     n = int(round(drive.duration * fs))
     specs = [channel_spec(c, *daq.ranges[c]) for c in daq.channels]
     bench = BenderBench(params, fs, experiment_seed(seed, experiment), compensation)
-    all_attrs = dict(attrs) | compensation.attrs() | {
-        "experiment": experiment, "seed": int(seed), "fs": fs, "software_version": __version__,
-        "source": "simulated", "drive_quantity": drive.quantity, "amplifier_gain": params.amplifier.gain,
-    }
-    with CaptureWriter(path, all_attrs, specs, n, chunk_len=chunk_len, compression=compression,
-                       complevel=complevel, truth=TRUTH_STATES, truth_decimation=truth_decimation) as w:
+    all_attrs = (
+        dict(attrs)
+        | compensation.attrs()
+        | {
+            "experiment": experiment,
+            "seed": int(seed),
+            "fs": fs,
+            "software_version": __version__,
+            "source": "simulated",
+            "drive_quantity": drive.quantity,
+            "amplifier_gain": params.amplifier.gain,
+        }
+    )
+    with CaptureWriter(
+        path,
+        all_attrs,
+        specs,
+        n,
+        chunk_len=chunk_len,
+        compression=compression,
+        complevel=complevel,
+        truth=TRUTH_STATES,
+        truth_decimation=truth_decimation,
+    ) as w:
         w.write_truth_attrs(params.truth_attrs())
         for start in range(0, n, chunk_len):
             t = (start + np.arange(min(chunk_len, n - start))) / fs
@@ -394,11 +506,28 @@ def compensation_of(experiment: Experiment) -> Compensation:
     return Compensation.from_protocol(experiment.compensation)
 
 
-def simulate_experiment(path: Path | str, twin: Mapping[str, Any], daq: DaqPlan, experiment: Experiment,
-                        attrs: Mapping[str, object], seed: int, capture: Mapping[str, Any],
-                        compression: Mapping[str, Any], where: str = "twin") -> ScanReport:
+def simulate_experiment(
+    path: Path | str,
+    twin: Mapping[str, Any],
+    daq: DaqPlan,
+    experiment: Experiment,
+    attrs: Mapping[str, object],
+    seed: int,
+    capture: Mapping[str, Any],
+    compression: Mapping[str, Any],
+    where: str = "twin",
+) -> ScanReport:
     """One catalogue experiment on the bender twin, as :func:`selfsense.twin.simulate_experiment` resolved it."""
     return simulate_bender_capture(
-        path, BenderParams.from_manifest(twin, where), daq, drive_from_protocol(experiment.protocol),
-        compensation_of(experiment), attrs, seed, experiment.name, chunk_len=capture["chunk_len"],
-        truth_decimation=capture["truth_decimation"], **compression)
+        path,
+        BenderParams.from_manifest(twin, where),
+        daq,
+        drive_from_protocol(experiment.protocol),
+        compensation_of(experiment),
+        attrs,
+        seed,
+        experiment.name,
+        chunk_len=capture["chunk_len"],
+        truth_decimation=capture["truth_decimation"],
+        **compression,
+    )

@@ -6,7 +6,8 @@ offline analysis runs over the captures.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable, Mapping
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,9 +35,17 @@ class HPOIntegralController:
 
     logs = ("x_ref", "x_hpo_rt", "u_cmd")
 
-    def __init__(self, chain: SelfSensingChain, gains: IntegralController, reference: Callable[[np.ndarray], np.ndarray],
-                 fs: float, block_len: int, engage_at: float, u_limits: tuple[float, float] = (-20.0, 120.0),
-                 compiled: bool = False):
+    def __init__(
+        self,
+        chain: SelfSensingChain,
+        gains: IntegralController,
+        reference: Callable[[np.ndarray], np.ndarray],
+        fs: float,
+        block_len: int,
+        engage_at: float,
+        u_limits: tuple[float, float] = (-20.0, 120.0),
+        compiled: bool = False,
+    ):
         self.compiled = compiled  # the twin runs the engaged samples through run_blocks
         self.chain = chain
         self.gains = gains
@@ -78,18 +87,31 @@ class HPOIntegralController:
         return {"x_ref": x_ref, "x_hpo_rt": x_hat, "u_cmd": u_cmd}
 
 
-def controller_factory(n_periods: int, gamma: GammaPolynomial, observer: HPOGains, controller: IntegralController):
+def controller_factory(
+    n_periods: int, gamma: GammaPolynomial, observer: HPOGains, controller: IntegralController
+):
     """``controller_for`` of :func:`selfsense.twin.simulate_experiment`: each closed-loop run's
     :func:`realtime_controller` with these identified values."""
-    return lambda daq, drive, warmup: realtime_controller(daq, drive, warmup, n_periods, gamma, observer, controller)
+    return lambda daq, drive, warmup: realtime_controller(
+        daq, drive, warmup, n_periods, gamma, observer, controller
+    )
 
 
-def realtime_controller(daq: DaqPlan, drive: Drive, warmup: float, n_periods: int, gamma: GammaPolynomial,
-                        observer: HPOGains, controller: IntegralController,
-                        compiled: bool = True) -> HPOIntegralController:
+def realtime_controller(
+    daq: DaqPlan,
+    drive: Drive,
+    warmup: float,
+    n_periods: int,
+    gamma: GammaPolynomial,
+    observer: HPOGains,
+    controller: IntegralController,
+    compiled: bool = True,
+) -> HPOIntegralController:
     """The bench's real-time loop (Chapter 6) configured as the bench's was: the identified Γ and
     observer gains (a0, ω_S, ζ_S) estimate x̂, ``controller`` (ω_C, k/α) drives the stack from it.
     ``compiled=False``: the Python reference, stepped block by block."""
     plan = SamplingPlan(daq.fr_nominal, daq.ns, daq.nf, n_periods)
     chain = SelfSensingChain(plan, gamma, observer, daq.fs)
-    return HPOIntegralController(chain, controller, drive, daq.fs, plan.ns, warmup, compiled=compiled)
+    return HPOIntegralController(
+        chain, controller, drive, daq.fs, plan.ns, warmup, compiled=compiled
+    )

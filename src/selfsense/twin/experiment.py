@@ -8,19 +8,27 @@ drive, and writes that experiment's capture.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Callable, Mapping
 
 from selfsense.io.capture import ScanReport, UnshrinkableChunk, compression_settings
 from selfsense.io.manifest import ManifestError, expand_protocols, load_dataset
-from selfsense.twin.bench import Bench, Controller, DaqPlan, simulate_capture
 from selfsense.methods.drive import Drive, drive_from_protocol
+from selfsense.twin.bench import Bench, Controller, DaqPlan, simulate_capture
 from selfsense.twin.params import TwinParams
 
 LOG = logging.getLogger("selfsense.twin")
 
-__all__ = ["Bench", "Controller", "DaqPlan", "Drive", "TwinParams", "daq_plan",
-           "simulate_capture", "simulate_experiment"]
+__all__ = [
+    "Bench",
+    "Controller",
+    "DaqPlan",
+    "Drive",
+    "TwinParams",
+    "daq_plan",
+    "simulate_capture",
+    "simulate_experiment",
+]
 
 
 def daq_plan(manifest: Mapping) -> DaqPlan:
@@ -30,14 +38,21 @@ def daq_plan(manifest: Mapping) -> DaqPlan:
         fs=float(daq["fs"]),
         channels=tuple(daq["channels"]),
         ranges={k: (float(v[0]), float(v[1])) for k, v in daq["ranges"].items()},
-        fr_nominal=ripple.get("fr_nominal"), ns=ripple.get("ns"), nf=ripple.get("nf"),
+        fr_nominal=ripple.get("fr_nominal"),
+        ns=ripple.get("ns"),
+        nf=ripple.get("nf"),
     )
 
 
-def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, config: Mapping,
-                        output: str | Path | None = None,
-                        controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None,
-                        drive_leak: bool = True) -> ScanReport:
+def simulate_experiment(
+    raw_dir: str | Path,
+    dataset: str,
+    experiment: str,
+    config: Mapping,
+    output: str | Path | None = None,
+    controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None,
+    drive_leak: bool = True,
+) -> ScanReport:
     """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
     capture is validated as it is written, :meth:`selfsense.io.capture.CaptureWriter.scan_report`).
     ``drive_leak=False`` is a study's what-if (:class:`.bench.Bench`), never a capture of the campaign.
@@ -50,41 +65,90 @@ def simulate_experiment(raw_dir: str | Path, dataset: str, experiment: str, conf
     manifest = load_dataset(raw_dir, dataset)
     where = Path(raw_dir) / dataset / "dataset.yaml"
     if manifest["source"] != "simulated":
-        raise ManifestError(f"{where}: source is {manifest['source']}; the twin never writes measured captures")
+        raise ManifestError(
+            f"{where}: source is {manifest['source']}; the twin never writes measured captures"
+        )
     catalogue = expand_protocols(manifest["protocols"], config["campaign"])
     if experiment not in catalogue:
-        raise ManifestError(f"{where}: unknown experiment {experiment!r} for campaign {config['campaign']}")
+        raise ManifestError(
+            f"{where}: unknown experiment {experiment!r} for campaign {config['campaign']}"
+        )
     exp = catalogue[experiment]
     cap = config["capture"]
     warmup = float(exp.protocol.get("warmup", 0.0))
-    attrs = {"dataset": dataset, "protocol": exp.chapter, "campaign": config["campaign"],
-             "description": manifest["description"].strip(), "warmup_s": warmup, "control": exp.control}
+    attrs = {
+        "dataset": dataset,
+        "protocol": exp.chapter,
+        "campaign": config["campaign"],
+        "description": manifest["description"].strip(),
+        "warmup_s": warmup,
+        "control": exp.control,
+    }
     path = output or Path(raw_dir) / dataset / f"{experiment}.nc"
     settings = compression_settings(cap)
     try:
-        return _simulate(path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak)
-    except UnshrinkableChunk as err:  # blosc fails on a chunk it cannot shrink; the twin is deterministic
+        return _simulate(
+            path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak
+        )
+    except (
+        UnshrinkableChunk
+    ) as err:  # blosc fails on a chunk it cannot shrink; the twin is deterministic
         LOG.warning("%s; writing it again with zlib level 1", err)
-        return _simulate(path, manifest, exp, attrs, cap, {"compression": "zlib", "complevel": 1}, where,
-                         controller_for, drive_leak)
+        return _simulate(
+            path,
+            manifest,
+            exp,
+            attrs,
+            cap,
+            {"compression": "zlib", "complevel": 1},
+            where,
+            controller_for,
+            drive_leak,
+        )
 
 
-def _simulate(path, manifest, exp, attrs, cap, compression, where, controller_for, drive_leak=True) -> ScanReport:
+def _simulate(
+    path, manifest, exp, attrs, cap, compression, where, controller_for, drive_leak=True
+) -> ScanReport:
     """One run of the experiment into ``path`` with the writer's ``compression`` arguments."""
     if manifest["model"] == "bender":
-        from selfsense.twin import bender  # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
+        from selfsense.twin import (
+            bender,  # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
+        )
 
-        return bender.simulate_experiment(path, manifest["twin"], daq_plan(manifest), exp, attrs,
-                                          manifest.get("seed", 0), cap, compression, f"{where}: twin")
+        return bender.simulate_experiment(
+            path,
+            manifest["twin"],
+            daq_plan(manifest),
+            exp,
+            attrs,
+            manifest.get("seed", 0),
+            cap,
+            compression,
+            f"{where}: twin",
+        )
     params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
     daq = daq_plan(manifest)
     drive = drive_from_protocol(exp.protocol)
     controller = None
     if exp.control == "closed_loop":
         if controller_for is None:
-            raise ManifestError(f"{where}: experiment {exp.name} needs the real-time controller's Γ, a0 and k/α")
+            raise ManifestError(
+                f"{where}: experiment {exp.name} needs the real-time controller's Γ, a0 and k/α"
+            )
         controller = controller_for(daq, drive, float(exp.protocol.get("warmup", 0.0)))
     return simulate_capture(
-        path, params, daq, drive, attrs, manifest.get("seed", 0), exp.name,
-        load_stiffness=exp.load_stiffness, controller=controller, chunk_len=cap["chunk_len"],
-        truth_decimation=cap["truth_decimation"], drive_leak=drive_leak, **compression)
+        path,
+        params,
+        daq,
+        drive,
+        attrs,
+        manifest.get("seed", 0),
+        exp.name,
+        load_stiffness=exp.load_stiffness,
+        controller=controller,
+        chunk_len=cap["chunk_len"],
+        truth_decimation=cap["truth_decimation"],
+        drive_leak=drive_leak,
+        **compression,
+    )

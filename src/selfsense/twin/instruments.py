@@ -8,6 +8,7 @@ never simulated at a higher rate and decimated.
 from __future__ import annotations
 
 import numpy as np
+
 from selfsense.methods.lti import bilinear, butterworth_highpass2, filter_run
 from selfsense.twin.params import RippleParams
 
@@ -37,7 +38,9 @@ class SlowProcess:
     def __call__(self, t: np.ndarray) -> np.ndarray:
         if not len(t) or not np.isfinite(self.step):
             return self.exact(t)
-        grid = np.arange(np.floor(t.min() / self.step), np.ceil(t.max() / self.step) + 1) * self.step
+        grid = (
+            np.arange(np.floor(t.min() / self.step), np.ceil(t.max() / self.step) + 1) * self.step
+        )
         return np.interp(t, grid, self.exact(grid))
 
 
@@ -78,7 +81,9 @@ def effective_resistance(C_e: np.ndarray, rp: RippleParams) -> np.ndarray:
     return R_ref + rp.R_slope * (C_e - rp.C_ref)
 
 
-def small_signal(C_P: np.ndarray, U_H: np.ndarray, rp: RippleParams) -> tuple[np.ndarray, np.ndarray]:
+def small_signal(
+    C_P: np.ndarray, U_H: np.ndarray, rp: RippleParams
+) -> tuple[np.ndarray, np.ndarray]:
     """The series C_e and R_e the ripple sees (Eq 3.12's quantities): the clamped C_P plus the
     domain state's share, dC_H·U_H, and :func:`effective_resistance` of that C_e plus dR_H·U_H
     (:class:`.params.RippleParams`)."""
@@ -100,7 +105,9 @@ class RippleSource:
         one call to the next, so t must follow the previous call's."""
         f_r = self.rp.f_nominal + self.wander(t)
         phi = self.phase + 2 * np.pi * np.cumsum(f_r) / self.fs - 2 * np.pi * f_r / self.fs
-        self.phase = float((phi[-1] + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi)) if len(t) else self.phase
+        self.phase = (
+            float((phi[-1] + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi)) if len(t) else self.phase
+        )
         return f_r, self.rp.amplitude * np.exp(1j * phi)
 
     @staticmethod

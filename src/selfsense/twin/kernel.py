@@ -26,16 +26,48 @@ import numba
 import numpy as np
 
 from selfsense.methods.lti import tustin
-from selfsense.twin.maxwell import MAX_ITERATIONS, KernelConstants, balanced, maxwell, maxwell_reference, newton_step, slide_anchors, slide_anchors_reference, span
+from selfsense.twin.maxwell import (
+    MAX_ITERATIONS,
+    KernelConstants,
+    balanced,
+    maxwell,
+    maxwell_reference,
+    newton_step,
+    slide_anchors,
+    slide_anchors_reference,
+    span,
+)
 from selfsense.twin.params import TwinParams
 
 #: output columns of the kernel, in order
 OUTPUTS = ("x", "v", "a", "q", "U_P", "U_H", "T", "I", "C_P")
 N_OUT = len(OUTPUTS)
 _HEAD = 5
-_SCALARS = ("alpha", "C_P0", "dC_U", "kappa_T", "T_ref", "fs",
-            "a11", "a12", "a21", "a22", "b1", "b2", "m", "b", "k_tot",
-            "th_decay", "th_gain", "c11", "c12", "c21", "c22", "d1", "d2")
+_SCALARS = (
+    "alpha",
+    "C_P0",
+    "dC_U",
+    "kappa_T",
+    "T_ref",
+    "fs",
+    "a11",
+    "a12",
+    "a21",
+    "a22",
+    "b1",
+    "b2",
+    "m",
+    "b",
+    "k_tot",
+    "th_decay",
+    "th_gain",
+    "c11",
+    "c12",
+    "c21",
+    "c22",
+    "d1",
+    "d2",
+)
 
 
 def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> KernelConstants:
@@ -46,13 +78,38 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
     B = np.array([[0.0], [1.0 / s.m]])
     Ad, Bd, Cd, Dd = tustin(A, B, np.eye(2), np.zeros((2, 1)), h)
     th_decay = np.exp(-h / th.tau)
-    scalars = dict(alpha=s.alpha, C_P0=s.C_P0, dC_U=s.dC_U, kappa_T=s.kappa_T, T_ref=s.T_ref,
-                   fs=fs, a11=Ad[0, 0], a12=Ad[0, 1], a21=Ad[1, 0], a22=Ad[1, 1],
-                   b1=Bd[0, 0], b2=Bd[1, 0], m=s.m, b=s.b, k_tot=k_tot,
-                   th_decay=th_decay, th_gain=th.gamma * (1.0 - th_decay),
-                   c11=Cd[0, 0], c12=Cd[0, 1], c21=Cd[1, 0], c22=Cd[1, 1], d1=Dd[0, 0], d2=Dd[1, 0])
-    return KernelConstants.build(_HEAD, np.array([scalars[k] for k in _SCALARS]), p.hysteresis, p.creep,
-                                 lambda tau: np.exp(-h / tau))
+    scalars = dict(
+        alpha=s.alpha,
+        C_P0=s.C_P0,
+        dC_U=s.dC_U,
+        kappa_T=s.kappa_T,
+        T_ref=s.T_ref,
+        fs=fs,
+        a11=Ad[0, 0],
+        a12=Ad[0, 1],
+        a21=Ad[1, 0],
+        a22=Ad[1, 1],
+        b1=Bd[0, 0],
+        b2=Bd[1, 0],
+        m=s.m,
+        b=s.b,
+        k_tot=k_tot,
+        th_decay=th_decay,
+        th_gain=th.gamma * (1.0 - th_decay),
+        c11=Cd[0, 0],
+        c12=Cd[0, 1],
+        c21=Cd[1, 0],
+        c22=Cd[1, 1],
+        d1=Dd[0, 0],
+        d2=Dd[1, 0],
+    )
+    return KernelConstants.build(
+        _HEAD,
+        np.array([scalars[k] for k in _SCALARS]),
+        p.hysteresis,
+        p.creep,
+        lambda tau: np.exp(-h / tau),
+    )
 
 
 def initial_state(kc: KernelConstants, T0: float) -> np.ndarray:
@@ -75,8 +132,8 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
     """Advance the bench over len(U) samples, writing OUTPUTS into out[:, :] and updating state."""
     nh = C_h.size
     nc = creep_R.size
-    q_b = state[5:5 + nh]
-    U_c = state[5 + nh:5 + nh + nc]
+    q_b = state[5 : 5 + nh]
+    U_c = state[5 + nh : 5 + nh + nc]
     s1, s2, T, q_prev, u_p = state[0], state[1], state[2], state[3], state[4]
     alpha, fs = sc[0], sc[5]
     vmax = span(v_h)
@@ -127,7 +184,9 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
 
 def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.ndarray:
     """Plain-Python reference of :func:`run_kernel`: Brent's method for the voltage balance."""
-    from scipy.optimize import brentq  # only the tests run the reference: ≈ 0.3 s of every simulation's start-up
+    from scipy.optimize import (
+        brentq,  # only the tests run the reference: ≈ 0.3 s of every simulation's start-up
+    )
 
     sc = dict(zip(_SCALARS, kc.scalars))
     q_b, U_c = kc.elements(state)
@@ -137,7 +196,7 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
 
     def charge(u_p, dT, x):
         c0 = sc["C_P0"] + sc["kappa_T"] * dT
-        return c0 * u_p + 0.5 * sc["dC_U"] * u_p ** 2 + sc["alpha"] * x
+        return c0 * u_p + 0.5 * sc["dC_U"] * u_p**2 + sc["alpha"] * x
 
     def u_h(q):
         return maxwell_reference(q, q_b, kc.C_h, kc.v_h)
@@ -151,8 +210,13 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         def position(u):
             return x_free + sc["d1"] * (sc["alpha"] * u + F[n])
 
-        u_p = brentq(lambda u: u + u_h(charge(u, dT, position(u))) - target,
-                     target - vmax - 1.0, target + vmax + 1.0, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+        u_p = brentq(
+            lambda u: u + u_h(charge(u, dT, position(u))) - target,
+            target - vmax - 1.0,
+            target + vmax + 1.0,
+            xtol=1e-15,
+            rtol=4 * np.finfo(float).eps,
+        )
         x = position(u_p)
         q = charge(u_p, dT, x)
         slide_anchors_reference(q, q_b, kc.C_h, kc.v_h)
@@ -165,8 +229,10 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         out[n] = (x, v, acc, q, u_p, uh + uc_sum, T, current, c_p)
         U_c[:] = U_c * kc.creep_decay + current * kc.creep_R * (1.0 - kc.creep_decay)
         T = T_amb[n] + (T - T_amb[n]) * sc["th_decay"] + (uh + uc_sum) * current * sc["th_gain"]
-        s1, s2 = (sc["a11"] * s1 + sc["a12"] * s2 + sc["b1"] * force,
-                  sc["a21"] * s1 + sc["a22"] * s2 + sc["b2"] * force)
+        s1, s2 = (
+            sc["a11"] * s1 + sc["a12"] * s2 + sc["b1"] * force,
+            sc["a21"] * s1 + sc["a22"] * s2 + sc["b2"] * force,
+        )
         q_prev = q
     state[:5] = s1, s2, T, q_prev, u_p
     return out
@@ -175,7 +241,16 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
 def run(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.ndarray:
     """Fast path: the numba kernel over one chunk; returns an (n, N_OUT) array."""
     out = np.empty((len(U), N_OUT))
-    run_kernel(np.ascontiguousarray(U, float), np.ascontiguousarray(F, float),
-               np.ascontiguousarray(T_amb, float), kc.scalars, kc.C_h, kc.v_h,
-               kc.creep_decay, kc.creep_R, state, out)
+    run_kernel(
+        np.ascontiguousarray(U, float),
+        np.ascontiguousarray(F, float),
+        np.ascontiguousarray(T_amb, float),
+        kc.scalars,
+        kc.C_h,
+        kc.v_h,
+        kc.creep_decay,
+        kc.creep_R,
+        state,
+        out,
+    )
     return out

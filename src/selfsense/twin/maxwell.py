@@ -40,8 +40,14 @@ class KernelConstants:
     creep_R: np.ndarray  # R_j = τ_j / C_j [Ω]
 
     @classmethod
-    def build(cls, head: int, scalars: np.ndarray, hysteresis: HysteresisParams, creep: CreepParams,
-              decay: Callable[[np.ndarray], np.ndarray]) -> "KernelConstants":
+    def build(
+        cls,
+        head: int,
+        scalars: np.ndarray,
+        hysteresis: HysteresisParams,
+        creep: CreepParams,
+        decay: Callable[[np.ndarray], np.ndarray],
+    ) -> KernelConstants:
         """``decay`` maps the creep time constants τ_j [s] to their decay over one sample: each twin
         keeps the arithmetic its captures were made with."""
         C_h, v_h = hysteresis.arrays()
@@ -58,7 +64,9 @@ class KernelConstants:
     def elements(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Views of the anchors q_b and the creep voltages U_c in ``state``."""
         nh = len(self.C_h)
-        return state[self.head:self.head + nh], state[self.head + nh:self.head + nh + len(self.creep_R)]
+        return state[self.head : self.head + nh], state[
+            self.head + nh : self.head + nh + len(self.creep_R)
+        ]
 
 
 @numba.njit(cache=True)

@@ -6,8 +6,9 @@ the instruments' data sheets); none is an analysis setting. Units are SI.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
-from typing import Any, Mapping, get_type_hints
+from typing import Any, get_type_hints
 
 import numpy as np
 
@@ -27,9 +28,13 @@ def build_sections(cls, twin: Mapping[str, Any], where: str):
     missing = sorted(set(kinds) - set(twin))
     unknown = sorted(set(twin) - set(kinds))
     if missing or unknown:
-        raise ValueError(f"{where}: missing key(s) {', '.join(missing) or '-'}; "
-                         f"unknown key(s) {', '.join(unknown) or '-'}")
-    return cls(**{name: _build(kind, twin[name], f"{where}.{name}") for name, kind in kinds.items()})
+        raise ValueError(
+            f"{where}: missing key(s) {', '.join(missing) or '-'}; "
+            f"unknown key(s) {', '.join(unknown) or '-'}"
+        )
+    return cls(
+        **{name: _build(kind, twin[name], f"{where}.{name}") for name, kind in kinds.items()}
+    )
 
 
 @dataclass(frozen=True)
@@ -173,7 +178,7 @@ class TwinParams:
     instruments: InstrumentParams
 
     @classmethod
-    def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> "TwinParams":
+    def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> TwinParams:
         if "instruments" in twin:  # the ADC ranges are pairs, nested below the section
             instruments = dict(twin["instruments"])
             instruments["ranges"] = {k: tuple(v) for k, v in instruments.get("ranges", {}).items()}
@@ -191,6 +196,11 @@ class TwinParams:
                 elif isinstance(value, tuple) and all(isinstance(v, (int, float)) for v in value):
                     out[f"{part.name}_{key}"] = np.asarray(value, dtype=float)
         s = self.stack
-        out |= {"stack_m": s.m, "stack_b": s.b, "stack_dC_U": s.dC_U,
-                "thermal_tau": self.thermal.tau, "thermal_gamma": self.thermal.gamma}
+        out |= {
+            "stack_m": s.m,
+            "stack_b": s.b,
+            "stack_dC_U": s.dC_U,
+            "thermal_tau": self.thermal.tau,
+            "thermal_gamma": self.thermal.gamma,
+        }
         return out

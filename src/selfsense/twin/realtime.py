@@ -30,8 +30,33 @@ from selfsense.twin.record import MEASURED, TRUTH, bench_arrays, record_block
 
 
 @numba.njit(cache=True)
-def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, state, hp_b, hp_a, zi_u, zi_i,
-                       adc, weights, tail, sums, gamma, hpo, hpo_state, loop, pending, measured, truth, logs):
+def closed_loop_kernel(
+    t_ref,
+    sig,
+    bench,
+    sc,
+    C_h,
+    v_h,
+    creep_decay,
+    creep_R,
+    state,
+    hp_b,
+    hp_a,
+    zi_u,
+    zi_i,
+    adc,
+    weights,
+    tail,
+    sums,
+    gamma,
+    hpo,
+    hpo_state,
+    loop,
+    pending,
+    measured,
+    truth,
+    logs,
+):
     """Advance the closed loop over len(t_ref) samples, block by block; see the module docstring.
 
     sig, bench, adc: as record.record_block. weights: sin and cos rows (ns).
@@ -67,8 +92,12 @@ def closed_loop_kernel(t_ref, sig, bench, sc, C_h, v_h, creep_decay, creep_R, st
             U[k] = min(max(u + acc, u_lo), u_hi)
         if nb:
             u = U[nb - 1]
-        run_kernel(U[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb])
-        record_block(s, U[:nb], out[:nb], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth, 1, 0)
+        run_kernel(
+            U[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb]
+        )
+        record_block(
+            s, U[:nb], out[:nb], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth, 1, 0
+        )
         for k in range(nb):
             j = s + k
             # the real-time chain sees this sample with the x_CP of windows ended before it
@@ -139,24 +168,70 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
     pending = np.zeros(controller.block_len)
     pend_len = min(len(controller.pending), controller.block_len)
     pending[:pend_len] = controller.pending[:pend_len]
-    loop = np.array([controller.block_len, controller.gains.K_I, controller.fs, controller.u, *controller.u_limits,
-                     chain.x_cp, chain.n, chain.masked_windows, tail_len, sums_len, chain.extractor.plan.fr,
-                     chain.gamma.g, chain.temperature, n_periods, pend_len, obs.last_offset], dtype=float)
+    loop = np.array(
+        [
+            controller.block_len,
+            controller.gains.K_I,
+            controller.fs,
+            controller.u,
+            *controller.u_limits,
+            chain.x_cp,
+            chain.n,
+            chain.masked_windows,
+            tail_len,
+            sums_len,
+            chain.extractor.plan.fr,
+            chain.gamma.g,
+            chain.temperature,
+            n_periods,
+            pend_len,
+            obs.last_offset,
+        ],
+        dtype=float,
+    )
     measured, truth, logs = np.empty((6, n)), np.empty((len(TRUTH), n)), np.empty((3, n))
     kc = bench.kc
-    closed_loop_kernel(np.ascontiguousarray(controller.reference(t), float), sig, constants, kc.scalars, kc.C_h,
-                       kc.v_h, kc.creep_decay, kc.creep_R, bench.state, bench.hp_u.b, bench.hp_u.a, bench.hp_u.zi,
-                       bench.hp_i.zi, adc,
-                       np.ascontiguousarray(windows._weights, float), tail, sums,
-                       np.ascontiguousarray(chain.gamma.coefficients, float), np.stack(obs.matrices), obs.state, loop,
-                       pending, measured, truth, logs)
+    closed_loop_kernel(
+        np.ascontiguousarray(controller.reference(t), float),
+        sig,
+        constants,
+        kc.scalars,
+        kc.C_h,
+        kc.v_h,
+        kc.creep_decay,
+        kc.creep_R,
+        bench.state,
+        bench.hp_u.b,
+        bench.hp_u.a,
+        bench.hp_u.zi,
+        bench.hp_i.zi,
+        adc,
+        np.ascontiguousarray(windows._weights, float),
+        tail,
+        sums,
+        np.ascontiguousarray(chain.gamma.coefficients, float),
+        np.stack(obs.matrices),
+        obs.state,
+        loop,
+        pending,
+        measured,
+        truth,
+        logs,
+    )
     windows._periods_done += (tail_len + n) // ns
     tail_len, sums_len, pend_len = int(loop[9]), int(loop[10]), int(loop[15])
     windows._tail = tail[:, :tail_len].copy()
     windows._period_sums = sums[:, :sums_len].copy()
-    controller.u, controller.pending, controller.last_command = float(loop[3]), pending[:pend_len].copy(), np.zeros(0)
+    controller.u, controller.pending, controller.last_command = (
+        float(loop[3]),
+        pending[:pend_len].copy(),
+        np.zeros(0),
+    )
     chain.x_cp, chain.n, chain.masked_windows = float(loop[6]), int(loop[7]), int(loop[8])
     if n:
         obs.last_offset = float(loop[16])
-    return (dict(zip(MEASURED, measured)), dict(zip(TRUTH, truth)),
-            {"x_ref": logs[0], "x_hpo_rt": logs[1], "u_cmd": logs[2]})
+    return (
+        dict(zip(MEASURED, measured)),
+        dict(zip(TRUTH, truth)),
+        {"x_ref": logs[0], "x_hpo_rt": logs[1], "u_cmd": logs[2]},
+    )

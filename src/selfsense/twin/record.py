@@ -71,7 +71,9 @@ def _small_signal(C_P, U_H, bench):
 
 
 @numba.njit(cache=True)
-def record_block(j0, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth, every, first):
+def record_block(
+    j0, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth, every, first
+):
     """What the DAQ records at samples j0 … j0 + len(U) − 1 of a chunk, from the block's drive U and
     the stack's outputs ``out`` (len(U) rows of kernel.OUTPUTS): measured (quantised) columns j0 …,
     the high-pass states zi_u, zi_i carried, and the truth of the samples first, first + every, …
@@ -103,9 +105,20 @@ def record_block(j0, U, out, sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, 
     for j in range(first + -(-(j0 - first) // every) * every, stop, every):
         k, i = j - j0, (j - first) // every
         C_e, R_e = _small_signal(out[k, 8], out[k, 5], bench)
-        truth[0, i], truth[1, i], truth[2, i], truth[3, i], truth[4, i] = out[k, 0], out[k, 3], out[k, 4], \
-            out[k, 5], out[k, 6]
-        truth[5, i], truth[6, i], truth[7, i], truth[8, i], truth[9, i] = out[k, 8], C_e, R_e, I_off[j], U[k]
+        truth[0, i], truth[1, i], truth[2, i], truth[3, i], truth[4, i] = (
+            out[k, 0],
+            out[k, 3],
+            out[k, 4],
+            out[k, 5],
+            out[k, 6],
+        )
+        truth[5, i], truth[6, i], truth[7, i], truth[8, i], truth[9, i] = (
+            out[k, 8],
+            C_e,
+            R_e,
+            I_off[j],
+            U[k],
+        )
     for c in range(len(MEASURED)):  # a pass per channel: faster than six channels at every sample
         scale, offset = adc[c, 0], adc[c, 1]
         for j in range(j0, stop):
@@ -118,25 +131,64 @@ def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np
     loop)."""
     p, ins = bench.p, bench.p.instruments
     if len(bench.hp_u.a) != 3:  # record_block's _leaks is written for the 2nd-order Sallen-Key
-        raise ValueError(f"the ripple high-pass has order {len(bench.hp_u.a) - 1}; the recorder takes 2")
-    sig = tuple(np.ascontiguousarray(signals[k]) for k in ("f_r", "u_ripple", "h", "I_offset", "laser_drift",
-                                                            *(f"noise_{c}" for c in NOISY)))
+        raise ValueError(
+            f"the ripple high-pass has order {len(bench.hp_u.a) - 1}; the recorder takes 2"
+        )
+    sig = tuple(
+        np.ascontiguousarray(signals[k])
+        for k in ("f_r", "u_ripple", "h", "I_offset", "laser_drift", *(f"noise_{c}" for c in NOISY))
+    )
     rp = p.ripple
-    constants = np.array([float(effective_resistance(np.float64(rp.C_ref), rp)), rp.R_slope, rp.C_ref,
-                          ins.F_preload, p.stack.k_spring + bench.load_stiffness, p.stack.m, bench.T_amb,
-                          rp.dC_H, rp.dR_H, ins.I_resolution, ins.laser_resolution])
-    adc = np.array([(bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
-                    for c in MEASURED])
+    constants = np.array(
+        [
+            float(effective_resistance(np.float64(rp.C_ref), rp)),
+            rp.R_slope,
+            rp.C_ref,
+            ins.F_preload,
+            p.stack.k_spring + bench.load_stiffness,
+            p.stack.m,
+            bench.T_amb,
+            rp.dC_H,
+            rp.dR_H,
+            ins.I_resolution,
+            ins.laser_resolution,
+        ]
+    )
+    adc = np.array(
+        [
+            (bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
+            for c in MEASURED
+        ]
+    )
     return sig, constants, adc
 
 
-def record(bench, U: np.ndarray, out: np.ndarray, signals, every: int = 1, first: int = 0) -> tuple[dict, dict]:
+def record(
+    bench, U: np.ndarray, out: np.ndarray, signals, every: int = 1, first: int = 0
+) -> tuple[dict, dict]:
     """A whole chunk through :func:`record_block`, from and back into ``bench``'s high-pass states;
     returns (measured, truth) as :meth:`.bench.Bench.step` does, the truth at the chunk's samples
     first, first + every, …"""
     n = len(U)
     sig, constants, adc = bench_arrays(bench, signals)
-    measured, truth = np.empty((len(MEASURED), n)), np.empty((len(TRUTH), len(range(first, n, every))))
-    record_block(0, np.ascontiguousarray(U, float), out, sig, constants, bench.hp_u.b, bench.hp_u.a, bench.hp_u.zi,
-                 bench.hp_i.zi, adc, measured, truth, every, first)
+    measured, truth = (
+        np.empty((len(MEASURED), n)),
+        np.empty((len(TRUTH), len(range(first, n, every)))),
+    )
+    record_block(
+        0,
+        np.ascontiguousarray(U, float),
+        out,
+        sig,
+        constants,
+        bench.hp_u.b,
+        bench.hp_u.a,
+        bench.hp_u.zi,
+        bench.hp_i.zi,
+        adc,
+        measured,
+        truth,
+        every,
+        first,
+    )
     return dict(zip(MEASURED, measured)), dict(zip(TRUTH, truth))

@@ -38,14 +38,14 @@ each sample by a 4-point cubic (:meth:`Truth.at`).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from selfsense.io.capture import open_capture, read_series
 from selfsense.chapters.ch5 import creep_phases, offset_compensated_charge
 from selfsense.chapters.ch6 import segment_windows, settled_after
+from selfsense.io.capture import open_capture, read_series
 from selfsense.methods.gamma import GammaPolynomial
 from selfsense.methods.observer import HPOGains, HybridPositionObserver
 from selfsense.methods.ripple import SamplingPlan, WindowMeans, plan_from_capture
@@ -61,7 +61,6 @@ AT_MAX_SPREAD = " at max σ over tests [µm]"
 SOURCES = ("probe offset", "current noise", "q–x map", "C_e estimate", "Γ map", "laser")
 
 
-
 class Superposition:
     """The observer run once per source on that source's difference signal (module docstring).
 
@@ -71,11 +70,21 @@ class Superposition:
     """
 
     def __init__(self, observer: HybridPositionObserver):
-        self._paths = {name: HybridPositionObserver(observer.gains, observer.fs, observer.method)
-                       for name in SOURCES[:5]}
+        self._paths = {
+            name: HybridPositionObserver(observer.gains, observer.fs, observer.method)
+            for name in SOURCES[:5]
+        }
 
-    def split(self, current: np.ndarray, x_cp: np.ndarray, x_laser: np.ndarray, x: np.ndarray,
-              x_charge: np.ndarray, x_capacitance: np.ndarray, offset: np.ndarray) -> dict[str, np.ndarray]:
+    def split(
+        self,
+        current: np.ndarray,
+        x_cp: np.ndarray,
+        x_laser: np.ndarray,
+        x: np.ndarray,
+        x_charge: np.ndarray,
+        x_capacitance: np.ndarray,
+        offset: np.ndarray,
+    ) -> dict[str, np.ndarray]:
         """One chunk's sources [m]: ``current`` [A] and ``x_cp`` [m] as the chain fed its observer,
         ``x_laser`` as Table 5.4 reads it; the truth: position ``x``, q/a0 (``x_charge``), Γ(C_e)
         (``x_capacitance``) and the probe offset I_0 (``offset``, A)."""
@@ -84,7 +93,8 @@ class Superposition:
         return {
             "probe offset": self._paths["probe offset"].step(offset, zero),
             # x̂(I − I_0, q/a0) − q/a0 = H_I·(x_I − x_I0 − q/a0)
-            "current noise": self._paths["current noise"].step(current - offset, x_charge) - x_charge,
+            "current noise": self._paths["current noise"].step(current - offset, x_charge)
+            - x_charge,
             "q–x map": charge - self._paths["q–x map"].step(zero, charge),
             "C_e estimate": self._paths["C_e estimate"].step(zero, x_cp - x_capacitance),
             "Γ map": self._paths["Γ map"].step(zero, x_capacitance - x),
@@ -112,7 +122,9 @@ class BudgetStats:
         self.sq, self.peak = dict.fromkeys(self.sources, 0.0), dict.fromkeys(self.sources, 0.0)
         self.at_max = dict.fromkeys(self.sources, float("nan"))
 
-    def add(self, t: np.ndarray, total: np.ndarray, parts: Mapping[str, np.ndarray], counted: np.ndarray) -> None:
+    def add(
+        self, t: np.ndarray, total: np.ndarray, parts: Mapping[str, np.ndarray], counted: np.ndarray
+    ) -> None:
         """One chunk: ``total`` the error (x̂ − x_laser for the observer), its ``parts``, ``counted``
         the samples that count."""
         keep = counted & np.isfinite(total)  # a NaN laser sample counts nowhere, as in Table 5.4
@@ -127,7 +139,11 @@ class BudgetStats:
             self.peak[s] = max(self.peak[s], float(np.max(np.abs(p[s]))))
         k = int(np.argmax(np.abs(e)))
         if abs(e[k]) > self.total_max:
-            self.total_max, self.total_at_max, self.time_of_max = float(abs(e[k])), float(e[k]), float(t[keep][k])
+            self.total_max, self.total_at_max, self.time_of_max = (
+                float(abs(e[k])),
+                float(e[k]),
+                float(t[keep][k]),
+            )
             self.at_max = {s: float(p[s][k]) for s in self.sources}
 
     def row(self) -> dict[str, float]:
@@ -135,19 +151,37 @@ class BudgetStats:
         sources, which make the shares add up to 1)."""
         um, n, ms = 1e6, max(self.n, 1), self.total_sq / max(self.n, 1)
         share = {s: self.sq[s] / n / ms if ms > 0 else float("nan") for s in self.sources}
-        row = {"total max error [µm]": self.total_max * um, "total rms [µm]": np.sqrt(ms) * um,
-               "total at max [µm]": self.total_at_max * um, "time of max [s]": self.time_of_max}
+        row = {
+            "total max error [µm]": self.total_max * um,
+            "total rms [µm]": np.sqrt(ms) * um,
+            "total at max [µm]": self.total_at_max * um,
+            "time of max [s]": self.time_of_max,
+        }
         for s in self.sources:
-            row |= {f"{s} rms [µm]": np.sqrt(self.sq[s] / n) * um, f"{s} max [µm]": self.peak[s] * um,
-                    f"{s}{AT_MAX}": self.at_max[s] * um, f"{s} share of mean square": share[s]}
-        return row | {"cross terms share of mean square": 1.0 - sum(share.values()),
-                      "max |sum of sources − total| [µm]": self.closure * um, "samples": self.n}
+            row |= {
+                f"{s} rms [µm]": np.sqrt(self.sq[s] / n) * um,
+                f"{s} max [µm]": self.peak[s] * um,
+                f"{s}{AT_MAX}": self.at_max[s] * um,
+                f"{s} share of mean square": share[s],
+            }
+        return row | {
+            "cross terms share of mean square": 1.0 - sum(share.values()),
+            "max |sum of sources − total| [µm]": self.closure * um,
+            "samples": self.n,
+        }
 
 
-def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: SamplingPlan, gamma: GammaPolynomial,
-               gains: HPOGains, fs: float, settle_s: float, truth: Truth,
-               loop_rate: SamplingPlan | None = None,
-               windows: Sequence[tuple[str, float, float]] = ()) -> dict[str, dict[str, float]]:
+def run_budget(
+    chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]],
+    plan: SamplingPlan,
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+    fs: float,
+    settle_s: float,
+    truth: Truth,
+    loop_rate: SamplingPlan | None = None,
+    windows: Sequence[tuple[str, float, float]] = (),
+) -> dict[str, dict[str, float]]:
     """One capture's error budget: the self-sensing chain streamed as for Table 5.4 (same chain,
     same laser zero, samples after the warm-up ``settle_s``), each chunk split into its sources.
 
@@ -170,8 +204,15 @@ def run_budget(chunks: Iterable[tuple[int, Mapping[str, np.ndarray]]], plan: Sam
     zero = None
     for start, t, x_laser, out in chain.against_laser(chunks):
         true = truth.at(start + np.arange(len(t)))
-        parts = paths.split(out["current"], out["x_cp"], x_laser, true["x"], true["q"] / gains.a0,
-                            chain.gamma.predict(true["C_e"], chain.temperature), true["I_offset"])
+        parts = paths.split(
+            out["current"],
+            out["x_cp"],
+            x_laser,
+            true["x"],
+            true["q"] / gains.a0,
+            chain.gamma.predict(true["C_e"], chain.temperature),
+            true["I_offset"],
+        )
         total = out["x_hat"] - x_laser
         if means is not None:
             index, m = means.process(x_laser, total, *(parts[s] for s in SOURCES))
@@ -189,7 +230,9 @@ class SpanBudgets:
     may have many, as P1's segments do, one per test) and, where a label has several, one per span:
     Table 6.1's σ is the spread over the tests of each test's max, which :meth:`rows` splits too."""
 
-    def __init__(self, spans: Sequence[tuple[str, float, float]], sources: tuple[str, ...] = SOURCES):
+    def __init__(
+        self, spans: Sequence[tuple[str, float, float]], sources: tuple[str, ...] = SOURCES
+    ):
         self.spans = list(spans)
         self.labels = {label: BudgetStats(sources) for label, _, _ in self.spans}
         self.each = [BudgetStats(sources) for _ in self.spans]
@@ -211,7 +254,9 @@ class SpanBudgets:
         where a label has several spans."""
         rows = {}
         for label, budget in self.labels.items():
-            tests = [one for (name, _, _), one in zip(self.spans, self.each) if name == label and one.n]
+            tests = [
+                one for (name, _, _), one in zip(self.spans, self.each) if name == label and one.n
+            ]
             if budget.n:  # a span the run is too short for (the creep's steady state on the smoke DAG) has no row
                 rows[label] = budget.row() | (spread_over_spans(tests) if len(tests) > 1 else {})
         return rows
@@ -222,19 +267,33 @@ def spread_over_spans(tests: Sequence[BudgetStats]) -> dict[str, float]:
     signed error at that max and of each source there: the sources' values add up to that signed
     error, so its variance is theirs with their covariances."""
     um = 1e6
-    row = {"tests": len(tests),
-           "total max σ over tests [µm]": float(np.std([s.total_max for s in tests], ddof=1)) * um,
-           "σ over tests of the signed error at max [µm]": float(np.std([s.total_at_max for s in tests], ddof=1)) * um}
-    return row | {f"{source}{AT_MAX_SPREAD}": float(np.std([s.at_max[source] for s in tests], ddof=1)) * um
-                  for source in tests[0].sources}
+    row = {
+        "tests": len(tests),
+        "total max σ over tests [µm]": float(np.std([s.total_max for s in tests], ddof=1)) * um,
+        "σ over tests of the signed error at max [µm]": float(
+            np.std([s.total_at_max for s in tests], ddof=1)
+        )
+        * um,
+    }
+    return row | {
+        f"{source}{AT_MAX_SPREAD}": float(np.std([s.at_max[source] for s in tests], ddof=1)) * um
+        for source in tests[0].sources
+    }
 
 
 #: the channels the budget streams, as rule `observe` does, so that the chunks are the same
 CHANNELS = ("Ur", "Ir", "I", "x_laser")
 
 
-def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains, omega_c: float | None = None,
-                   p1_protocol: Mapping | None = None, transient_s: float | None = None) -> dict[str, dict[str, float]]:
+def capture_budget(
+    path,
+    n_periods: int,
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+    omega_c: float | None = None,
+    p1_protocol: Mapping | None = None,
+    transient_s: float | None = None,
+) -> dict[str, dict[str, float]]:
     """:func:`run_budget` of one simulated capture, counted as Table 5.4 counts, from the warm-up on
     (given the creep run's ``transient_s``, in its transient and steady state as its table counts,
     :func:`selfsense.chapters.ch5.creep_phases`); given the loop's ``omega_c``, as Chapter 6 counts
@@ -246,17 +305,29 @@ def capture_budget(path, n_periods: int, gamma: GammaPolynomial, gains: HPOGains
         warmup, plan = float(cap.attribute("warmup_s")), plan_from_capture(cap, n_periods)
         if omega_c is None:
             phases = creep_phases(warmup, transient_s) if transient_s is not None else ()
-            return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, warmup, truth, windows=phases)
-        return run_budget(cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, settled_after(warmup, omega_c),
-                          truth, loop_rate=plan_from_capture(cap, 1), windows=windows)
+            return run_budget(
+                cap.iter_chunks(CHANNELS), plan, gamma, gains, cap.fs, warmup, truth, windows=phases
+            )
+        return run_budget(
+            cap.iter_chunks(CHANNELS),
+            plan,
+            gamma,
+            gains,
+            cap.fs,
+            settled_after(warmup, omega_c),
+            truth,
+            loop_rate=plan_from_capture(cap, 1),
+            windows=windows,
+        )
 
 
 #: the sources of the charge–position error (Fig 5.2), in the order they telescope
 CHARGE_SOURCES = ("current path", "q–x map", "laser")
 
 
-def charge_position_budget(series: Mapping[str, np.ndarray], truth: Truth, fs: float,
-                           block_len: int) -> dict[str, float]:
+def charge_position_budget(
+    series: Mapping[str, np.ndarray], truth: Truth, fs: float, block_len: int
+) -> dict[str, float]:
     """Fig 5.2's charge–position error, x_I − x_laser with x_I = q/a0 (:func:`selfsense.chapters.ch5.charge_sensing`:
     the integrated current with q0 + I_0·t fitted out, the laser from its start), split at the
     truth's charge q and position x over the same windows of ``block_len`` samples, x taken from its
@@ -287,4 +358,3 @@ def capture_charge_budget(series, capture, n_periods: int) -> dict[str, float]:
         truth = Truth.from_capture(cap, names=("x", "q"))
         fs, block_len = cap.fs, plan_from_capture(cap, n_periods).block_len
     return charge_position_budget(read_series(series), truth, fs, block_len)
-

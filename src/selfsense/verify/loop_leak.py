@@ -21,19 +21,19 @@ part at that max (:func:`selfsense.verify.error_budget.capture_budget`).
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters.ch6 import settled_after
-from selfsense.verify.truth import Truth
-from selfsense.verify.error_budget import capture_budget
+from selfsense.io.capture import open_capture
 from selfsense.methods.gamma import GammaPolynomial
 from selfsense.methods.observer import HPOGains
 from selfsense.methods.ripple import RippleExtractor, plan_from_capture
 from selfsense.twin.experiment import simulate_experiment
+from selfsense.verify.error_budget import capture_budget
+from selfsense.verify.truth import Truth
 
 AS_SIMULATED = "as simulated"
 NO_LEAK = "no drive leak"
@@ -56,22 +56,35 @@ def capture_leak(path: str | Path, n_periods: int, omega_c: float) -> dict[str, 
             windows = ce.process(d["Ur"], d["Ir"])
             # the same Fourier sums on (Δu_cmd, ΔUr): their folded-bin coefficients side by side
             last = (d["u_cmd"][0], d["Ur"][0]) if last is None else last
-            pair = drive.process(np.diff(d["u_cmd"], prepend=last[0]), np.diff(d["Ur"], prepend=last[1]))
+            pair = drive.process(
+                np.diff(d["u_cmd"], prepend=last[0]), np.diff(d["Ur"], prepend=last[1])
+            )
             last = (d["u_cmd"][-1], d["Ur"][-1])
             keep = windows.sample_index - plan.block_len + 1 >= first
             true = truth.means(windows.sample_index[keep], plan.block_len)["C_e"]
             errors.append(100 * (windows.C_e[keep] / true - 1))
-            ratios.append(100 * np.hypot(pair.A_V, pair.B_V)[keep] / np.hypot(pair.A_I, pair.B_I)[keep])
+            ratios.append(
+                100 * np.hypot(pair.A_V, pair.B_V)[keep] / np.hypot(pair.A_I, pair.B_I)[keep]
+            )
     errors, ratios = np.concatenate(errors), np.concatenate(ratios)
     if not errors.size:
         raise ValueError(f"{path}: no ripple window after the loop settles")
-    return {"u_cmd at the folded ripple frequency [% of Ur's]": float(np.median(ratios)),
-            "C_e error mean [%]": float(np.mean(errors)), "C_e error rms [%]": float(np.sqrt(np.mean(errors**2))),
-            "windows": int(errors.size)}
+    return {
+        "u_cmd at the folded ripple frequency [% of Ur's]": float(np.median(ratios)),
+        "C_e error mean [%]": float(np.mean(errors)),
+        "C_e error rms [%]": float(np.sqrt(np.mean(errors**2))),
+        "windows": int(errors.size),
+    }
 
 
-def leak_row(run: str, captures: dict[str, str | Path], n_periods: int, gamma: GammaPolynomial, gains: HPOGains,
-             omega_c: float) -> dict[str, object]:
+def leak_row(
+    run: str,
+    captures: dict[str, str | Path],
+    n_periods: int,
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+    omega_c: float,
+) -> dict[str, object]:
     """Closed-loop ``run``'s row: for each variant ({variant: capture}, :data:`AS_SIMULATED` and
     :data:`NO_LEAK`), :func:`capture_leak` and the observer error Table 6.2 counts with its C_e
     estimate part at the max, in columns "<quantity>, <variant>"."""
@@ -80,13 +93,21 @@ def leak_row(run: str, captures: dict[str, str | Path], n_periods: int, gamma: G
         budget = capture_budget(path, n_periods, gamma, gains, omega_c)[""]
         values = capture_leak(path, n_periods, omega_c) | {
             "max |ε_OCL| [µm]": budget["total max error [µm]"],
-            "C_e estimate at ε_OCL's max [µm]": budget["C_e estimate at total max [µm]"]}
+            "C_e estimate at ε_OCL's max [µm]": budget["C_e estimate at total max [µm]"],
+        }
         row |= {f"{name}, {variant}": value for name, value in values.items()}
     return row
 
 
-def leak_study(captures: Sequence[str | Path], config: Mapping, controller_for: Callable, n_periods: int,
-               gamma: GammaPolynomial, gains: HPOGains, omega_c: float) -> list[dict[str, object]]:
+def leak_study(
+    captures: Sequence[str | Path],
+    config: Mapping,
+    controller_for: Callable,
+    n_periods: int,
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+    omega_c: float,
+) -> list[dict[str, object]]:
     """:func:`leak_row` of each closed-loop capture (raw/<dataset>/<experiment>.nc) against the same
     experiment simulated again (``config``: the campaign and capture settings, ``controller_for``:
     :func:`selfsense.methods.control.controller_factory`'s) with the drive kept out of the ripple channels,
@@ -95,7 +116,23 @@ def leak_study(captures: Sequence[str | Path], config: Mapping, controller_for: 
     with tempfile.TemporaryDirectory() as scratch:
         for path in map(Path, captures):
             no_leak = Path(scratch) / path.name
-            simulate_experiment(path.parents[1], path.parent.name, path.stem, config, no_leak,
-                                controller_for=controller_for, drive_leak=False)
-            rows.append(leak_row(path.stem, {AS_SIMULATED: path, NO_LEAK: no_leak}, n_periods, gamma, gains, omega_c))
+            simulate_experiment(
+                path.parents[1],
+                path.parent.name,
+                path.stem,
+                config,
+                no_leak,
+                controller_for=controller_for,
+                drive_leak=False,
+            )
+            rows.append(
+                leak_row(
+                    path.stem,
+                    {AS_SIMULATED: path, NO_LEAK: no_leak},
+                    n_periods,
+                    gamma,
+                    gains,
+                    omega_c,
+                )
+            )
     return rows

@@ -9,15 +9,15 @@ and resolution) is the measured value less the true one.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import pandas as pd
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters.ronkanen import Record, performance
+from selfsense.io.capture import open_capture
 from selfsense.verify.truth import Truth
 
 SENSOR = "sensor (measured − true x)"
@@ -31,14 +31,25 @@ def true_displacement(path: str | Path) -> np.ndarray:
     return truth.at(np.arange(truth.n_samples))["x"]
 
 
-def performance_truth(kind: Mapping[str, Mapping[str, Record]], true_x: Mapping[str, np.ndarray], a_cmd: float,
-                      drift_start: float, drift_duration: float) -> pd.DataFrame:
+def performance_truth(
+    kind: Mapping[str, Mapping[str, Record]],
+    true_x: Mapping[str, np.ndarray],
+    a_cmd: float,
+    drift_start: float,
+    drift_duration: float,
+) -> pd.DataFrame:
     """:func:`~selfsense.chapters.ronkanen.performance` from the sensor ("measured") and from the
     twin's true displacement (``true_x``: {record name: x}, "true x"), and their difference, the
     sensor's share; ``kind`` as :func:`~selfsense.chapters.ronkanen.by_kind` gives it."""
     runs = [kind[k] for k in ("decay", "repeat", "drift")]
     measured = performance(*runs, a_cmd, drift_start, drift_duration)
-    true = performance(*({c: replace(r, x=true_x[r.name]) for c, r in recs.items()} for recs in runs),
-                       a_cmd, drift_start, drift_duration)
-    out = measured[["measure", "control"]].assign(measured=measured["value"], **{"true x": true["value"]})
+    true = performance(
+        *({c: replace(r, x=true_x[r.name]) for c, r in recs.items()} for recs in runs),
+        a_cmd,
+        drift_start,
+        drift_duration,
+    )
+    out = measured[["measure", "control"]].assign(
+        measured=measured["value"], **{"true x": true["value"]}
+    )
     return out.assign(**{SENSOR: out["measured"] - out["true x"]})

@@ -13,17 +13,17 @@ between the two is the model's bias on this bench, not an error of the measureme
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
-from selfsense.io.capture import open_capture, read_series
 from selfsense.chapters.ch4 import identify_sets
-from selfsense.verify.truth import Truth
-from selfsense.verify.gamma_truth import window_truth
+from selfsense.io.capture import open_capture, read_series
 from selfsense.methods.ripple import plan_from_capture
+from selfsense.verify.gamma_truth import window_truth
+from selfsense.verify.truth import Truth
 
 
 def ce_tracking(series: Mapping[str, np.ndarray], truth: Truth, fs: float) -> dict[str, float]:
@@ -32,29 +32,51 @@ def ce_tracking(series: Mapping[str, np.ndarray], truth: Truth, fs: float) -> di
     c_true = truth.at(np.asarray(series["time"], dtype=float) * fs)["C_e"]
     err = 100 * (np.asarray(series["C_e"]) / c_true - 1)
     err = err[np.isfinite(err)]
-    return {"rms error [%]": float(np.sqrt(np.mean(err ** 2))), "max error [%]": float(np.max(np.abs(err))),
-            "mean error [%]": float(np.mean(err)), "windows": int(err.size)}
+    return {
+        "rms error [%]": float(np.sqrt(np.mean(err**2))),
+        "max error [%]": float(np.max(np.abs(err))),
+        "mean error [%]": float(np.mean(err)),
+        "windows": int(err.size),
+    }
 
 
 #: identified parameter (per-set table column) → twin truth attribute
-MODEL_TRUTH = {"k": "stack_k", "alpha": "stack_alpha", "C_P0": "stack_C_P0", "dC_x": "stack_dC_x", "b": "stack_b"}
+MODEL_TRUTH = {
+    "k": "stack_k",
+    "alpha": "stack_alpha",
+    "C_P0": "stack_C_P0",
+    "dC_x": "stack_dC_x",
+    "b": "stack_b",
+}
 #: the column of the identification on the twin's noiseless states
 ON_TRUTH = "model on truth"
 
 
-def truth_series(series: Mapping[str, np.ndarray], truth: Truth, fs: float, block_len: int) -> dict[str, np.ndarray]:
+def truth_series(
+    series: Mapping[str, np.ndarray], truth: Truth, fs: float, block_len: int
+) -> dict[str, np.ndarray]:
     """A Chapter 4 set's ripple ``series`` with what the identification reads of it (Eq 4.15–4.19)
     replaced by the twin's noiseless states over the same windows: the small-signal C_e for the
     ripple's, x for the laser's, the stack's charge q for the integrated current (whose offset and
     drift the charge fit absorbs either way) and I = dq/dt. ``truth`` holds C_e, x and q; windows
     the ripple stage rejected stay rejected."""
     true = window_truth(truth, series["time"], fs, block_len, ("C_e", "x", "q"))
-    return dict(series) | {"C_e": np.where(np.isfinite(series["C_e"]), true["C_e"], np.nan), "x_laser": true["x"],
-                           "q": true["q"], "I": np.gradient(true["q"], series["time"])}
+    return dict(series) | {
+        "C_e": np.where(np.isfinite(series["C_e"]), true["C_e"], np.nan),
+        "x_laser": true["x"],
+        "q": true["q"],
+        "I": np.gradient(true["q"], series["time"]),
+    }
 
 
-def identified_on_truth(series: Sequence[str | Path], captures: Sequence[str | Path], n_periods: int,
-                        k_static: float, m: float, geometry):
+def identified_on_truth(
+    series: Sequence[str | Path],
+    captures: Sequence[str | Path],
+    n_periods: int,
+    k_static: float,
+    m: float,
+    geometry,
+):
     """The per-set table of :func:`selfsense.chapters.ch4.identify_sets` for the sets whose ripple
     series are ``series``, each on :func:`truth_series` from its capture (same order)."""
     sets = {}
@@ -75,12 +97,20 @@ def model_recovery(per_set, truth_params: Mapping[str, float], on_truth=None):
         for key, attr in MODEL_TRUTH.items():
             truth = float(truth_params[attr])
             mean = float(sets[key].mean())
-            row = {"case": int(case), "parameter": key, "truth": truth, "identified mean": mean,
-                   "identified std": float(sets[key].std(ddof=1)) if len(sets) > 1 else float("nan"),
-                   "error [%]": 100 * (mean / truth - 1) if truth else float("nan")}
+            row = {
+                "case": int(case),
+                "parameter": key,
+                "truth": truth,
+                "identified mean": mean,
+                "identified std": float(sets[key].std(ddof=1)) if len(sets) > 1 else float("nan"),
+                "error [%]": 100 * (mean / truth - 1) if truth else float("nan"),
+            }
             if on_truth is not None:
                 model = float(on_truth.loc[on_truth["case"] == case, key].mean())
-                row |= {ON_TRUTH: model, f"error vs {ON_TRUTH} [%]": 100 * (mean / model - 1) if model else float("nan")}
+                row |= {
+                    ON_TRUTH: model,
+                    f"error vs {ON_TRUTH} [%]": 100 * (mean / model - 1) if model else float("nan"),
+                }
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -91,7 +121,16 @@ def hysteresis_share_recovery(identified, truth_states: Mapping[str, np.ndarray]
     U_H over the peak drive U (Eq 1.6), from the truth of a capture at that frequency."""
     truth = 100 * float(np.max(np.abs(truth_states["U_H"])) / np.max(truth_states["U_drive"]))
     rows = identified[np.isclose(identified["frequency [Hz]"], frequency)]
-    return pd.DataFrame([{"case": int(r["case"]), "parameter": f"U_H share of max U at {frequency:g} Hz [%]",
-                          "truth": truth, "identified mean": float(r["U_H share of max U [%]"]),
-                          "identified std": float("nan"), "error [%]": 100 * (r["U_H share of max U [%]"] / truth - 1)}
-                         for _, r in rows.iterrows()])
+    return pd.DataFrame(
+        [
+            {
+                "case": int(r["case"]),
+                "parameter": f"U_H share of max U at {frequency:g} Hz [%]",
+                "truth": truth,
+                "identified mean": float(r["U_H share of max U [%]"]),
+                "identified std": float("nan"),
+                "error [%]": 100 * (r["U_H share of max U [%]"] / truth - 1),
+            }
+            for _, r in rows.iterrows()
+        ]
+    )

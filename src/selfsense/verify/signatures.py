@@ -23,22 +23,22 @@ one signature by one definition. Runs and what they give (docs/twin.md, "Calibra
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
-from typing import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters import ch3, ch4, ch5, ch6, ch7
-from selfsense.methods.electromech import Geometry
+from selfsense.io.capture import open_capture
 from selfsense.io.manifest import Experiment
+from selfsense.methods.drive import drive_from_protocol
+from selfsense.methods.electromech import Geometry
 from selfsense.methods.ripple import impedance_series, plan_from_capture
 from selfsense.methods.thermal import ThermalModel, ThermalProperties
 from selfsense.twin.bench import DaqPlan, simulate_capture
-from selfsense.methods.drive import drive_from_protocol
 from selfsense.twin.params import TwinParams
 
 #: the tables (relative to results/<dataset>/) the short runs give, each with the runs it needs
@@ -71,7 +71,9 @@ class ShortRuns:
     omega_c: float
     workdir: Path
 
-    def tables(self, params: TwinParams, wanted: Iterable[str] = tuple(TABLES)) -> dict[str, pd.DataFrame]:
+    def tables(
+        self, params: TwinParams, wanted: Iterable[str] = tuple(TABLES)
+    ) -> dict[str, pd.DataFrame]:
         """{table: table} of the ``wanted`` tables of :data:`TABLES`, from runs of the twin with
         ``params``; only the runs they need are made, each once."""
         wanted = list(wanted)
@@ -85,61 +87,115 @@ class ShortRuns:
 
         @cache
         def steady():
-            return ch3.steady(_ripple_series(capture("ch3_sine_10hz"), self.n_periods), 0.1)  # ch3_hysteresis's skip_s
+            return ch3.steady(
+                _ripple_series(capture("ch3_sine_10hz"), self.n_periods), 0.1
+            )  # ch3_hysteresis's skip_s
 
         @cache
         def identified():
-            return _identify(capture("ch4_sine_10hz_s1"), self.n_periods, params, self.moving_mass, self.geometry)
+            return _identify(
+                capture("ch4_sine_10hz_s1"), self.n_periods, params, self.moving_mass, self.geometry
+            )
 
-        thermal = ThermalModel.from_k_T(params.thermal.k_T, ThermalProperties(
-            params.thermal.rho, params.thermal.c, params.thermal.volume, params.thermal.area))
+        thermal = ThermalModel.from_k_T(
+            params.thermal.k_T,
+            ThermalProperties(
+                params.thermal.rho, params.thermal.c, params.thermal.volume, params.thermal.area
+            ),
+        )
 
         def steady_temperature():
-            heating = _heating_power(capture("ch5_sine_100hz"), self.n_periods, identified().case2.k_over_alpha)
+            heating = _heating_power(
+                capture("ch5_sine_100hz"), self.n_periods, identified().case2.k_over_alpha
+            )
             f = self.catalogue["ch5_sine_100hz"].protocol["segments"][0]["frequency"]
             # the columns of ch7.steady_rise_trends, from the closed form
-            return pd.DataFrame({"frequency [Hz]": [f], "steady temperature [°C]":
-                                 [params.thermal.T_amb + thermal.steady_state_rise(heating)]})
+            return pd.DataFrame(
+                {
+                    "frequency [Hz]": [f],
+                    "steady temperature [°C]": [
+                        params.thermal.T_amb + thermal.steady_state_rise(heating)
+                    ],
+                }
+            )
 
         makers = {
             "ch3/hysteresis.csv": lambda: ch3.hysteresis_table(steady()),
             "ch3/phases.csv": lambda: ch3.phase_table(steady(), 10.0),
-            "ch4/table_4_3.csv": lambda: ch4.table_4_3({"ch4_sine_10hz_s1": identified()}, self.geometry),
-            "ch5/table_5_4.csv": lambda: ch5.table_5_4({0.1: {"max error [µm]": np.nan, "error [% of stroke]": np.nan,
-                                                              "stroke [µm]": _stroke(capture("ch5_sine_0p1hz")) * 1e6}}),
-            "ch6/table_6_2.csv": lambda: _feedforward_errors(capture("ch6_p2a_open"), self.catalogue["ch6_p2a_open"],
-                                                             self.omega_c),
+            "ch4/table_4_3.csv": lambda: ch4.table_4_3(
+                {"ch4_sine_10hz_s1": identified()}, self.geometry
+            ),
+            "ch5/table_5_4.csv": lambda: ch5.table_5_4(
+                {
+                    0.1: {
+                        "max error [µm]": np.nan,
+                        "error [% of stroke]": np.nan,
+                        "stroke [µm]": _stroke(capture("ch5_sine_0p1hz")) * 1e6,
+                    }
+                }
+            ),
+            "ch6/table_6_2.csv": lambda: _feedforward_errors(
+                capture("ch6_p2a_open"), self.catalogue["ch6_p2a_open"], self.omega_c
+            ),
             "ch7/freq_trend.csv": steady_temperature,
             # the columns of ch7.table_7_1, from the closed form
-            "ch7/table_7_1.csv": lambda: pd.DataFrame({"parameter": ["tau [s]"], "reproduced": [thermal.tau]}),
+            "ch7/table_7_1.csv": lambda: pd.DataFrame(
+                {"parameter": ["tau [s]"], "reproduced": [thermal.tau]}
+            ),
         }
         return {t: makers[t]() for t in wanted}
 
 
-def _capture(params: TwinParams, daq: DaqPlan, experiment: Experiment, seed: int, workdir: Path) -> Path:
+def _capture(
+    params: TwinParams, daq: DaqPlan, experiment: Experiment, seed: int, workdir: Path
+) -> Path:
     """One experiment's capture, written uncompressed (a scratch file, read once)."""
     path = workdir / f"{experiment.name}.nc"
     warmup = float(experiment.protocol.get("warmup", 0.0))
-    attrs = {"dataset": "calibration search", "protocol": experiment.chapter, "campaign": "calibration",
-             "description": "a short run of a calibration search (scripts/calibrate_twin.py)", "warmup_s": warmup,
-             "control": experiment.control}
-    simulate_capture(path, params, daq, drive_from_protocol(experiment.protocol), attrs, seed, experiment.name,
-                     load_stiffness=experiment.load_stiffness, compression=None)
+    attrs = {
+        "dataset": "calibration search",
+        "protocol": experiment.chapter,
+        "campaign": "calibration",
+        "description": "a short run of a calibration search (scripts/calibrate_twin.py)",
+        "warmup_s": warmup,
+        "control": experiment.control,
+    }
+    simulate_capture(
+        path,
+        params,
+        daq,
+        drive_from_protocol(experiment.protocol),
+        attrs,
+        seed,
+        experiment.name,
+        load_stiffness=experiment.load_stiffness,
+        compression=None,
+    )
     return path
 
 
 def _ripple_series(path: Path, n_periods: int) -> dict[str, np.ndarray]:
     """The capture's ripple series, as rule extract_ripple writes it (whole: a short run)."""
     with open_capture(path, require=("Ur", "Ir") + COMPANIONS) as cap:
-        parts = list(impedance_series(cap.iter_chunks(("Ur", "Ir") + COMPANIONS), plan_from_capture(cap, n_periods),
-                                      cap.fs, COMPANIONS))
+        parts = list(
+            impedance_series(
+                cap.iter_chunks(("Ur", "Ir") + COMPANIONS),
+                plan_from_capture(cap, n_periods),
+                cap.fs,
+                COMPANIONS,
+            )
+        )
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-def _identify(path: Path, n_periods: int, params: TwinParams, moving_mass: float, geometry: Geometry):
+def _identify(
+    path: Path, n_periods: int, params: TwinParams, moving_mass: float, geometry: Geometry
+):
     """Case 2 of one Chapter 4 set, as rule identify finds it (Case 1's static stiffness is the
     twin's k: Table 4.3 uses Case 2 only)."""
-    _, fits = ch4.identify_sets({path.stem: _ripple_series(path, n_periods)}, params.stack.k, moving_mass, geometry)
+    _, fits = ch4.identify_sets(
+        {path.stem: _ripple_series(path, n_periods)}, params.stack.k, moving_mass, geometry
+    )
     return fits[path.stem]
 
 
@@ -163,6 +219,15 @@ def _heating_power(path: Path, n_periods: int, k_over_alpha: float) -> float:
     """The mean loss power while the drive heats (Eq 7.10), as rule thermal_extract and the
     identification compute it [W]."""
     with open_capture(path, require=("U", "I", "x_laser", "Ur", "Ir")) as cap:
-        power = [p["P_PS"] for p, _, _ in ch7.extract(cap.iter_chunks(("U", "I", "x_laser", "Ur", "Ir")), cap.fs,
-                                                       plan_from_capture(cap, n_periods), k_over_alpha, 0.1, 200)]
+        power = [
+            p["P_PS"]
+            for p, _, _ in ch7.extract(
+                cap.iter_chunks(("U", "I", "x_laser", "Ur", "Ir")),
+                cap.fs,
+                plan_from_capture(cap, n_periods),
+                k_over_alpha,
+                0.1,
+                200,
+            )
+        ]
     return ch7.heating_power(np.concatenate(power))

@@ -17,9 +17,15 @@ from selfsense.twin.params import TwinParams
 from selfsense.verify.truth import Truth
 
 
-def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[int],
-                              wanders: list[float], drive_hz: float = 10.0, duration: float = 0.5,
-                              seed: int = 0) -> pd.DataFrame:
+def ce_error_vs_np_and_wander(
+    params: TwinParams,
+    daq: DaqPlan,
+    n_periods: list[int],
+    wanders: list[float],
+    drive_hz: float = 10.0,
+    duration: float = 0.5,
+    seed: int = 0,
+) -> pd.DataFrame:
     """C_e error (% of the true small-signal C_e) for each np and ripple wander.
 
     Each wander value is a fresh bench run of a 100 V sine. C_e from each np is compared with the
@@ -30,7 +36,9 @@ def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[
     t = np.arange(int(round(duration * daq.fs))) / daq.fs
     U = 50.0 - 50.0 * np.cos(2 * np.pi * drive_hz * t)
     for wander in wanders:
-        p = dataclasses.replace(params, ripple=dataclasses.replace(params.ripple, wander=float(wander)))
+        p = dataclasses.replace(
+            params, ripple=dataclasses.replace(params.ripple, wander=float(wander))
+        )
         bench = Bench(p, daq, experiment_seed(seed, f"np-study-{wander}"))
         measured, truth = bench.step(t, U)
         for n_p in n_periods:
@@ -41,8 +49,14 @@ def ce_error_vs_np_and_wander(params: TwinParams, daq: DaqPlan, n_periods: list[
             c_now = Truth({"C_e": truth["C_e"]}, 1, len(t), names=("C_e",)).at(centre)["C_e"]
             err = 100 * (blocks.C_e / c_window - 1)
             lagged = 100 * (blocks.C_e / c_now - 1)
-            rows.append({"np": n_p, "wander [Hz]": wander, "bandwidth [Hz]": plan.bandwidth,
-                         "rms error vs window mean [%]": float(np.sqrt(np.mean(err ** 2))),
-                         "max error vs window mean [%]": float(np.max(np.abs(err))),
-                         "rms error vs instantaneous [%]": float(np.sqrt(np.mean(lagged ** 2)))})
+            rows.append(
+                {
+                    "np": n_p,
+                    "wander [Hz]": wander,
+                    "bandwidth [Hz]": plan.bandwidth,
+                    "rms error vs window mean [%]": float(np.sqrt(np.mean(err**2))),
+                    "max error vs window mean [%]": float(np.max(np.abs(err))),
+                    "rms error vs instantaneous [%]": float(np.sqrt(np.mean(lagged**2))),
+                }
+            )
     return pd.DataFrame(rows)

@@ -43,15 +43,15 @@ mixed run, the twin's own τ and γ driven by these means give its true T within
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters.ch7 import COUPLING_INTERVAL
-from selfsense.verify.truth import Truth
+from selfsense.io.capture import open_capture
 from selfsense.methods.thermal import PowerAverager, ThermalModel, predict_temperature
+from selfsense.verify.truth import Truth
 
 #: the sources of the error, in the order of the module docstring
 SOURCES = ("power estimate", "thermal model", "thermometer")
@@ -75,8 +75,10 @@ def true_heat(truth: Truth, fs: float, interval: float, n: int, block: int = 1 <
     averager = PowerAverager(fs, interval)
     stop = n * averager.n_per_interval
     if not 0 < stop <= truth.n_samples:
-        raise ValueError(f"{truth.source}: {n} intervals of {interval} s need {stop} samples, "
-                         f"the capture has {truth.n_samples}")
+        raise ValueError(
+            f"{truth.source}: {n} intervals of {interval} s need {stop} samples, "
+            f"the capture has {truth.n_samples}"
+        )
     q_prev, means = 0.0, []
     for start in range(0, stop, block):
         v = truth.at(np.arange(start, min(start + block, stop)))
@@ -86,30 +88,50 @@ def true_heat(truth: Truth, fs: float, interval: float, n: int, block: int = 1 <
     return np.concatenate(means)
 
 
-def split(T_SH: np.ndarray, T_mid: np.ndarray, T_model: np.ndarray, T_true: np.ndarray
-          ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def split(
+    T_SH: np.ndarray, T_mid: np.ndarray, T_model: np.ndarray, T_true: np.ndarray
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """T_SH − T_mid and its sources (module docstring), in kelvin."""
-    return T_SH - T_mid, {"power estimate": T_SH - T_model, "thermal model": T_model - T_true,
-                          "thermometer": T_true - T_mid}
+    return T_SH - T_mid, {
+        "power estimate": T_SH - T_model,
+        "thermal model": T_model - T_true,
+        "thermometer": T_true - T_mid,
+    }
 
 
-def budget_row(t: np.ndarray, total: np.ndarray, parts: Mapping[str, np.ndarray]) -> dict[str, float]:
+def budget_row(
+    t: np.ndarray, total: np.ndarray, parts: Mapping[str, np.ndarray]
+) -> dict[str, float]:
     """An error's max as :func:`~selfsense.chapters.ch7.against_measured` takes it (every sample),
     each source's signed value at that instant (they add up to the error there), its max |.| and
     rms, and how far the sources' sum is from the error anywhere."""
     k = int(np.argmax(np.abs(total)))
-    row = {"total max error [K]": float(abs(total[k])), "total at max [K]": float(total[k]),
-           "time of max [s]": float(t[k]), "total rms [K]": float(np.sqrt(np.mean(total**2)))}
+    row = {
+        "total max error [K]": float(abs(total[k])),
+        "total at max [K]": float(total[k]),
+        "time of max [s]": float(t[k]),
+        "total rms [K]": float(np.sqrt(np.mean(total**2))),
+    }
     for name, part in parts.items():
-        row |= {f"{name} at max [K]": float(part[k]), f"{name} max [K]": float(np.max(np.abs(part))),
-                f"{name} rms [K]": float(np.sqrt(np.mean(part**2)))}
-    return row | {"max |sum of sources − total| [K]": float(np.max(np.abs(sum(parts.values()) - total))),
-                  "samples": int(total.size)}
+        row |= {
+            f"{name} at max [K]": float(part[k]),
+            f"{name} max [K]": float(np.max(np.abs(part))),
+            f"{name} rms [K]": float(np.sqrt(np.mean(part**2))),
+        }
+    return row | {
+        "max |sum of sources − total| [K]": float(np.max(np.abs(sum(parts.values()) - total))),
+        "samples": int(total.size),
+    }
 
 
-def temperature_budget(traces: Mapping[str, np.ndarray], P_true: np.ndarray, T_true: np.ndarray,
-                       model: ThermalModel, T_amb: float,
-                       stats: Mapping[str, float] | None = None) -> pd.DataFrame:
+def temperature_budget(
+    traces: Mapping[str, np.ndarray],
+    P_true: np.ndarray,
+    T_true: np.ndarray,
+    model: ThermalModel,
+    T_amb: float,
+    stats: Mapping[str, float] | None = None,
+) -> pd.DataFrame:
     """One row per estimator of :data:`ESTIMATORS`: the budget of its error against ``traces``'
     T_mid (:func:`budget_row`), from the true mean power over each interval that starts at
     ``traces["time"]`` and the true temperature at those times.
@@ -118,29 +140,44 @@ def temperature_budget(traces: Mapping[str, np.ndarray], P_true: np.ndarray, T_t
     budget's: the traces are the arrays it was taken from.
     """
     t = np.asarray(traces["time"], dtype=float)
-    T_model = predict_temperature(t, P_true, model, T0=T_amb, T_amb=T_amb)  # as coupled_estimation starts it
+    T_model = predict_temperature(
+        t, P_true, model, T0=T_amb, T_amb=T_amb
+    )  # as coupled_estimation starts it
     rows = []
     for name, key in ESTIMATORS.items():
-        row = {"estimator": name} | budget_row(t, *split(traces[key], traces["T_mid"], T_model, T_true))
+        row = {"estimator": name} | budget_row(
+            t, *split(traces[key], traces["T_mid"], T_model, T_true)
+        )
         if stats is not None:
             stated = float(stats[f"max |{key} − T| [K]"])
             if not np.isclose(stated, row["total max error [K]"], rtol=1e-12, atol=0.0):
-                raise ValueError(f"the traces' max |{key} − T_mid| is {row['total max error [K]']:.6g} K, the "
-                                 f"stats' {stated:.6g} K: traces and stats are not of one run")
+                raise ValueError(
+                    f"the traces' max |{key} − T_mid| is {row['total max error [K]']:.6g} K, the "
+                    f"stats' {stated:.6g} K: traces and stats are not of one run"
+                )
             row["stats max error [K]"] = stated
         rows.append(row)
     return pd.DataFrame(rows)
 
 
-def capture_temperature_budget(path, traces: Mapping[str, np.ndarray], model: ThermalModel, T_amb: float,
-                               interval: float = COUPLING_INTERVAL,
-                               stats: Mapping[str, float] | None = None) -> pd.DataFrame:
+def capture_temperature_budget(
+    path,
+    traces: Mapping[str, np.ndarray],
+    model: ThermalModel,
+    T_amb: float,
+    interval: float = COUPLING_INTERVAL,
+    stats: Mapping[str, float] | None = None,
+) -> pd.DataFrame:
     """:func:`temperature_budget` of rule `coupled`'s ``traces`` (time, T_SH_PS, T_SH_HPO, T_mid at
     the starts of its ``interval``-long steps) over the simulated capture ``path`` they come from,
     with the identified ``model`` and ``T_amb`` the estimator ran with."""
     t = np.asarray(traces["time"], dtype=float)
-    if t.size < 2 or not np.allclose(t, np.arange(t.size) * interval, rtol=0.0, atol=1e-9 * interval):
-        raise ValueError(f"{path}: the traces are not on the estimator's grid of {interval} s steps from 0")
+    if t.size < 2 or not np.allclose(
+        t, np.arange(t.size) * interval, rtol=0.0, atol=1e-9 * interval
+    ):
+        raise ValueError(
+            f"{path}: the traces are not on the estimator's grid of {interval} s steps from 0"
+        )
     with open_capture(path) as cap:
         attrs, states = cap.read_truth()
         fs, n_samples = cap.fs, cap.length()

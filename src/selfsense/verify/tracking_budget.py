@@ -63,29 +63,37 @@ errors that cancel in their sum (the sources still add up to ε_T exactly).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
-
 from scipy.signal import lfilter
 
-from selfsense.io.capture import open_capture
 from selfsense.chapters.ch6 import load_run, segment_windows, settled_after
+from selfsense.io.capture import open_capture
+from selfsense.methods.ripple import plan_from_capture
 from selfsense.verify.error_budget import SpanBudgets
 from selfsense.verify.truth import Truth
-from selfsense.methods.ripple import plan_from_capture
 
 OPEN_SOURCES = ("feedforward", "hysteresis", "creep", "stack dynamics", "laser")
 CLOSED_SOURCES = ("controller", "observer", "laser")
-CONTROLLER_SOURCES = ("loop lag", "hysteresis", "creep", "stack dynamics", "observer", "drive", "loop model")
+CONTROLLER_SOURCES = (
+    "loop lag",
+    "hysteresis",
+    "creep",
+    "stack dynamics",
+    "observer",
+    "drive",
+    "loop model",
+)
 
 #: the /truth states the budget reads
 TRUTH_STATES = ("x", "U_P", "U_H", "U_drive")
 
 
-def split(run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_over_k: float,
-          closed: bool) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def split(
+    run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_over_k: float, closed: bool
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """ε_T = x_R − x_laser of one run's means and its sources (module docstring), in metres."""
     x_ref, x_laser, x = run["x_ref"], run["x_laser"], true["x"]
     total = x_ref - x_laser
@@ -93,9 +101,13 @@ def split(run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_o
         x_hat = run["x_hat"]
         return total, {"controller": x_ref - x_hat, "observer": x_hat - x, "laser": x - x_laser}
     U, U_P, U_H = true["U_drive"], true["U_P"], true["U_H"]
-    return total, {"feedforward": x_ref - alpha_over_k * U, "hysteresis": alpha_over_k * U_H,
-                   "creep": alpha_over_k * (U - U_P - U_H), "stack dynamics": alpha_over_k * U_P - x,
-                   "laser": x - x_laser}
+    return total, {
+        "feedforward": x_ref - alpha_over_k * U,
+        "hysteresis": alpha_over_k * U_H,
+        "creep": alpha_over_k * (U - U_P - U_H),
+        "stack dynamics": alpha_over_k * U_P - x,
+        "laser": x - x_laser,
+    }
 
 
 def loop_sensitivity(omega_c: float, fs: float, ns: int) -> tuple[np.ndarray, np.ndarray]:
@@ -105,21 +117,36 @@ def loop_sensitivity(omega_c: float, fs: float, ns: int) -> tuple[np.ndarray, np
     return np.array([1.0, -1.0]), np.array([1.0, h * (ns + 1) / 2 - 1.0, h * (ns - 1) / 2])
 
 
-def controller_split(run: Mapping[str, np.ndarray], true: Mapping[str, np.ndarray], alpha_over_k: float,
-                     sensitivity: tuple[np.ndarray, np.ndarray], engaged: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def controller_split(
+    run: Mapping[str, np.ndarray],
+    true: Mapping[str, np.ndarray],
+    alpha_over_k: float,
+    sensitivity: tuple[np.ndarray, np.ndarray],
+    engaged: np.ndarray,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """ε_CCL = x_R − x̂ of one closed-loop run's means and its sources (module docstring), in metres;
     the loop's filter starts from rest at the first ``engaged`` mean, as the loop does (0 before)."""
     x_hat, x, U = run["x_hat"], true["x"], true["U_drive"]
-    drives = {"loop lag": run["x_ref"], "hysteresis": alpha_over_k * true["U_H"],
-              "creep": alpha_over_k * (U - true["U_P"] - true["U_H"]), "stack dynamics": alpha_over_k * true["U_P"] - x,
-              "observer": x - x_hat, "drive": alpha_over_k * (run["u_cmd"] - U)}
+    drives = {
+        "loop lag": run["x_ref"],
+        "hysteresis": alpha_over_k * true["U_H"],
+        "creep": alpha_over_k * (U - true["U_P"] - true["U_H"]),
+        "stack dynamics": alpha_over_k * true["U_P"] - x,
+        "observer": x - x_hat,
+        "drive": alpha_over_k * (run["u_cmd"] - U),
+    }
     total = run["x_ref"] - x_hat
-    parts = {name: np.where(engaged, lfilter(*sensitivity, np.where(engaged, v, 0.0)), 0.0) for name, v in drives.items()}
+    parts = {
+        name: np.where(engaged, lfilter(*sensitivity, np.where(engaged, v, 0.0)), 0.0)
+        for name, v in drives.items()
+    }
     parts["loop model"] = total - sum(parts.values())
     return total, parts
 
 
-def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: float) -> dict[str, dict[str, dict[str, float]]]:
+def capture_tracking_budget(
+    path, protocol: Mapping, closed: bool, omega_c: float
+) -> dict[str, dict[str, dict[str, float]]]:
     """One Chapter 6 run's tracking budget, counted as its table counts: P1 (``ch6_p1_*``) per
     segment a–h over the steady windows of :func:`selfsense.chapters.ch6.segment_windows` (Table
     6.1), a P2 profile from the loop's settling on (:func:`selfsense.chapters.ch6.settled_after`,
@@ -127,23 +154,37 @@ def capture_tracking_budget(path, protocol: Mapping, closed: bool, omega_c: floa
     and, in closed loop, "controller": the same of ε_CCL's split (:func:`controller_split`)."""
     run = load_run(path, protocol, command=closed)
     if closed and (run["x_hat"] is None or run["u_cmd"] is None):
-        raise ValueError(f"{path}: a closed-loop run without the logged estimate x_hpo_rt and command u_cmd")
+        raise ValueError(
+            f"{path}: a closed-loop run without the logged estimate x_hpo_rt and command u_cmd"
+        )
     with open_capture(path, require=("U", "x_laser")) as cap:
         attrs, states = cap.read_truth()
         truth = Truth.from_group(attrs, states, cap.length(), str(path), names=TRUTH_STATES)
         fs, ns = cap.fs, plan_from_capture(cap, 1).ns
     last = np.rint(run["t"] * fs + (ns - 1) / 2).astype(np.int64)
-    true, alpha_over_k = truth.means(last, ns), float(attrs["stack_alpha"]) / float(attrs["stack_k"])
+    true, alpha_over_k = (
+        truth.means(last, ns),
+        float(attrs["stack_alpha"]) / float(attrs["stack_k"]),
+    )
     warmup = float(protocol.get("warmup", 0.0))
     if Path(path).stem.startswith("ch6_p1_"):
         spans = segment_windows(protocol, omega_c)
     else:
         spans = [("", settled_after(warmup, omega_c), np.inf)]
-    splits = {"tracking": (CLOSED_SOURCES if closed else OPEN_SOURCES, split(run, true, alpha_over_k, closed))}
+    splits = {
+        "tracking": (
+            CLOSED_SOURCES if closed else OPEN_SOURCES,
+            split(run, true, alpha_over_k, closed),
+        )
+    }
     if closed:
-        engaged = last - (ns - 1) >= warmup * fs  # the loop engages at the warm-up's end (realtime_controller)
-        splits["controller"] = (CONTROLLER_SOURCES, controller_split(run, true, alpha_over_k,
-                                                                     loop_sensitivity(omega_c, fs, ns), engaged))
+        engaged = (
+            last - (ns - 1) >= warmup * fs
+        )  # the loop engages at the warm-up's end (realtime_controller)
+        splits["controller"] = (
+            CONTROLLER_SOURCES,
+            controller_split(run, true, alpha_over_k, loop_sensitivity(omega_c, fs, ns), engaged),
+        )
     out = {}
     for name, (sources, (total, parts)) in splits.items():
         stats = SpanBudgets(spans, sources)

@@ -3,8 +3,8 @@ interpolated one way for every verification against them."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -32,31 +32,46 @@ class Truth:
         if missing:
             raise ValueError(f"{self.source}: /truth lacks the state(s) {', '.join(missing)}")
         if int(self.decimation) < 1:
-            raise ValueError(f"{self.source}: /truth decimation must be >= 1, got {self.decimation!r}")
+            raise ValueError(
+                f"{self.source}: /truth decimation must be >= 1, got {self.decimation!r}"
+            )
         values = np.array([np.asarray(self.states[s], dtype=np.float64) for s in self.names])
         needed = -(-int(self.n_samples) // int(self.decimation))
         if values.shape[1] < needed:
-            raise ValueError(f"{self.source}: /truth has {values.shape[1]} values, the capture's "
-                             f"{self.n_samples} samples at decimation {self.decimation} need {needed}")
+            raise ValueError(
+                f"{self.source}: /truth has {values.shape[1]} values, the capture's "
+                f"{self.n_samples} samples at decimation {self.decimation} need {needed}"
+            )
         if not np.isfinite(values[:, :needed]).all():
             raise ValueError(f"{self.source}: /truth has non-finite values")
         object.__setattr__(self, "_values", values)
 
     @classmethod
-    def from_group(cls, attrs: Mapping[str, object], states: Mapping[str, np.ndarray], n_samples: int,
-                   source: str = "capture", names: tuple[str, ...] = TRUTH_STATES) -> "Truth":
+    def from_group(
+        cls,
+        attrs: Mapping[str, object],
+        states: Mapping[str, np.ndarray],
+        n_samples: int,
+        source: str = "capture",
+        names: tuple[str, ...] = TRUTH_STATES,
+    ) -> Truth:
         """From :meth:`selfsense.io.capture.Capture.read_truth`'s (attributes, states)."""
         if "decimation" not in attrs:
             raise ValueError(f"{source}: /truth has no decimation attribute")
         return cls(states, int(attrs["decimation"]), int(n_samples), source, tuple(names))
 
     @classmethod
-    def from_capture(cls, capture, names: tuple[str, ...] = TRUTH_STATES) -> "Truth":
+    def from_capture(cls, capture, names: tuple[str, ...] = TRUTH_STATES) -> Truth:
         """The states ``names`` of an open simulated :class:`selfsense.io.capture.Capture` over its length
         (the rest of its /truth is not kept)."""
         attrs, states = capture.read_truth()
-        return cls.from_group(attrs, {k: states[k] for k in names if k in states}, capture.length(),
-                              str(capture.path), names)
+        return cls.from_group(
+            attrs,
+            {k: states[k] for k in names if k in states},
+            capture.length(),
+            str(capture.path),
+            names,
+        )
 
     def at(self, index: np.ndarray) -> dict[str, np.ndarray]:
         """Each state at the global sample indices ``index``.
@@ -68,10 +83,16 @@ class Truth:
         u = np.asarray(index, dtype=np.float64) / self.decimation
         i = np.floor(u).astype(np.int64)
         s = u - i
-        weights = ((-s * (s - 1) * (s - 2) / 6), ((s + 1) * (s - 1) * (s - 2) / 2),
-                   (-(s + 1) * s * (s - 2) / 2), ((s + 1) * s * (s - 1) / 6))
+        weights = (
+            (-s * (s - 1) * (s - 2) / 6),
+            ((s + 1) * (s - 1) * (s - 2) / 2),
+            (-(s + 1) * s * (s - 2) / 2),
+            ((s + 1) * s * (s - 1) / 6),
+        )
         last = self._values.shape[1] - 1
-        out = sum(w * self._values[:, np.clip(i + k, 0, last)] for k, w in zip((-1, 0, 1, 2), weights))
+        out = sum(
+            w * self._values[:, np.clip(i + k, 0, last)] for k, w in zip((-1, 0, 1, 2), weights)
+        )
         return dict(zip(self.names, out))
 
     def means(self, last: np.ndarray, n: int, block: int = 1 << 14) -> dict[str, np.ndarray]:
@@ -80,7 +101,9 @@ class Truth:
         offsets = np.arange(1 - n, 1)
         parts = []
         for start in range(0, len(last), block):
-            ends = np.asarray(last[start:start + block])
+            ends = np.asarray(last[start : start + block])
             values = self.at((ends[:, None] + offsets).ravel())
             parts.append({k: v.reshape(len(ends), n).mean(axis=1) for k, v in values.items()})
-        return {k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0) for k in self.names}
+        return {
+            k: np.concatenate([p[k] for p in parts]) if parts else np.empty(0) for k in self.names
+        }
