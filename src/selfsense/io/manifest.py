@@ -21,7 +21,7 @@ from typing import Any
 import jsonschema
 import yaml
 
-SCHEMAS = resources.files("selfsense") / "schemas"
+SCHEMAS = resources.files("selfsense.io") / "schemas"
 #: the experiment catalogue, relative to the folder the workflow (or a script run alone) runs in
 PROTOCOLS = Path("workflow") / "protocols"
 #: dataset names become paths: no separators, no dots at the start (matched whole: "$" alone
