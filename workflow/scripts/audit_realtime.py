@@ -1,12 +1,8 @@
 """Rule `audit_realtime`: for every closed-loop capture of a dataset, the self-sensing chain
 recomputed offline from the raw channels against the real-time estimate the loop logged (the
 published loop used what the pipeline analyses) → one row per run.
-
-Alone: python workflow/scripts/audit_realtime.py results/pi_p885/ch5/gamma.json \
-    results/pi_p885/ch5/observer.json audit.csv raw/pi_p885/ch6_*_closed*.nc --np 4
 """
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
@@ -51,10 +47,3 @@ if "snakemake" in globals():
         snakemake.params.n_periods,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("gamma", "observer", "table"):
-        cli.add_argument(name)
-    cli.add_argument("captures", nargs="+")
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    main(**vars(cli.parse_args()))

@@ -1,9 +1,5 @@
-"""Rule `capture_summary`: one row per capture of a dataset from its QC reports.
+"""Rule `capture_summary`: one row per capture of a dataset from its QC reports."""
 
-Alone: python workflow/scripts/capture_summary.py out.csv results/pi_p885/qc/*.json
-"""
-
-import argparse
 import json
 from pathlib import Path
 
@@ -48,8 +44,3 @@ def main(reports, table, log=None):
 
 if "snakemake" in globals():
     main(list(snakemake.input.reports), snakemake.output.table, snakemake.log[0])
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("table")
-    cli.add_argument("reports", nargs="+")
-    main(**vars(cli.parse_args()))

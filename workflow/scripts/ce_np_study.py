@@ -1,9 +1,4 @@
-"""Rule `ce_np_study`: C_e error against np and ripple-frequency wander, on the twin.
-
-Alone: python workflow/scripts/ce_np_study.py raw/pi_p885/dataset.yaml out.csv out.png
-"""
-
-import argparse
+"""Rule `ce_np_study`: C_e error against np and ripple-frequency wander, on the twin."""
 
 from selfsense.io import figures
 from selfsense.io.manifest import load_manifest
@@ -51,9 +46,3 @@ if "snakemake" in globals():
         p.drive_hz,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("manifest")
-    cli.add_argument("table")
-    cli.add_argument("figure")
-    main(**vars(cli.parse_args()))

@@ -1,9 +1,5 @@
-"""Rule `ce_recovery`: C_e against the twin's true clamped capacitance, per capture.
+"""Rule `ce_recovery`: C_e against the twin's true clamped capacitance, per capture."""
 
-Alone: python workflow/scripts/ce_recovery.py out.csv --pairs raw/pi_p885/ch3_sine_10hz.nc=results/pi_p885/ripple/ch3_sine_10hz.nc
-"""
-
-import argparse
 from pathlib import Path
 
 import pandas as pd
@@ -37,10 +33,3 @@ if "snakemake" in globals():
         snakemake.params.n_periods,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("table")
-    cli.add_argument("--pairs", nargs="+", required=True, help="capture=series")
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    args = cli.parse_args()
-    main(dict(p.split("=", 1) for p in args.pairs), args.table, args.n_periods)

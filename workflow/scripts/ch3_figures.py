@@ -1,10 +1,4 @@
-"""Rule `ch3_figures`: Figures 3.3, 3.4, 3.7 and 3.9–3.14 from the ripple series and one capture.
-
-Alone: python workflow/scripts/ch3_figures.py --help
-"""
-
-import argparse
-from pathlib import Path
+"""Rule `ch3_figures`: Figures 3.3, 3.4, 3.7 and 3.9–3.14 from the ripple series and one capture."""
 
 from selfsense.chapters import ch3
 from selfsense.io.capture import read_series
@@ -32,17 +26,4 @@ if "snakemake" in globals():
         dict(snakemake.output.items()),
         snakemake.params.skip_s,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("capture_10hz")
-    cli.add_argument("manifest")
-    cli.add_argument("out_dir")
-    cli.add_argument("--series", nargs="+", required=True, help="label=path, the 10 Hz one first")
-    args = cli.parse_args()
-    main(
-        args.capture_10hz,
-        dict(s.split("=", 1) for s in args.series),
-        args.manifest,
-        {name: Path(args.out_dir) / f"{name}.png" for name in ch3.FIGURES},
     )

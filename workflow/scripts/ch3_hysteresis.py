@@ -1,10 +1,6 @@
 """Rule `ch3_hysteresis`: loop widths of C–U, C–x, R–C, x–U at 100 V, 10 Hz vs the thesis, and the
 drive and ripple U–I phases (Figs 3.3–3.4).
-
-Alone: python workflow/scripts/ch3_hysteresis.py results/pi_p885/ripple/ch3_sine_10hz.nc out.csv phases.csv
 """
-
-import argparse
 
 from selfsense.chapters.ch3 import hysteresis_table, phase_table, steady
 from selfsense.io.capture import read_series
@@ -29,9 +25,3 @@ if "snakemake" in globals():
         snakemake.params.frequency,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("series")
-    cli.add_argument("table")
-    cli.add_argument("phases")
-    main(**vars(cli.parse_args()))

@@ -1,9 +1,4 @@
-"""Rule `ch3_model_figure`: Figure 3.2, ripple-driven velocity free vs clamped (model).
-
-Alone: python workflow/scripts/ch3_model_figure.py raw/pi_p885/dataset.yaml fig_3_2.png
-"""
-
-import argparse
+"""Rule `ch3_model_figure`: Figure 3.2, ripple-driven velocity free vs clamped (model)."""
 
 from selfsense.chapters.ch3 import figure_3_2
 from selfsense.io.manifest import load_manifest
@@ -23,8 +18,3 @@ def main(manifest, figure, log=None):
 
 if "snakemake" in globals():
     main(snakemake.input.manifest, snakemake.output.figure, snakemake.log[0])
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("manifest")
-    cli.add_argument("figure")
-    main(**vars(cli.parse_args()))

@@ -1,9 +1,4 @@
-"""Rule `ch3_tables`: Tables 3.1 and 3.2 from the folding equations for this dataset's ripple.
-
-Alone: python workflow/scripts/ch3_tables.py 100000 12 48000 t31.csv t32.csv
-"""
-
-import argparse
+"""Rule `ch3_tables`: Tables 3.1 and 3.2 from the folding equations for this dataset's ripple."""
 
 from selfsense.io.provenance import script_logging, write_table
 from selfsense.methods.ripple import table_3_1, table_3_2
@@ -20,14 +15,3 @@ def main(fr, ns, fs, table_31, table_32, log=None):
 if "snakemake" in globals():
     p = snakemake.params
     main(p.fr, p.ns, p.fs, snakemake.output.table_31, snakemake.output.table_32, snakemake.log[0])
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name, kind in (
-        ("fr", float),
-        ("ns", int),
-        ("fs", float),
-        ("table_31", str),
-        ("table_32", str),
-    ):
-        cli.add_argument(name, type=kind)
-    main(**vars(cli.parse_args()))

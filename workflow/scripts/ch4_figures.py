@@ -1,9 +1,5 @@
-"""Rule `ch4_figures`: Figures 4.2–4.8 from the sets' ripple series and two captures.
+"""Rule `ch4_figures`: Figures 4.2–4.8 from the sets' ripple series and two captures."""
 
-Alone: python workflow/scripts/ch4_figures.py --help
-"""
-
-import argparse
 from pathlib import Path
 
 import numpy as np
@@ -39,17 +35,4 @@ if "snakemake" in globals():
         i.drive,
         dict(snakemake.output.items()),
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("per_set", "force_capture", "drive_capture", "out_dir"):
-        cli.add_argument(name)
-    cli.add_argument("--series", nargs="+", required=True)
-    a = cli.parse_args()
-    main(
-        a.series,
-        a.per_set,
-        a.force_capture,
-        a.drive_capture,
-        {name: Path(a.out_dir) / f"{name}.png" for name in ch4.FIGURES},
     )

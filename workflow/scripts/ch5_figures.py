@@ -1,7 +1,4 @@
-"""Rule `ch5_figures`: Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14.
-
-Alone: run through Snakemake (`snakemake figures/pi_p885/fig_5_1.png`); the inputs are many.
-"""
+"""Rule `ch5_figures`: Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14."""
 
 from selfsense.chapters.ch5 import figures_ch5
 from selfsense.io.capture import open_capture, read_series

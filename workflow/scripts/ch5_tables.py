@@ -1,9 +1,5 @@
-"""Rule `ch5_tables`: Table 5.4 (open-loop observer error per frequency) and the creep run.
+"""Rule `ch5_tables`: Table 5.4 (open-loop observer error per frequency) and the creep run."""
 
-Alone: python workflow/scripts/ch5_tables.py --help
-"""
-
-import argparse
 import json
 from pathlib import Path
 
@@ -34,19 +30,4 @@ if "snakemake" in globals():
         snakemake.output.table,
         snakemake.output.creep,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("creep_stats")
-    cli.add_argument("creep_traces")
-    cli.add_argument("table")
-    cli.add_argument("creep_table")
-    cli.add_argument("--stats", nargs="+", required=True, help="frequency=path")
-    a = cli.parse_args()
-    main(
-        dict(s.split("=", 1) for s in a.stats),
-        a.creep_stats,
-        a.creep_traces,
-        a.table,
-        a.creep_table,
     )

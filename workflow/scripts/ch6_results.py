@@ -1,7 +1,7 @@
 """Rule `ch6_results`: Tables 6.1–6.2, P3, the loop's tracking prediction and Figures 6.2–6.8.
 
 All errors are evaluated on means over one folded ripple period (the real-time loop's 4 kHz
-rate). Alone: run through Snakemake (`snakemake results/pi_p885/ch6/table_6_1.csv`).
+rate).
 """
 
 from pathlib import Path

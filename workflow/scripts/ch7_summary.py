@@ -1,7 +1,5 @@
 """Rule `ch7_summary`: the coupled estimation's errors beside the thesis's (mixed run, Fig 7.12)
 and Figures 7.10–7.12.
-
-Alone: run through Snakemake (`snakemake results/pi_p885/ch7/coupled.csv`).
 """
 
 import json

@@ -1,12 +1,7 @@
 """Rule `characterise`: the rows of a dataset's loop pages (rule `characterise_page`) → the
 characterisation table, one row per capture in catalogue order, and the manifest's actuator and
 sensors.
-
-Alone: python workflow/scripts/characterise.py raw/<dataset>/dataset.yaml table.csv instruments.csv \
-    page_01.json [page_02.json ...]
 """
-
-import argparse
 
 import pandas as pd
 
@@ -29,9 +24,3 @@ def main(manifest, pages, table, instruments_table, log=None):
 if "snakemake" in globals():
     i, o = snakemake.input, snakemake.output
     main(i.manifest, list(i.pages), o.table, o.instruments, snakemake.log[0])
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for arg in ("manifest", "table", "instruments_table"):
-        cli.add_argument(arg)
-    cli.add_argument("pages", nargs="+")
-    main(**vars(cli.parse_args()))

@@ -1,11 +1,7 @@
 """Rule `characterise_page`: up to six captures of a dataset, each streamed once → their rows of the
 characterisation table (stroke, gains, loop width, nonlinearity, creep, and with the current dx/dq
 and the q–U loop) as JSON, and their page of the dataset's loop figure.
-
-Alone: python workflow/scripts/characterise_page.py rows.json loops_01.png "title" raw/<dataset>/*.nc
 """
-
-import argparse
 
 from selfsense.io.provenance import provenance, save_figure, script_logging, write_json
 from selfsense.methods import characterise as ch
@@ -26,9 +22,3 @@ def main(captures, rows_json, figure, title, settle_s=0.1, min_hold_s=1.0, log=N
 if "snakemake" in globals():
     i, o, p = snakemake.input, snakemake.output, snakemake.params
     main(list(i.capture), o.rows, o.figure, p.title, p.settle_s, p.min_hold_s, snakemake.log[0])
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for arg in ("rows_json", "figure", "title"):
-        cli.add_argument(arg)
-    cli.add_argument("captures", nargs="+")
-    main(**vars(cli.parse_args()))

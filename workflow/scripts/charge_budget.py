@@ -1,12 +1,7 @@
 """Rule `charge_budget`: Fig 5.2's charge–position error (the max errors of the charge-sensing
 table) split into the current path, the q–x map and the laser with the twin's truth → one row per
 drive frequency.
-
-Alone: python workflow/scripts/charge_budget.py out.csv \
-    10=results/pi_p885/ripple/ch5_sine_10hz.nc,raw/pi_p885/ch5_sine_10hz.nc --np 4
 """
-
-import argparse
 
 import pandas as pd
 
@@ -38,15 +33,4 @@ if "snakemake" in globals():
         snakemake.output.table,
         snakemake.params.n_periods,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("table")
-    cli.add_argument("runs", nargs="+", help="frequency=series,capture")
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    a = cli.parse_args()
-    main(
-        {float(f): tuple(p.split(",")) for f, p in (r.split("=", 1) for r in a.runs)},
-        a.table,
-        a.n_periods,
     )

@@ -1,10 +1,4 @@
-"""Rule `charge_sensing`: a0 over 10–300 Hz (Eq 5.3, Fig 5.2) and Table 5.3 (Eq 5.9).
-
-Alone: python workflow/scripts/charge_sensing.py out_dir --series 10=results/pi_p885/ripple/ch5_sine_10hz.nc ...
-"""
-
-import argparse
-from pathlib import Path
+"""Rule `charge_sensing`: a0 over 10–300 Hz (Eq 5.3, Fig 5.2) and Table 5.3 (Eq 5.9)."""
 
 from selfsense.chapters.ch5 import charge_sensing, table_5_3
 from selfsense.io.capture import read_series
@@ -36,15 +30,3 @@ if "snakemake" in globals():
         snakemake.params.zeta_s,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("out_dir")
-    cli.add_argument("--series", nargs="+", required=True, help="frequency=path")
-    cli.add_argument("--omega-s", type=float, default=6.283185307179586)
-    cli.add_argument("--zeta-s", type=float, default=1.0)
-    a = cli.parse_args()
-    out = {
-        k: str(Path(a.out_dir) / f"{k}.{'json' if k == 'observer' else 'csv'}")
-        for k in ("charge_sensing", "table_5_3", "observer")
-    }
-    main(dict(s.split("=", 1) for s in a.series), out, a.omega_s, a.zeta_s)

@@ -1,10 +1,6 @@
 """Rule `check_capture`: a capture against its manifest (fs, channels, units, attributes), then
 validated and streamed once to count NaN / clipped samples → qc/<experiment>.json.
-
-Alone: python workflow/scripts/check_capture.py raw/pi_p885/ch3_sine_10hz.nc raw/pi_p885/dataset.yaml out.json
 """
-
-import argparse
 
 from selfsense.io.capture import read_header, scan_capture, write_scan_report
 from selfsense.io.contract import check_agreement, check_attributes, check_clipping
@@ -33,9 +29,3 @@ if "snakemake" in globals():
     main(
         snakemake.input.capture, snakemake.input.manifest, snakemake.output.report, snakemake.log[0]
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("capture")
-    cli.add_argument("manifest")
-    cli.add_argument("report")
-    main(**vars(cli.parse_args()))

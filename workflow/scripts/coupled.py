@@ -1,7 +1,5 @@
 """Rule `coupled`: the temperature-compensated observer coupled with the thermal model (Fig 7.9)
 over one heating run: T_SH(HPO), T_SH(PS) and the observer's error.
-
-Alone: run through Snakemake (`snakemake results/pi_p885/ch7/coupled/ch7_mixed_ae.json`).
 """
 
 import json

@@ -1,9 +1,7 @@
-"""Rule `error_budget`: the observer's Table 5.4 error (and Chapter 6's ε_OCL) split into its sources with the twin's truth.
-
-Alone: python workflow/scripts/error_budget.py gamma.json observer.json out.csv out.png --runs raw/pi_p885/ch5_sine_1hz.nc=1 raw/pi_p885/ch5_creep.nc --p2 raw/pi_p885/ch6_p2a_closed.nc=1570.8
+"""Rule `error_budget`: the observer's Table 5.4 error (and Chapter 6's ε_OCL) split into its
+sources with the twin's truth.
 """
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
@@ -16,8 +14,9 @@ from selfsense.verify.error_budget import SOURCES, capture_budget
 
 
 def main(runs, gamma, observer, table, figure, n_periods, log=None):
-    """runs: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Chapter 6 closed-loop run
-    or None, the protocol of a P1 run or None, the creep run's transient [s] or None)}."""
+    """runs: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Chapter 6
+    closed-loop run or None, the protocol of a P1 run or None, the creep run's transient [s] or
+    None)}."""
     logger, poly, gains = script_logging(log), load_gamma(gamma), load_gains(observer)
     result = pd.DataFrame(
         [
@@ -49,34 +48,4 @@ if "snakemake" in globals():
         snakemake.output.figure,
         p.n_periods,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("gamma", "observer", "table", "figure"):
-        cli.add_argument(name)
-    cli.add_argument("--runs", nargs="+", required=True, help="capture[=Table 5.4 frequency in Hz]")
-    cli.add_argument(
-        "--p2", nargs="*", default=[], help="closed-loop P2 capture=the loop's ω_C [rad/s]"
-    )
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    cli.add_argument(
-        "--transient-s", type=float, default=10.0, help="the creep run's (ch5_creep) transient [s]"
-    )
-    a = cli.parse_args()
-    runs = {
-        c: (
-            float(f) if f else None,
-            None,
-            None,
-            a.transient_s if Path(c).stem == "ch5_creep" else None,
-        )
-        for c, _, f in (r.partition("=") for r in a.runs)
-    }
-    main(
-        runs | {c: (None, float(w), None, None) for c, _, w in (r.partition("=") for r in a.p2)},
-        a.gamma,
-        a.observer,
-        a.table,
-        a.figure,
-        a.n_periods,
     )

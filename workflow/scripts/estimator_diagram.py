@@ -1,10 +1,7 @@
 """Rule `estimator_diagram`: Figure 7.9 — block diagrams of the coupled estimation as rule `coupled`
 runs it, annotated with the identified τ, γ, k/α, Γ_T and observer gains.
-
-Alone: python workflow/scripts/estimator_diagram.py results/pi_p885 figures/pi_p885/fig_7_9.png
 """
 
-import argparse
 import json
 from pathlib import Path
 
@@ -49,25 +46,4 @@ if "snakemake" in globals():
         p.ns,
         p.n_periods,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("results", type=Path)
-    cli.add_argument("figure")
-    cli.add_argument("--fs", type=float, default=48000.0)
-    cli.add_argument("--fr", type=float, default=100e3)
-    cli.add_argument("--ns", type=int, default=12)
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    a = cli.parse_args()
-    r = a.results
-    main(
-        r / "ch7/gamma_t.json",
-        r / "ch5/observer.json",
-        r / "ch7/thermal_model.json",
-        r / "ch4/model.json",
-        a.figure,
-        a.fs,
-        a.fr,
-        a.ns,
-        a.n_periods,
     )

@@ -1,9 +1,4 @@
-"""Rule `extract_ripple`: C_e, R_e (Eq 3.6–3.13) and window means of U, x, I, q for one capture.
-
-Alone: python workflow/scripts/extract_ripple.py raw/pi_p885/ch3_sine_10hz.nc out.nc --np 4
-"""
-
-import argparse
+"""Rule `extract_ripple`: C_e, R_e (Eq 3.6–3.13) and window means of U, x, I, q for one capture."""
 
 from selfsense.io.capture import CaptureError, SeriesWriter, open_capture
 from selfsense.io.provenance import script_logging
@@ -36,9 +31,3 @@ if "snakemake" in globals():
         snakemake.params.n_periods,
         log=snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("capture")
-    cli.add_argument("series")
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    main(**vars(cli.parse_args()))

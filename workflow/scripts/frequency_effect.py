@@ -1,12 +1,6 @@
 """Rule `frequency_effect`: Figure 7.8 — the C_e–x relationship at each Chapter 5 drive frequency
 against Γ, with each run's temperature, so the frequency's effect is seen apart from self-heating.
-
-Alone: python workflow/scripts/frequency_effect.py raw/pi_p885 results/pi_p885 out_dir \\
-           ch5_sine_0p1hz=0.1 ch5_sine_10hz=10 ch5_sine_100hz=100 --reference ch5_sine_0p1hz
 """
-
-import argparse
-from pathlib import Path
 
 from selfsense.chapters import ch7
 from selfsense.io.provenance import save_figure, script_logging, write_table
@@ -26,7 +20,8 @@ def main(
     min_windows=10,
     log=None,
 ):
-    """series / captures / frequencies: {run: ripple series path / capture path / drive frequency [Hz]}."""
+    """series / captures / frequencies: {run: ripple series path / capture path / drive
+    frequency [Hz]}."""
     logger = script_logging(log)
     gamma_poly = load_gamma(gamma)
     runs = {run: ch7.frequency_run(series[run], captures[run], frequencies[run]) for run in series}
@@ -54,29 +49,4 @@ if "snakemake" in globals():
         p.bins,
         p.min_windows,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    cli.add_argument("raw", type=Path)
-    cli.add_argument("results", type=Path)
-    cli.add_argument("out_dir", type=Path)
-    cli.add_argument("runs", nargs="+", help="experiment=drive frequency [Hz]")
-    cli.add_argument("--reference", default="ch5_sine_0p1hz", help="the run Γ was fitted on")
-    cli.add_argument("--bins", type=int, default=20)
-    cli.add_argument("--min-windows", type=int, default=10)
-    a = cli.parse_args()
-    freqs = {run: float(f) for run, f in (r.split("=") for r in a.runs)}
-    main(
-        {r: a.results / "ripple" / f"{r}.nc" for r in freqs},
-        {r: a.raw / f"{r}.nc" for r in freqs},
-        freqs,
-        a.results / "ch5/gamma.json",
-        a.results / "ch7/gamma_t.json",
-        a.reference,
-        a.out_dir / "frequency_effect.csv",
-        a.out_dir / f"{ch7.FREQUENCY_FIGURE}.png",
-        a.bins,
-        a.min_windows,
     )

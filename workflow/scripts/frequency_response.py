@@ -1,16 +1,12 @@
-"""Rule `frequency_response`: Fig 5.3, x/q (Eq 5.2) from the stepped-sine sweep against the model.
-
-Alone: python workflow/scripts/frequency_response.py raw/pi_p885/ch5_sweep.nc results/pi_p885/ch4/model.json \
-    response.csv resonance.csv fig_5_3.png [--campaign smoke]
+"""Rule `frequency_response`: Fig 5.3, x/q (Eq 5.2) from the stepped-sine sweep
+against the model.
 """
 
-import argparse
 import json
 from pathlib import Path
 
 from selfsense.chapters import ch5
 from selfsense.io.capture import open_capture
-from selfsense.io.manifest import expand_protocols
 from selfsense.io.provenance import save_figure, script_logging, write_table
 from selfsense.methods import frequency_response as fr
 from selfsense.methods.drive import drive_from_protocol
@@ -49,18 +45,4 @@ if "snakemake" in globals():
         snakemake.params.settle_s,
         dict(snakemake.output.items()),
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("capture", "model", "table", "peaks", "figure"):
-        cli.add_argument(name)
-    cli.add_argument("--campaign", default="thesis", choices=["thesis", "smoke"])
-    cli.add_argument("--settle-s", type=float, default=0.02)
-    a = cli.parse_args()
-    main(
-        a.capture,
-        a.model,
-        expand_protocols(["ch5"], a.campaign)["ch5_sweep"].protocol,
-        a.settle_s,
-        {"table": a.table, "peaks": a.peaks, "figure": a.figure},
     )

@@ -1,26 +1,10 @@
 """Rule `gamma_fit`: Γ (Eq 5.4) on the 0.1 Hz data — Table 5.1, Table 5.2 at the chosen order
 and at the thesis's j = 5, both Γ.
-
-Alone: python workflow/scripts/gamma_fit.py raw/pi_p885/ch5_sine_0p1hz.nc results/pi_p885/ripple/ch5_sine_0p1hz.nc out_dir
 """
-
-import argparse
-from pathlib import Path
 
 from selfsense.chapters.ch5 import gamma_data, gamma_tables
 from selfsense.io.capture import open_capture, read_series
 from selfsense.io.provenance import provenance, script_logging, write_json, write_table
-
-NAMES = {
-    "table_5_1": "table_5_1.csv",
-    "anova": "table_5_2_anova.csv",
-    "coefficients": "table_5_2_coefficients.csv",
-    "anova_j5": "table_5_2_anova_j5.csv",
-    "coefficients_j5": "table_5_2_coefficients_j5.csv",
-    "basis": "gamma_basis.csv",
-    "gamma": "gamma.json",
-    "gamma_j5": "gamma_j5.json",
-}
 
 
 def main(capture, series, out, n_periods, orders=(3, 4, 5, 6), log=None):
@@ -46,11 +30,3 @@ if "snakemake" in globals():
         snakemake.params.orders,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("capture")
-    cli.add_argument("series")
-    cli.add_argument("out_dir")
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    a = cli.parse_args()
-    main(a.capture, a.series, {k: str(Path(a.out_dir) / v) for k, v in NAMES.items()}, a.n_periods)

@@ -1,11 +1,7 @@
-"""Rule `gamma_truth`: Γ (Table 5.2) or Γ_T (Tables 7.2–7.3, given the thermometers' --power series) refitted
-with the measured C_e, x (and T) replaced by the twin's truth, one at a time and all at once (selfsense.verify.gamma_truth).
-
-Alone: python workflow/scripts/gamma_truth.py workflow/scorecard.yaml out.csv "Table 5.2" raw/pi_p885/ch5_sine_0p1hz.nc \
-    results/pi_p885/ripple/ch5_sine_0p1hz.nc --fit "thesis order=results/pi_p885/ch5/gamma_j5.json" --fit "our order=…"
+"""Rule `gamma_truth`: Γ (Table 5.2) or Γ_T (Tables 7.2–7.3, given the thermometers' --power
+series) refitted with the measured C_e, x (and T) replaced by the twin's truth, one at a time and
+all at once (selfsense.verify.gamma_truth).
 """
-
-import argparse
 
 from selfsense.io.capture import read_series
 from selfsense.io.manifest import load_yaml
@@ -67,36 +63,4 @@ if "snakemake" in globals():
         i.power[0] if i.power else None,
         p.n_periods,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("registry", "table", "source", "capture", "series"):
-        cli.add_argument(name)
-    for name, default in (
-        ("--power", None),
-        ("--prefix", "b"),
-        ("--g", None),
-        ("--np", 4),
-        ("--temperature", 0.0),
-    ):
-        cli.add_argument(name, default=default, type=type(default) if default is not None else str)
-    cli.add_argument(
-        "--fit",
-        action="append",
-        required=True,
-        help="name=path of a Γ record ('thesis order' among them)",
-    )
-    a = cli.parse_args()
-    main(
-        a.registry,
-        a.capture,
-        a.series,
-        dict(f.split("=", 1) for f in a.fit),
-        a.table,
-        a.source,
-        [f"{a.prefix}{i}" for i in range(6)],
-        a.g,
-        [a.temperature],
-        a.power,
-        a.np,
     )

@@ -1,9 +1,5 @@
-"""Rule `identify`: Case 1 and Case 2 for every set → Tables 4.1–4.3, per-set table, model.json.
+"""Rule `identify`: Case 1 and Case 2 for every set → Tables 4.1–4.3, per-set table, model.json."""
 
-Alone: python workflow/scripts/identify.py --help
-"""
-
-import argparse
 import json
 from pathlib import Path
 
@@ -41,18 +37,4 @@ if "snakemake" in globals():
         snakemake.input.manifest,
         dict(snakemake.output.items()),
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("static")
-    cli.add_argument("manifest")
-    cli.add_argument("out_dir")
-    cli.add_argument("--series", nargs="+", required=True)
-    a = cli.parse_args()
-    names = ("sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage")
-    main(
-        a.series,
-        a.static,
-        a.manifest,
-        {n: f"{a.out_dir}/{n}.csv" for n in names} | {"model": f"{a.out_dir}/model.json"},
     )

@@ -1,15 +1,9 @@
 """Rule `loop_leak`: each closed-loop P2 run as simulated and again with the drive kept out of the
 ripple channels — the drive at the folded ripple frequency, C_e's error and ε_OCL (twin study).
-
-Alone: python workflow/scripts/loop_leak.py results/pi_p885/ch5/gamma.json results/pi_p885/ch5/observer.json \
-    results/pi_p885/ch4/model.json out.csv raw/pi_p885/ch6_p2a_closed.nc ...
 """
-
-import argparse
 
 import pandas as pd
 
-from selfsense.io.manifest import load_config
 from selfsense.io.provenance import script_logging, write_table
 from selfsense.methods.control import IntegralController
 from selfsense.methods.electromech import load_k_over_alpha
@@ -51,25 +45,4 @@ if "snakemake" in globals():
         p.omega_c,
         p.n_periods,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("gamma", "observer", "model", "table"):
-        cli.add_argument(name)
-    cli.add_argument(
-        "captures", nargs="+", help="closed-loop captures, raw/<dataset>/<experiment>.nc"
-    )
-    cli.add_argument("--config", default="config.yaml")
-    a = cli.parse_args()
-    c = load_config(a.config)
-    main(
-        a.captures,
-        a.gamma,
-        a.observer,
-        a.model,
-        a.table,
-        c["campaign"],
-        c["capture"],
-        c["control"]["omega_c"],
-        c["ripple"]["n_periods"],
     )

@@ -1,13 +1,7 @@
-"""Rule `model_recovery`: identified Case 1 / Case 2 parameters against the twin's built values and the
-same identification on its noiseless states, and Fig 4.8's U_H share at the capture's frequency.
-
-Alone: python workflow/scripts/model_recovery.py results/pi_p885/ch4/sets.csv \
-    results/pi_p885/ch4/hysteresis_voltage.csv raw/pi_p885/ch4_sine_10hz_s1.nc \
-    results/pi_p885/ch4/static_stiffness.csv raw/pi_p885/dataset.yaml out.csv --frequency 10 --n-periods 4 \
-    --sets raw/pi_p885/ch4_sine_*.nc --series results/pi_p885/ripple/ch4_sine_*.nc
+"""Rule `model_recovery`: identified Case 1 / Case 2 parameters against the twin's built values
+and the same identification on its noiseless states, and Fig 4.8's U_H share at the capture's
+frequency.
 """
-
-import argparse
 
 import pandas as pd
 
@@ -32,7 +26,8 @@ def main(
     series,
     log=None,
 ):
-    """frequency: the capture's [Hz]; sets, series: every Chapter 4 set's capture and ripple series, in one order."""
+    """frequency: the capture's [Hz]; sets, series: every Chapter 4 set's capture and ripple
+    series, in one order."""
     logger = script_logging(log)
     actuator = load_manifest(manifest)["actuator"]
     k_static = load_static_stiffness(static)
@@ -77,18 +72,3 @@ if "snakemake" in globals():
         list(i.series),
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    for name in ("per_set", "hysteresis", "capture", "static", "manifest", "table"):
-        cli.add_argument(name)
-    cli.add_argument("--frequency", type=float, required=True, help="the capture's frequency [Hz]")
-    cli.add_argument(
-        "--n-periods", type=int, required=True, help="the ripple's np (config ripple.n_periods)"
-    )
-    cli.add_argument("--sets", nargs="+", required=True, help="every Chapter 4 set's capture")
-    cli.add_argument(
-        "--series", nargs="+", required=True, help="their ripple series, in the same order"
-    )
-    main(**vars(cli.parse_args()))

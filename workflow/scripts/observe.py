@@ -1,10 +1,4 @@
-"""Rule `observe`: the self-sensing chain (ripple → Γ → HPO) over one capture, offline.
-
-Alone: python workflow/scripts/observe.py raw/pi_p885/ch5_sine_1hz.nc results/pi_p885/ch5/gamma.json \
-    results/pi_p885/ch5/observer.json out.nc out.json --np 4
-"""
-
-import argparse
+"""Rule `observe`: the self-sensing chain (ripple → Γ → HPO) over one capture, offline."""
 
 from selfsense.chapters.ch5 import creep_phases, run_observer
 from selfsense.io.capture import SeriesWriter, open_capture
@@ -17,7 +11,8 @@ UNITS = {"time": "s", "x_laser": "m", "x_hat": "m", "x_cp": "m", "i0_hat": "A"}
 
 
 def main(capture, gamma, observer, traces, stats, n_periods, transient_s=None, log=None):
-    """transient_s: for the creep run, the max error is taken in its transient and steady state too."""
+    """transient_s: for the creep run, the max error is taken in its transient and
+    steady state too."""
     logger = script_logging(log)
     poly, gains = load_gamma(gamma), load_gains(observer)
     with open_capture(capture, require=("Ur", "Ir", "I", "x_laser")) as cap:
@@ -63,15 +58,3 @@ if "snakemake" in globals():
         p.transient_s,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("capture", "gamma", "observer", "traces", "stats"):
-        cli.add_argument(name)
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    cli.add_argument(
-        "--transient-s",
-        type=float,
-        default=None,
-        help="the creep run's transient after its step [s]",
-    )
-    main(**vars(cli.parse_args()))

@@ -1,9 +1,6 @@
-"""Rule `observer_study`: observer max error against ω_S and an added offset current (one capture).
-
-Alone: python workflow/scripts/observer_study.py raw/pi_p885/ch5_sine_1hz.nc gamma.json observer.json out.csv out.png
+"""Rule `observer_study`: observer max error against ω_S and an added offset current
+(one capture).
 """
-
-import argparse
 
 from selfsense.chapters.ch5 import observer_study
 from selfsense.io import figures
@@ -48,19 +45,4 @@ if "snakemake" in globals():
         p.offsets,
         p.n_periods,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("capture", "gamma", "observer", "table", "figure"):
-        cli.add_argument(name)
-    a = cli.parse_args()
-    main(
-        a.capture,
-        a.gamma,
-        a.observer,
-        a.table,
-        a.figure,
-        [0.2 * 3.14159, 3.14159, 6.28319, 31.4159],
-        [0, 0.005],
-        4,
     )

@@ -1,10 +1,7 @@
-"""Rule `powerloss_figures`: Figures 2–11 of Ronkanen 2002 from the captures and the identified constants.
-
-Alone: python workflow/scripts/powerloss_figures.py raw/tokin_nb40/rk_static_hold.nc table_1.csv table_2.csv \
-    identified.csv figures/tokin_nb40 --ramps <10 GΩ> <1 GΩ> <2 GΩ> --captures decay_current=... --drift-start 40
+"""Rule `powerloss_figures`: Figures 2–11 of Ronkanen 2002 from the captures and the identified
+constants.
 """
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
@@ -60,26 +57,4 @@ if "snakemake" in globals():
         p.drift_start,
         p.velocity_window,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("hold", "table_1", "table_2", "identified", "out_dir"):
-        cli.add_argument(name)
-    cli.add_argument("--ramps", nargs=3, required=True)
-    cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
-    cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
-    cli.add_argument(
-        "--velocity-window", dest="velocity_window", type=float, default=2.0, help="[s]"
-    )
-    args = cli.parse_args()
-    main(
-        args.hold,
-        args.ramps,
-        dict(c.split("=", 1) for c in args.captures),
-        args.table_1,
-        args.table_2,
-        args.identified,
-        {name: str(Path(args.out_dir) / f"{name}.png") for name in ronkanen.FIGURES.values()},
-        args.drift_start,
-        args.velocity_window,
     )

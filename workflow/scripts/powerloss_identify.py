@@ -1,10 +1,7 @@
-"""Rule `powerloss_identify`: R from the static hold, X and a from every ramp → ramps, Table 1, identified.
-
-Alone: python workflow/scripts/powerloss_identify.py raw/tokin_nb40/rk_static_hold.nc ramps.csv table_1.csv \
-    identified.csv --ramps raw/tokin_nb40/rk_ramp_*.nc --hold-start 40
+"""Rule `powerloss_identify`: R from the static hold, X and a from every ramp
+→ ramps, Table 1, identified.
 """
 
-import argparse
 from pathlib import Path
 
 from selfsense.chapters import ronkanen
@@ -41,15 +38,3 @@ if "snakemake" in globals():
         p.velocity_window,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("hold")
-    cli.add_argument("out_ramps")
-    cli.add_argument("out_table_1")
-    cli.add_argument("out_identified")
-    cli.add_argument("--ramps", nargs="+", required=True)
-    cli.add_argument("--hold-start", dest="hold_start", type=float, required=True, help="[s]")
-    cli.add_argument(
-        "--velocity-window", dest="velocity_window", type=float, default=2.0, help="[s]"
-    )
-    main(**vars(cli.parse_args()))

@@ -1,10 +1,6 @@
-"""Rule `powerloss_performance`: hysteresis, drift, repeatability and max error, current vs voltage control.
-
-Alone: python workflow/scripts/powerloss_performance.py identified.csv performance.csv repeatability.csv \
-    --captures decay_current=raw/tokin_nb40/rk_decay_current.nc ... --drift-start 40
+"""Rule `powerloss_performance`: hysteresis, drift, repeatability and max error, current vs
+voltage control.
 """
-
-import argparse
 
 import pandas as pd
 
@@ -42,19 +38,4 @@ if "snakemake" in globals():
         p.drift_start,
         p.drift_duration,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("identified")
-    cli.add_argument("performance")
-    cli.add_argument("repeatability")
-    ronkanen.add_run_arguments(cli)
-    args = cli.parse_args()
-    main(
-        dict(c.split("=", 1) for c in args.captures),
-        args.identified,
-        args.performance,
-        args.repeatability,
-        args.drift_start,
-        args.drift_duration,
     )

@@ -1,10 +1,6 @@
-"""Rule `powerloss_recovery`: identified R, a, X and c against the twin's truth (twin validation).
-
-Alone: python workflow/scripts/powerloss_recovery.py raw/tokin_nb40/rk_static_hold.nc identified.csv \
-    table_1.csv table_2.csv recovery.csv
+"""Rule `powerloss_recovery`: identified R, a, X and c against the twin's truth
+(twin validation).
 """
-
-import argparse
 
 import pandas as pd
 
@@ -27,8 +23,3 @@ def main(capture, identified, table_1, table_2, table, log=None):
 if "snakemake" in globals():
     i = snakemake.input
     main(i.capture, i.identified, i.table_1, i.table_2, snakemake.output.table, snakemake.log[0])
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("capture", "identified", "table_1", "table_2", "table"):
-        cli.add_argument(name)
-    main(**vars(cli.parse_args()))

@@ -1,9 +1,6 @@
-"""Rule `powerloss_table_2`: models (7)–(11) fitted to the paper's Table 1 and to the identified X.
-
-Alone: python workflow/scripts/powerloss_table_2.py table_1.csv identified.csv table_2.csv
+"""Rule `powerloss_table_2`: models (7)–(11) fitted to the paper's Table 1 and
+to the identified X.
 """
-
-import argparse
 
 import pandas as pd
 
@@ -25,8 +22,3 @@ if "snakemake" in globals():
         snakemake.output.table,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("table_1", "identified", "table"):
-        cli.add_argument(name)
-    main(**vars(cli.parse_args()))

@@ -1,11 +1,6 @@
 """Rule `powerloss_truth`: Ronkanen's Section 7 results from the sensor and from the twin's true
 displacement, and the sensor's share (twin validation: reads /truth).
-
-Alone: python workflow/scripts/powerloss_truth.py identified.csv table.csv \
-    --captures decay_current=raw/tokin_nb40/rk_decay_current.nc ... --drift-start 40
 """
-
-import argparse
 
 from selfsense.chapters import ronkanen
 from selfsense.io.provenance import script_logging, write_table
@@ -44,17 +39,4 @@ if "snakemake" in globals():
         p.drift_start,
         p.drift_duration,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("identified")
-    cli.add_argument("table")
-    ronkanen.add_run_arguments(cli)
-    args = cli.parse_args()
-    main(
-        dict(c.split("=", 1) for c in args.captures),
-        args.identified,
-        args.table,
-        args.drift_start,
-        args.drift_duration,
     )

@@ -1,10 +1,5 @@
-"""Rule `scorecard`: every published number beside its reproduction for one dataset (CSV + page).
+"""Rule `scorecard`: every published number beside its reproduction for one dataset (CSV + page)."""
 
-Alone: python workflow/scripts/scorecard.py raw/pi_p885/dataset.yaml results/pi_p885 out.csv out.html
-(reads whichever of the registry's tables exist under the results folder)
-"""
-
-import argparse
 from pathlib import Path
 
 import pandas as pd
@@ -54,8 +49,3 @@ if "snakemake" in globals():
         snakemake.input.registry,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("manifest", "results_dir", "table", "page"):
-        cli.add_argument(name)
-    main(**vars(cli.parse_args()))

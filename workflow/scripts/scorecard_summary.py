@@ -1,13 +1,11 @@
 """Rule `scorecard_summary`: the short reStructuredText that opens the report (emergent numbers per
 chapter first), the counts per dataset, kind and chapter as a table (the README quotes it, via
-scripts/update_docs.py), and two pages of the long lists (what is out of band and why; what is still to come), from every
-dataset's scorecard. The lists are pages of their own, not part of the opening: Snakemake's report
-centres its landing text vertically, so a long one would start above the top of the window.
-
-Alone: python workflow/scripts/scorecard_summary.py out.rst counts.csv out_of_band.html not_yet.html results/pi_p885/scorecard.csv ...
+scripts/update_docs.py), and two pages of the long lists (what is out of band and why; what is
+still to come), from every dataset's scorecard. The lists are pages of their own, not part of the
+opening: Snakemake's report centres its landing text vertically, so a long one would start above
+the top of the window.
 """
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
@@ -43,9 +41,3 @@ if "snakemake" in globals():
         snakemake.params.campaign,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("summary_rst", "counts", "out_of_band", "not_yet"):
-        cli.add_argument(name)
-    cli.add_argument("cards", nargs="+")
-    main(**vars(cli.parse_args()))

@@ -1,14 +1,10 @@
 """Rule `simulate`: one experiment on the digital twin → raw/<dataset>/<experiment>.nc and its QC
 report results/<dataset>/qc/<experiment>.json (the capture is validated as it is written).
-
-Alone: python workflow/scripts/simulate.py pi_p885 ch3_sine_10hz --config tests/config/smoke.yaml
 """
 
-import argparse
 from pathlib import Path
 
 from selfsense.io.capture import write_scan_report
-from selfsense.io.manifest import load_config
 from selfsense.io.provenance import script_logging
 from selfsense.twin.experiment import simulate_experiment
 
@@ -37,11 +33,3 @@ if "snakemake" in globals():
         o.report,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("dataset")
-    cli.add_argument("experiment")
-    cli.add_argument("--config", default="config.yaml")
-    args = cli.parse_args()
-    config = load_config(args.config)
-    main(config["raw_dir"], args.dataset, args.experiment, config["campaign"], config["capture"])

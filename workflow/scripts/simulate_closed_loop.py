@@ -1,16 +1,11 @@
 """Rule `simulate_closed_loop`: a closed-loop experiment on the twin, its real-time loop configured
 with the identified Γ (Ch 5), a0 (Ch 5) and k/α (Ch 4), as the bench's loop was; writes the capture
 and its QC report (validated as it is written).
-
-Alone: python workflow/scripts/simulate_closed_loop.py pi_p885 ch6_p2a_closed results/pi_p885/ch5/gamma.json \
-    results/pi_p885/ch5/observer.json results/pi_p885/ch4/model.json --config tests/config/smoke.yaml
 """
 
-import argparse
 from pathlib import Path
 
 from selfsense.io.capture import write_scan_report
-from selfsense.io.manifest import load_config
 from selfsense.io.provenance import script_logging
 from selfsense.methods.control import IntegralController
 from selfsense.methods.electromech import load_k_over_alpha
@@ -75,23 +70,4 @@ if "snakemake" in globals():
         snakemake.output.capture,
         snakemake.output.report,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("dataset", "experiment", "gamma", "observer", "model"):
-        cli.add_argument(name)
-    cli.add_argument("--config", default="config.yaml")
-    a = cli.parse_args()
-    c = load_config(a.config)
-    main(
-        c["raw_dir"],
-        a.dataset,
-        a.experiment,
-        a.gamma,
-        a.observer,
-        a.model,
-        c["campaign"],
-        c["capture"],
-        c["control"]["omega_c"],
-        c["ripple"]["n_periods"],
     )

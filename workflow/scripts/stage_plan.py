@@ -1,7 +1,4 @@
-"""Rule `stage_plan`: one row per analysis stage — runs or skipped, and what it needs.
-
-Alone: the rows come from the workflow's stage selection; run `snakemake results/<dataset>/stages.csv`.
-"""
+"""Rule `stage_plan`: one row per analysis stage — runs or skipped, and what it needs."""
 
 import pandas as pd
 

@@ -1,9 +1,4 @@
-"""Rule `static_stiffness`: k from the blocked-force and free-stroke holds at U_max (Eq 4.16).
-
-Alone: python workflow/scripts/static_stiffness.py raw/pi_p885/ch4_static_free.nc raw/pi_p885/ch4_static_blocked.nc out.csv
-"""
-
-import argparse
+"""Rule `static_stiffness`: k from the blocked-force and free-stroke holds at U_max (Eq 4.16)."""
 
 import numpy as np
 import pandas as pd
@@ -39,8 +34,3 @@ if "snakemake" in globals():
         snakemake.params.t_hold,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("free", "blocked", "table"):
-        cli.add_argument(name)
-    main(**vars(cli.parse_args()))

@@ -1,13 +1,8 @@
-"""Rule `temperature_budget`: Chapter 7's coupled temperature errors (rule `coupled`'s max |T_SH(PS) − T|
-and max |T_SH(HPO) − T| against the middle thermometer) split into their sources with the twin's truth
-→ one row per estimator.
-
-Alone: python workflow/scripts/temperature_budget.py raw/pi_p885/ch7_mixed_ae.nc \
-    results/pi_p885/ch7/coupled/ch7_mixed_ae.nc results/pi_p885/ch7/thermal_model.json out.csv \
-    --stats results/pi_p885/ch7/coupled/ch7_mixed_ae.json
+"""Rule `temperature_budget`: Chapter 7's coupled temperature errors (rule `coupled`'s
+max |T_SH(PS) − T| and max |T_SH(HPO) − T| against the middle thermometer) split into their
+sources with the twin's truth → one row per estimator.
 """
 
-import argparse
 import json
 from pathlib import Path
 
@@ -52,11 +47,3 @@ if "snakemake" in globals():
     main(
         i.capture, i.traces, i.thermal_model, snakemake.output[0], i.get("stats"), snakemake.log[0]
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("capture", "traces", "thermal_model", "table"):
-        cli.add_argument(name)
-    cli.add_argument(
-        "--stats", help="rule coupled's stats JSON: its max errors are checked against the budget's"
-    )
-    main(**vars(cli.parse_args()))

@@ -1,10 +1,6 @@
 """Rule `thermal_extract`: loss power per 0.1 s (Eq 7.4) with the IR temperatures, and C_e/x samples
 for Γ_T, from one Chapter 7 capture (streamed).
-
-Alone: python workflow/scripts/thermal_extract.py raw/pi_p885/ch7_freq_50hz.nc results/pi_p885/ch4/model.json p.nc g.nc
 """
-
-import argparse
 
 import numpy as np
 
@@ -58,9 +54,3 @@ if "snakemake" in globals():
         p.every,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("capture", "model", "power", "samples"):
-        cli.add_argument(name)
-    cli.add_argument("--np", dest="n_periods", type=int, default=4)
-    main(**vars(cli.parse_args()))

@@ -1,6 +1,5 @@
-"""Rule `thermal_identify`: τ, γ, k_T from the heating runs (Table 7.1); Figures 7.1–7.3, 7.5–7.6.
-
-Alone: run through Snakemake (`snakemake results/pi_p885/ch7/table_7_1.csv`).
+"""Rule `thermal_identify`: τ, γ, k_T from the heating runs (Table 7.1);
+Figures 7.1–7.3, 7.5–7.6.
 """
 
 from pathlib import Path

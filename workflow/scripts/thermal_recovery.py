@@ -1,10 +1,6 @@
-"""Rule `thermal_recovery`: Table 7.1's τ, γ, k_T and Γ_T's g against the twin's truth (simulated datasets).
-
-Alone: python workflow/scripts/thermal_recovery.py results/pi_p885/ch7/table_7_1.csv results/pi_p885/ch7/gamma_t.json \
-    raw/pi_p885/ch7_freq_100hz.nc out.csv
+"""Rule `thermal_recovery`: Table 7.1's τ, γ, k_T and Γ_T's g against the twin's truth
+(simulated datasets).
 """
-
-import argparse
 
 import pandas as pd
 
@@ -31,8 +27,3 @@ if "snakemake" in globals():
         snakemake.output.recovery,
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("table_7_1", "gamma_t", "truth_capture", "recovery"):
-        cli.add_argument(name)
-    main(**vars(cli.parse_args()))

@@ -1,23 +1,19 @@
 """Rule `tracking_budget`: Chapter 6's tracking errors ε_TOL and ε_TCL (Tables 6.1–6.2) split into
 their sources with the twin's truth → one row per run (P1: per segment a–h); and the closed loops'
 controller error ε_CCL split through the loop → a second table, the same rows.
-
-Alone: python workflow/scripts/tracking_budget.py out.csv controller.csv raw/pi_p885/ch6_p1_open.nc raw/pi_p885/ch6_p2b_closed.nc \
-    --config tests/config/smoke.yaml
 """
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
 
-from selfsense.io.manifest import expand_protocols, load_config
 from selfsense.io.provenance import script_logging, write_table
 from selfsense.verify.tracking_budget import capture_tracking_budget
 
 
 def main(runs, tables, omega_c, log=None):
-    """runs: {capture path: (its protocol, whether its loop is closed)}; tables: {"tracking", "controller": path}."""
+    """runs: {capture path: (its protocol, whether its loop is closed)}; tables: {"tracking",
+    "controller": path}."""
     logger = script_logging(log)
     rows = {name: [] for name in tables}
     for k, (capture, (protocol, closed)) in enumerate(runs.items(), 1):
@@ -49,24 +45,4 @@ if "snakemake" in globals():
         dict(snakemake.output.items()),
         p.omega_c,
         snakemake.log[0],
-    )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    cli.add_argument("tracking")
-    cli.add_argument("controller")
-    cli.add_argument("captures", nargs="+")
-    cli.add_argument("--config", default="config.yaml")
-    a = cli.parse_args()
-    config = load_config(a.config)
-    catalogue = expand_protocols(["ch6"], config["campaign"])
-    main(
-        {
-            c: (
-                dict(catalogue[Path(c).stem].protocol),
-                catalogue[Path(c).stem].control == "closed_loop",
-            )
-            for c in a.captures
-        },
-        {"tracking": a.tracking, "controller": a.controller},
-        config["control"]["omega_c"],
     )

@@ -1,11 +1,7 @@
 """Rule `twin_calibration`: the twin's calibration signatures read from the pipeline's own tables,
 beside the thesis's values and their bands (workflow/twin_calibration.yaml).
-
-Alone: python workflow/scripts/twin_calibration.py workflow/twin_calibration.yaml results/pi_p885 out.csv
-(reads whichever of the targets' tables exist under the results folder)
 """
 
-import argparse
 from pathlib import Path
 
 import pandas as pd
@@ -35,8 +31,3 @@ if "snakemake" in globals():
         list(snakemake.input.tables),
         snakemake.log[0],
     )
-elif __name__ == "__main__":
-    cli = argparse.ArgumentParser(description=__doc__)
-    for name in ("targets", "results_dir", "table"):
-        cli.add_argument(name)
-    main(**vars(cli.parse_args()))
