@@ -55,7 +55,8 @@ def compare_scorecard(before: Path, after: Path) -> list[str]:
         else:
             print(f"  within tolerance: {key}: {a['reproduced']} → {b['reproduced']} (±{half:g})")
     print(
-        f"  {before.parent.name}/scorecard.csv: {len(old)} rows, {changed} changed, {len(problems)} beyond "
+        f"  {before.parent.name}/scorecard.csv: {len(old)} rows, {changed} changed, "
+        f"{len(problems)} beyond "
         f"tolerance or verdict"
     )
     return problems
@@ -82,7 +83,8 @@ def main() -> int:
         else:
             differ.append(t)
     print(
-        f"{len(tables)} tables: {len(same)} byte-identical, {len(differ)} differ, {len(missing)} in one run only"
+        f"{len(tables)} tables: {len(same)} byte-identical, {len(differ)} differ, "
+        f"{len(missing)} in one run only"
     )
     for t in differ:
         print(f"  differs: {t}")

@@ -1,7 +1,8 @@
 """Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
-                                       [--keep-results DIR]] [--skip-hot] [--skip-dag] [--skip-stream]
+                                       [--keep-results DIR]]
+                                       [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
 - hot paths: the twin kernel (samples/s per core), a whole simulated capture (samples/s), capture
@@ -184,7 +185,8 @@ def peak_rss_mb(code):
     """Peak RSS [MB] of a fresh interpreter running code (run.py importable as `run`).
 
     Read as VmHWM from /proc, which starts afresh at exec; getrusage's ru_maxrss does not (Linux
-    carries it across fork and exec), so it would report this process's own size when that is larger.
+    carries it across fork and exec), so it would report this process's own size when that is
+    larger.
     """
     code = (
         f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); import run; {code}; "
@@ -291,7 +293,8 @@ def print_rss_by_capture_length(
         if len(jobs) > 1:
             (short, rss_short), (long, rss_long) = min(jobs), max(jobs)
             print(
-                f"    {rule:22s} {rss_short:5.0f} MB at {short:6.2f} M samples, {rss_long:5.0f} MB at {long:6.1f} M "
+                f"    {rule:22s} {rss_short:5.0f} MB at {short:6.2f} M samples, "
+                f"{rss_long:5.0f} MB at {long:6.1f} M "
                 f"(largest of {len(jobs)} jobs {max(j[1] for j in jobs):5.0f} MB)"
             )
 
@@ -357,10 +360,12 @@ def report_dag(label, repo, python, config, wall, peak, cpu):
     jobs = [j for js in rules.values() for j in js]
     job_s = sum(j[0] for j in jobs)
     print(
-        f"DAG ({config}, --cores 2, {label}): {len(jobs)} jobs, wall {wall:.0f} s, CPU {cpu:.0f} s (user + sys "
-        f"of Snakemake and every job), peak RSS of the process tree {peak:.0f} MB (sampled every 0.5 s)"
+        f"DAG ({config}, --cores 2, {label}): {len(jobs)} jobs, wall {wall:.0f} s, "
+        f"CPU {cpu:.0f} s (user + sys of Snakemake and every job), "
+        f"peak RSS of the process tree {peak:.0f} MB (sampled every 0.5 s)"
     )
-    # Snakemake samples a job's cpu_time every 30 s after its first 15 s: a long job's is short by up to 30 s
+    # Snakemake samples a job's cpu_time every 30 s after its first 15 s: a long job's is short by
+    # up to 30 s
     print(
         f"  jobs' own time (benchmark files): {job_s:.0f} s summed ({job_s / wall:.2f}× wall); "
         f"largest job max_rss {max(j[1] for j in jobs):.0f} MB"
@@ -430,11 +435,13 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
             shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
         if not warm:
             print(
-                f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
+                f"fresh clone ({config}): install {install:.0f} s, "
+                f"`snakemake --cores 2` {fresh:.0f} s "
                 f"(README's first command {install + fresh:.0f} s)"
             )
             return
-        # outputs, captures and logs go; the venv, bytecode and numba's cache (src/**/__pycache__) stay
+        # outputs, captures and logs go; the venv, bytecode and numba's cache (src/**/__pycache__)
+        # stay
         subprocess.run(
             ["git", "clean", "-fdxq", "-e", ".venv", "-e", "__pycache__"], cwd=repo, check=True
         )

@@ -62,7 +62,8 @@ MARGIN, FAVOUR = 0.1, 10.0
 #: a parameter moves a signature when a tenth of its range moves it by this much of its band: the
 #: short runs' noise moves the loop widths about that much, so a smaller effect is no handle on it
 MOVES = 0.05
-#: a search for one signature alone is cheap (its own runs only): it may iterate this many times more
+#: a search for one signature alone is cheap (its own runs only): it may iterate this many times
+#: more
 ALONE = 4
 WRITTEN = (
     "# twin: {names} found by scripts/calibrate_twin.py against workflow/twin_calibration.yaml"
@@ -70,7 +71,8 @@ WRITTEN = (
 
 
 class Search:
-    """The free parameters on the unit cube, and the targets' distances to their bands at a point."""
+    """The free parameters on the unit cube, and the targets' distances to their bands at a
+    point."""
 
     def __init__(self, params, free, targets, runs):
         self.params, self.free, self.runs, self.targets = params, free, runs, targets
@@ -242,7 +244,8 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
         u0 = search.point(start)
 
         def measured(values):
-            """The table at ``values`` on the dataset's seed, and each value's spread over the seeds."""
+            """The table at ``values`` on the dataset's seed, and each value's spread over the
+            seeds."""
             table = search.table(values)
             repeats = [
                 search.table(values, runs=runs(campaign, s))["twin value"] for s in range(1, seeds)
@@ -253,7 +256,8 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
 
         first, spread = measured(start)
         print(
-            f"{dataset}, {campaign} protocols, at the manifest's values:\n{show(first.set_axis(ids), spread)}\n"
+            f"{dataset}, {campaign} protocols, at the manifest's values:\n"
+            f"{show(first.set_axis(ids), spread)}\n"
         )
         effect = search.sensitivity(u0, first)
         print(
@@ -275,7 +279,8 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
                 continue
             if not movers(t):
                 print(
-                    f"{t.id} alone: out of reach: no free parameter moves it by {MOVES:.0%} of its band; "
+                    f"{t.id} alone: out of reach: no free parameter moves it by "
+                    f"{MOVES:.0%} of its band; "
                     "left out of the joint search"
                 )
                 continue
@@ -290,7 +295,8 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
                     f"{t.id} alone: not met; least squares from the manifest's values "
                     + ("stops after its iterations" if stopped else "converges")
                     + f" at {value:.4g} {t.unit} "
-                    f"(band {t.low:g}–{t.high:g}), moving {', '.join(n for j, n in enumerate(chosen) if j in movers(t))}; "
+                    f"(band {t.low:g}–{t.high:g}), moving "
+                    f"{', '.join(n for j, n in enumerate(chosen) if j in movers(t))}; "
                     "left out of the joint search"
                 )
 
@@ -320,7 +326,8 @@ def main(dataset, raw, config, targets, campaign, free, seeds, max_nfev, write):
             lost = [r for r in favoured.index if not favoured.loc[r, "within"] and r != t.id]
             print(
                 f"{t.id}, favoured: {'met' if favoured.loc[t.id, 'within'] else 'still not met'}"
-                f" ({favoured.loc[t.id, 'twin value']:.4g} {t.unit}); out of their bands then: {', '.join(lost) or 'none'}"
+                f" ({favoured.loc[t.id, 'twin value']:.4g} {t.unit}); "
+                f"out of their bands then: {', '.join(lost) or 'none'}"
             )
     if write:
         write_manifest(write, found)
