@@ -1,11 +1,20 @@
-"""Write the scorecard's numbers into the README and docs/deviations.md, and keep the summary they
-come from under docs/snapshot/ (so a clone shows them before its first run, and a test checks the
+"""Write the scorecard's numbers into the README and docs/ pages, and keep the summary they come
+from under docs/snapshot/ (so a clone shows them before its first run, and a test checks the
 pages against it). Run after the thesis campaign: .venv/bin/python scripts/update_docs.py
+
+Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) on its page:
+
+- ``counts`` (README.md): the published numbers within band per dataset, chapter and kind;
+- ``deviations`` (docs/deviations.md): every emergent number out of band;
+- ``calibration`` (docs/twin.md): the signatures the twin's free parameters are set to;
+- ``recovery`` (docs/twin.md): what the analyses give back of the twin's truth.
 """
 
 import argparse
 import json
+import math
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
@@ -13,7 +22,70 @@ import pandas as pd
 from selfsense.scorecard.render import counts_markdown, deviations_markdown, replace_block
 
 SNAPSHOT = Path("docs/snapshot")
-PAGES = {"counts": Path("README.md"), "deviations": Path("docs/deviations.md")}
+PAGES = {
+    "counts": Path("README.md"),
+    "deviations": Path("docs/deviations.md"),
+    "calibration": Path("docs/twin.md"),
+    "recovery": Path("docs/twin.md"),
+}
+
+
+def _number(value) -> str:
+    missing = value is None or (isinstance(value, float) and math.isnan(value))
+    return "–" if missing else f"{value:.4g}"
+
+
+def _band(low, high) -> str:
+    low, high = _number(low), _number(high)
+    if low == "–":
+        return f"≤ {high}"
+    if high == "–":
+        return f"≥ {low}"
+    return f"{low} to {high}"
+
+
+def _unit(unit) -> str:
+    return "" if not isinstance(unit, str) else unit
+
+
+def calibration_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
+    """docs/twin.md's table: every scorecard row of kind calibration, the thesis's (or the
+    paper's) value beside the twin's, with the band the calibration holds it to."""
+    lines = [
+        f"The signatures on the `{campaign}` campaign (the scorecards' rows of kind calibration):",
+        "",
+        "| dataset | source | quantity | published | twin | band | unit | verdict |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for dataset, card in cards.items():
+        for _, row in card[card["kind"] == "calibration"].iterrows():
+            lines.append(
+                f"| {dataset} | {row['source']} | {row['quantity']} | {_number(row['published'])}"
+                f" | {_number(row['reproduced'])} | {_band(row['band low'], row['band high'])}"
+                f" | {_unit(row['unit'])} | {row['verdict']} |"
+            )
+    return "\n".join(lines)
+
+
+def recovery_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
+    """docs/twin.md's table: the scorecards' twin-recovery rows, each beside its reference (the
+    twin's built value; the source's model read on the twin's noiseless states where that model
+    does not fit the twin; or the analysis's own bound, such as C_e within 1 %)."""
+    lines = [
+        f"The twin recovery rows on the `{campaign}` campaign (the scorecards' section twin"
+        " recovery):",
+        "",
+        "| dataset | source | quantity | reference | identified | band | unit | verdict |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for dataset, card in cards.items():
+        for _, row in card[card["section"] == "twin recovery"].iterrows():
+            lines.append(
+                f"| {dataset} | {row['source']} | {row['quantity']} | {_number(row['published'])}"
+                f" | {_number(row['reproduced'])} | {_band(row['band low'], row['band high'])}"
+                f" | {_unit(row['unit'])} | {row['verdict']} |"
+            )
+    return "\n".join(lines)
 
 
 def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
@@ -25,7 +97,12 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         for p in sorted(snapshot.glob("scorecard_*.csv"))
         if p.name != "scorecard_counts.csv"
     }
-    return {"counts": counts_markdown(counts, campaign), "deviations": deviations_markdown(cards)}
+    return {
+        "counts": counts_markdown(counts, campaign),
+        "deviations": deviations_markdown(cards),
+        "calibration": calibration_markdown(cards, campaign),
+        "recovery": recovery_markdown(cards, campaign),
+    }
 
 
 def main(results: Path, snapshot: Path = SNAPSHOT):
