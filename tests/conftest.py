@@ -1,19 +1,18 @@
+"""The fixtures the tests share: pi_p885's twin, and the smoke DAG (run once per test run, shared
+by the pytest-xdist workers). Plain helpers are in tests/helpers.py."""
+
 import fcntl
 import json
 import os
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from selfsense.io.manifest import load_dataset
 from selfsense.twin.experiment import daq_plan
 from selfsense.twin.params import TwinParams
 
-ROOT = Path(__file__).resolve().parents[1]
+from .helpers import ROOT, copy_repo, run_snakemake
 
 
 @pytest.fixture(scope="session")
@@ -31,58 +30,8 @@ def stack_daq(stack_manifest):
     return daq_plan(stack_manifest)
 
 
-def raised_sine(f, duration, fs=48000.0, hi=100.0):
-    t = np.arange(int(round(duration * fs))) / fs
-    return t, hi * 0.5 * (1 - np.cos(2 * np.pi * f * t))
-
-
-IGNORE = shutil.ignore_patterns(
-    ".venv",
-    ".git",
-    ".snakemake",
-    "results",
-    "figures",
-    "logs",
-    "*.nc",
-    "out",
-    "__pycache__",
-    ".hypothesis",
-    ".pytest_cache",
-    "report.html",
-)
-
-
-def copy_repo(dest: Path) -> Path:
-    """A copy of the repository's workflow files (no results, no captures) to run Snakemake in."""
-    shutil.copytree(ROOT, dest, ignore=IGNORE)
-    return dest
-
-
-def measured_copy_remakes(table: str) -> bool:
-    """Whether the measured copy of the smoke bench (tests/test_byod.py) makes ``table`` again, from
-    the same samples in its own DAG, and is held to its bytes there: every table of pi_p885 but the
-    twin's (they read /truth, which a measured capture has not) and the scorecard and stage plan
-    (they differ by design). The rebuild test (tests/test_report.py) remakes the rest."""
-    return (
-        table.startswith("results/pi_p885/")
-        and not table.startswith("results/pi_p885/twin/")
-        and table not in ("results/pi_p885/scorecard.csv", "results/pi_p885/stages.csv")
-    )
-
-
-def snakemake(repo, *args, config="tests/config/smoke.yaml"):
-    # targets go before --configfile, which takes several values
-    return subprocess.run(
-        [sys.executable, "-m", "snakemake", "--cores", "2", *args, "--configfile", config],
-        cwd=repo,
-        capture_output=True,
-        text=True,
-        timeout=1800,
-    )
-
-
-#: module-scoped fixtures that run a DAG of their own: a worker builds its own instance of a module's
-#: fixture, so the tests sharing one go to one worker (split over two, the DAG ran twice)
+#: module-scoped fixtures that run a DAG of their own: a worker builds its own instance of a
+#: module's fixture, so the tests sharing one go to one worker (split over two, the DAG ran twice)
 OWN_DAGS = ("bench", "lab_csv")
 
 
@@ -113,9 +62,8 @@ def smoke_run(tmp_path_factory):
             try:
                 repo = _smoke_dag(shared / "dag")
                 done.write_text(json.dumps({"repo": str(repo)}))
-            except (
-                AssertionError
-            ) as err:  # every worker fails with the same reason, none runs it again
+            except AssertionError as err:
+                # every worker fails with the same reason, none runs it again
                 done.write_text(json.dumps({"failed": str(err)}))
     state = json.loads(done.read_text())
     assert "failed" not in state, state.get("failed")
@@ -124,7 +72,7 @@ def smoke_run(tmp_path_factory):
 
 def _smoke_dag(folder: Path) -> Path:
     repo = copy_repo(folder / "repo")
-    run = snakemake(repo)
+    run = run_snakemake(repo)
     assert run.returncode == 0, run.stderr[-3000:]
     return repo
 
@@ -133,7 +81,7 @@ def _smoke_dag(folder: Path) -> Path:
 def smoke_report(smoke_tree):
     """`snakemake --report report.html` in the smoke tree, built once for the tests that read it:
     (path of the page, the build's stderr)."""
-    run = snakemake(smoke_tree, "--report", "report.html")
+    run = run_snakemake(smoke_tree, "--report", "report.html")
     assert run.returncode == 0, run.stderr[-3000:]
     return smoke_tree / "report.html", run.stderr
 

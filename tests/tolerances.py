@@ -50,16 +50,18 @@ def resolvent_condition(A, s):
 
 
 def assert_close(actual, desired, rtol, atol=0.0):
-    """np.testing.assert_allclose with a tolerance per element (its message formats scalars only)."""
+    """np.testing.assert_allclose with a tolerance per element (its message formats scalars
+    only)."""
     actual, desired = np.asarray(actual), np.asarray(desired)
     bound = atol + rtol * np.abs(desired)
     excess = np.abs(actual - desired) / np.where(bound > 0, bound, np.inf)
     bad = ~(np.abs(actual - desired) <= bound)
     if bad.any():
         k = np.unravel_index(np.argmax(np.where(bad, excess, -1)), bad.shape) if bad.ndim else ()
+        tolerance = np.broadcast_to(bound, bad.shape)[k]
         raise AssertionError(
             f"{bad.sum()} of {bad.size} elements differ beyond their tolerance; worst at "
-            f"{k}: {actual[k]!r} vs {desired[k]!r} (tolerance {np.broadcast_to(bound, bad.shape)[k]:.3g})"
+            f"{k}: {actual[k]!r} vs {desired[k]!r} (tolerance {tolerance:.3g})"
         )
 
 

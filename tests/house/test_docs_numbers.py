@@ -1,22 +1,15 @@
 """The numbers the README and docs/deviations.md quote are the scorecard's, written by
 scripts/update_docs.py from the snapshot docs/snapshot/, never typed by hand."""
 
-import importlib.util
-
 import pandas as pd
 
 from selfsense.scorecard.render import BEGIN, END, summary
 
-from .conftest import ROOT
+from ..helpers import ROOT, load_module
 
 
 def update_docs():
-    spec = importlib.util.spec_from_file_location(
-        "update_docs", ROOT / "scripts" / "update_docs.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_module(ROOT / "scripts" / "update_docs.py")
 
 
 def block(page: str, name: str) -> str:

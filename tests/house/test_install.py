@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from .conftest import copy_repo
+from ..helpers import copy_repo, run_snakemake
 
 WHERE = "import selfsense, selfsense.io.manifest as m; print(selfsense.__file__); print(m.SCHEMAS)"
 
@@ -45,22 +45,6 @@ def test_a_non_editable_install_runs_the_workflow_from_the_checkout(tmp_path):
     assert where.returncode == 0, where.stderr[-2000:]
     module, schemas = where.stdout.split()
     assert module.startswith(str(site)) and schemas.startswith(str(site)), where.stdout
-    dry = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "snakemake",
-            "-n",
-            "--cores",
-            "1",
-            "--configfile",
-            "tests/config/smoke.yaml",
-        ],
-        cwd=repo,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    dry = run_snakemake(repo, "-n", cores=1, timeout=600, env=env)
     assert dry.returncode == 0, dry.stderr[-3000:]
     assert "simulate" in dry.stdout and "scorecard" in dry.stdout

@@ -11,7 +11,7 @@ import subprocess
 
 import pytest
 
-from .conftest import ROOT
+from ..helpers import ROOT
 
 # Paths that only exist outside a clone. Each alternative is written so that this file's own
 # source does not match it (the sanity test below checks that every one of them does fire).

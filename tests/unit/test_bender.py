@@ -21,8 +21,8 @@ from selfsense.twin import bender as B
 from selfsense.twin.bench import experiment_seed
 from selfsense.twin.experiment import daq_plan, simulate_experiment
 
-from .conftest import ROOT
-from .tolerances import CLOSED_FORM, rtol
+from ..helpers import ROOT
+from ..tolerances import CLOSED_FORM, rtol
 
 MANIFEST = load_dataset(ROOT / "raw", "tokin_nb40")
 PARAMS = B.BenderParams.from_manifest(MANIFEST["twin"])
@@ -85,8 +85,8 @@ def test_moving_lowers_the_loss_impedance_as_model_10():
     _, truth = run(current((30.0, 300e-9)))
     moving = slice(int(10 * FS), None)
     expected = PARAMS.actuator.R / np.sqrt((PARAMS.actuator.c * truth["i_C"][moving]) ** 2 + 1)
-    # the same closed form evaluated twice (float64; the capture stores it as float32 only in /truth,
-    # which these arrays are not)
+    # the same closed form evaluated twice (float64; the capture stores it as float32 only in
+    # /truth, which these arrays are not)
     np.testing.assert_allclose(truth["X"][moving], expected, rtol=CLOSED_FORM)
     # i_l·X = V holds to the kernel's root solve (≤ 4ε of V) and the product's rounding
     np.testing.assert_allclose(
@@ -106,8 +106,8 @@ def test_open_loop_voltage_control_shows_the_papers_hysteresis_and_creep():
 
 @pytest.mark.parametrize("X_trial, trend", [(10e9, "slows"), (1e9, "speeds up")])
 def test_trial_compensation_bends_the_ramp_velocity_as_figs_3_and_4(X_trial, trend):
-    """Too large an X leaves loss uncompensated: the speed falls as the charge grows (Fig 3, curve 1);
-    too small an X over-compensates and the speed grows (Fig 4)."""
+    """Too large an X leaves loss uncompensated: the speed falls as the charge grows (Fig 3,
+    curve 1); too small an X over-compensates and the speed grows (Fig 4)."""
     rec, _ = run(current((50.0, 300e-9)), compensation=B.Compensation("impedance", X=X_trial))
     v = pl.ramp_velocity(rec.t, rec.x, 2.0)
     early, late = np.mean(v[int(5 * FS) : int(15 * FS)]), np.mean(v[int(38 * FS) : int(48 * FS)])

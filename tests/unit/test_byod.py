@@ -1,7 +1,8 @@
 """Bring your own data (docs/bring-your-own-data.md): a lab's recording imported with `selfsense
 import`, analysed by what its channels allow (stage characterise), refused in one line where it
 contradicts its manifest; a foreign actuator gets no published numbers, its own reference values
-instead."""
+instead. An imported dataset and a measured copy of the smoke bench through the whole DAG are in
+tests/workflow/test_byod.py."""
 
 import json
 
@@ -20,44 +21,27 @@ from selfsense.scorecard.reference_values import KIND, reference_rows
 from selfsense.scorecard.registry import PUBLISHED, WITHIN, applicable, parse_registry
 from selfsense.scorecard.scoring import scorecard
 
-from .conftest import ROOT, measured_copy_remakes
-from .test_reliability import bench_manifest, leftovers, one_line, script, set_codes, synthetic
-
-FS, F, A, B = 5000.0, 1.0, 150.0, 15e-6  # a 1 Hz, ±150 V sine at 5 kHz; x = B sin(ωt − φ) + B [m]
-PHI = np.arcsin(0.12)  # the ellipse's width is 2B·sin φ: 12 % of its stroke 2B
-
-
-def ellipse(periods=3):
-    t = np.arange(int(periods * FS / F)) / FS
-    return t, A * np.sin(2 * np.pi * F * t), B * np.sin(2 * np.pi * F * t - PHI) + B
-
-
-def write_csv(path, t0=2.0):
-    t, u, x = ellipse()
-    pd.DataFrame({"t [s]": t + t0, "U [V]": u, "x [um]": x * 1e6}).to_csv(path, index=False)
-    return path
-
-
-def imported(tmp_path, source, *channel_args, experiment="sine_1hz", dataset="lab_stack", extra=()):
-    raw = tmp_path / "raw"
-    args = [
-        str(source),
-        "--dataset",
-        dataset,
-        "--experiment",
-        experiment,
-        "--raw-dir",
-        str(raw),
-        *extra,
-    ]
-    for c in channel_args:
-        args += ["--channel", c]
-    assert cli(["import", *args]) == 0
-    return raw / dataset
+from ..helpers import (
+    LAB_A,
+    LAB_B,
+    LAB_FS,
+    LAB_PHI,
+    ROOT,
+    bench_manifest,
+    ellipse,
+    imported,
+    leftovers,
+    one_line,
+    script,
+    set_codes,
+    synthetic,
+    write_csv,
+)
 
 
 def characterised(tmp_path, folder, experiment="sine_1hz"):
-    """The rules characterise_page and characterise on one capture: its row and its loop figure's page."""
+    """The rules characterise_page and characterise on one capture: its row and its loop figure's
+    page."""
     out = tmp_path / folder.name
     out.mkdir()
     table, page, figure = out / "summary.csv", out / "page_01.json", out / "loops_01.png"
@@ -81,22 +65,23 @@ def test_a_csv_of_u_and_x_gives_stroke_gain_loop_width_and_the_loop_figure(tmp_p
     manifest = load_dataset(folder.parent, "lab_stack")  # scaffolded, valid, no model
     assert (
         "model" not in manifest
-        and manifest["daq"]["fs"] == FS
+        and manifest["daq"]["fs"] == LAB_FS
         and manifest["experiments"] == ["sine_1hz"]
     )
     with open_capture(folder / "sine_1hz.nc") as cap:
-        assert cap.n == 3 * FS and "shifted to 0" in cap.attrs["import_note"]
+        assert cap.n == 3 * LAB_FS and "shifted to 0" in cap.attrs["import_note"]
         steps = {c: cap.resolution(c) for c in ("U", "x_laser")}
     row, figure = characterised(tmp_path, folder)
     assert figure.exists() and figure.with_suffix(".pdf").exists()
     # the ellipse's loop: width 100·sin φ % of stroke, gain B·cos φ / A by either definition
-    assert abs(row["x–U loop width [% of stroke]"] - 100 * np.sin(PHI)) < 0.5
+    assert abs(row["x–U loop width [% of stroke]"] - 100 * np.sin(LAB_PHI)) < 0.5
     assert (
-        abs(row["stroke [µm]"] - 2e6 * B) <= 2 * steps["x_laser"] * 1e6
+        abs(row["stroke [µm]"] - 2e6 * LAB_B) <= 2 * steps["x_laser"] * 1e6
     )  # the ADC's steps at the two peaks
-    gain = 1e6 * B * np.cos(PHI) / A
-    # quantisation of both channels bounds either gain's error: a few steps relative to the amplitudes
-    quantisation = 4 * (steps["x_laser"] / B + steps["U"] / A)
+    gain = 1e6 * LAB_B * np.cos(LAB_PHI) / LAB_A
+    # quantisation of both channels bounds either gain's error: a few steps relative to the
+    # amplitudes
+    quantisation = 4 * (steps["x_laser"] / LAB_B + steps["U"] / LAB_A)
     assert abs(row["gain (least squares) [µm/V]"] / gain - 1) < quantisation
     assert abs(row["gain (end points) [µm/V]"] / gain - 1) < quantisation
     assert (
@@ -116,7 +101,7 @@ def test_a_mat_file_with_the_same_content_gives_the_same_table(tmp_path):
         "U=rec.data[0]:V",
         "x_laser=rec.data[1]:um",
         dataset="lab_mat",
-        extra=["--fs", str(FS)],
+        extra=["--fs", str(LAB_FS)],
     )
     from_csv = imported(
         tmp_path,
@@ -131,13 +116,14 @@ def test_a_mat_file_with_the_same_content_gives_the_same_table(tmp_path):
 
 
 def test_nonlinearity_is_the_middle_lines_largest_distance_from_the_end_point_chord():
-    # a parabola added to the ellipse bends its middle line by d·(u² − A²) from the chord: d·A² at u = 0
+    # a parabola added to the ellipse bends its middle line by d·(u² − A²) from the chord: d·A² at
+    # u = 0
     t, u, x = ellipse()
-    d = 2e-6 / A**2
+    d = 2e-6 / LAB_A**2
     out = ch.loop_measures(u, x + d * u**2, ch.rising(u))
     # the chord's ends are means over the last 2 % of the range, where u² is ≈ 2 % short of A²
-    assert abs(out["nonlinearity"] / (100 * d * A**2 / out["stroke"]) - 1) < 0.05
-    assert abs(out["loop_width"] - 100 * 2 * B * np.sin(PHI) / out["stroke"]) < 0.5
+    assert abs(out["nonlinearity"] / (100 * d * LAB_A**2 / out["stroke"]) - 1) < 0.05
+    assert abs(out["loop_width"] - 100 * 2 * LAB_B * np.sin(LAB_PHI) / out["stroke"]) < 0.5
 
 
 def test_a_held_step_gives_its_creep_and_the_current_its_charge_slope():
@@ -341,175 +327,6 @@ def test_reference_values_replace_the_published_numbers():
     assert (rows["kind"] == KIND).all()
 
 
-# -- end to end (slow): an imported dataset, and a measured copy of the smoke bench ----------------
-
-
-def copy_without_truth(src, dst, dataset):
-    """A capture as a lab's DAQ would have written it: the same channels and attributes, no /truth."""
-    import netCDF4
-
-    with netCDF4.Dataset(src) as a, netCDF4.Dataset(dst, "w", format="NETCDF4") as b:
-        b.setncatts(
-            {k: a.getncattr(k) for k in a.ncattrs()} | {"dataset": dataset, "source": "measured"}
-        )
-        for name, dim in a.dimensions.items():
-            b.createDimension(name, len(dim))
-        for name, var in a.variables.items():
-            var.set_auto_maskandscale(False)
-            attrs = {k: var.getncattr(k) for k in var.ncattrs()}
-            out = b.createVariable(
-                name,
-                var.dtype,
-                var.dimensions,
-                zlib=True,
-                complevel=1,
-                fill_value=attrs.pop("_FillValue", None),
-            )
-            out.set_auto_maskandscale(False)
-            out.setncatts(attrs)
-            out[:] = var[:]
-
-
-@pytest.fixture(scope="module")
-def measured_bench(smoke_run, tmp_path_factory):
-    """Every smoke capture of the ripple bench, /truth removed, as the measured dataset bench_lab
-    (the stack's manifest without its twin), run through the whole DAG."""
-    from .conftest import copy_repo
-    from .test_reliability import run_snakemake, write_config
-
-    repo = copy_repo(tmp_path_factory.mktemp("lab") / "repo")
-    folder = repo / "raw" / "bench_lab"
-    folder.mkdir()
-    # in the simulated dataset's order, which the tables' rows follow
-    runs = list(
-        pd.read_csv(smoke_run / "results" / "pi_p885" / "qc" / "captures.csv")["experiment"]
-    )
-    assert sorted(runs) == sorted(p.stem for p in (smoke_run / "raw" / "pi_p885").glob("*.nc"))
-    for run in runs:
-        copy_without_truth(
-            smoke_run / "raw" / "pi_p885" / f"{run}.nc", folder / f"{run}.nc", "bench_lab"
-        )
-    doc = {
-        k: v
-        for k, v in load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml").items()
-        if k not in ("twin", "seed")
-    }
-    doc |= {"name": "bench_lab", "source": "measured", "experiments": runs}
-    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
-    run = run_snakemake(repo, write_config(repo, "lab", ["bench_lab"]))
-    return repo, run, smoke_run
-
-
-@pytest.mark.slow
-def test_a_measured_ripple_bench_runs_every_analysis_to_the_end(measured_bench):
-    repo, run, smoke = measured_bench
-    assert run.returncode == 0, run.stderr[-4000:]
-    res = repo / "results" / "bench_lab"
-    coupled = pd.read_csv(res / "ch7" / "coupled.csv")
-    assert len(coupled) == 3
-    for n in (10, 11, 12):
-        assert (repo / "figures" / "bench_lab" / f"fig_7_{n}.png").exists()
-    # the same samples (written again with zlib, without /truth) give every table the simulated
-    # dataset's DAG made, byte for byte: both the reproduction's determinism and its independence
-    # of the capture's compression (the rebuild test remakes the tables this cannot)
-    remade = sorted(str(p.relative_to(res)) for p in res.rglob("*.csv"))
-    expected = sorted(
-        str(p.relative_to(smoke / "results" / "pi_p885"))
-        for p in (smoke / "results" / "pi_p885").rglob("*.csv")
-        if measured_copy_remakes(str(p.relative_to(smoke)))
-    )
-    assert sorted(set(remade) - {"scorecard.csv", "stages.csv"}) == expected
-    assert [
-        t
-        for t in expected
-        if (res / t).read_bytes() != (smoke / "results" / "pi_p885" / t).read_bytes()
-    ] == []
-    # the same published numbers as the simulated dataset, and no twin recovery
-    card = pd.read_csv(res / "scorecard.csv")
-    twin = pd.read_csv(smoke / "results" / "pi_p885" / "scorecard.csv")
-    twin = twin[twin["section"] == PUBLISHED].reset_index(drop=True)
-    assert (card["section"] == PUBLISHED).all()
-    pd.testing.assert_series_equal(card["reproduced"], twin["reproduced"])
-    # a band centred on the model on the twin's truth has no truth to be centred on here: it is
-    # the published value's; every other band and verdict is the simulated dataset's
-    centred = twin["band"] == "model on truth"
-    assert centred.any() and (card.loc[~centred, "verdict"] == twin.loc[~centred, "verdict"]).all()
-    assert (card["verdict"] == WITHIN).sum() > 0
-    mid = (card.loc[centred, "band low"] + card.loc[centred, "band high"]) / 2
-    assert mid.to_numpy() == pytest.approx(card.loc[centred, "published"].to_numpy(), rel=1e-12)
-    assert not (res / "twin").exists()  # every step that reads /truth is absent, not failed
-    stages = pd.read_csv(res / "stages.csv").set_index("stage")
-    assert (
-        stages.drop("powerloss (Ronkanen)")["status"] == "runs"
-    ).all()  # every thesis stage, to the end
-    captures = sorted(p.stem for p in (repo / "raw" / "bench_lab").glob("*.nc"))
-    assert sorted(pd.read_csv(res / "characterise" / "summary.csv")["experiment"]) == captures
-
-
-@pytest.fixture(scope="module")
-def lab_csv(tmp_path_factory):
-    """A U–x CSV imported into a scratch copy as lab_stack (no model, a data sheet's stroke), and
-    a second import whose manifest was then edited to another fs (lab_fs)."""
-    from .conftest import copy_repo
-    from .test_reliability import run_snakemake, write_config
-
-    repo = copy_repo(tmp_path_factory.mktemp("csv") / "repo")
-    source = write_csv(repo / "sine.csv")
-    for dataset in ("lab_stack", "lab_fs"):
-        imported(
-            repo,
-            source,
-            "U=U [V]:V",
-            "x_laser=x [um]:um",
-            dataset=dataset,
-            extra=["--time", "t [s]:s"],
-        )
-    path = repo / "raw" / "lab_stack" / "dataset.yaml"
-    path.write_text(
-        path.read_text()
-        + "reference:\n  stroke_um: {value: 31, tolerance_percent: 10, source: data sheet}\n"
-        "sensors:\n  x_laser: {type: laser vibrometer, resolution: 3.0e-7, units: m}\n"
-    )
-    path = repo / "raw" / "lab_fs" / "dataset.yaml"
-    path.write_text(path.read_text().replace("fs: 5000.0", "fs: 5120.0"))
-    good = run_snakemake(repo, write_config(repo, "good", ["lab_stack"]))
-    bad = run_snakemake(repo, write_config(repo, "bad", ["lab_fs"]))
-    return repo, good, bad
-
-
-@pytest.mark.slow
-def test_an_imported_csv_gets_its_table_figure_and_a_scorecard_of_its_own(lab_csv):
-    repo, good, _ = lab_csv
-    assert good.returncode == 0, good.stderr[-4000:]
-    res = repo / "results" / "lab_stack"
-    table = pd.read_csv(res / "characterise" / "summary.csv")
-    assert list(table["experiment"]) == ["sine_1hz"]
-    assert abs(table.loc[0, "x–U loop width [% of stroke]"] - 100 * np.sin(PHI)) < 0.5
-    assert (repo / "figures" / "lab_stack" / "characterise" / "loops_01.png").exists()
-    sensors = pd.read_csv(res / "characterise" / "instruments.csv").set_index(["item", "property"])[
-        "value"
-    ]
-    assert sensors[("channel x_laser", "type")] == "laser vibrometer"
-    card = pd.read_csv(res / "scorecard.csv")  # no published rows: the data sheet's stroke only
-    assert list(card["section"]) == ["reference values"] and list(card["verdict"]) == [WITHIN]
-    stages = pd.read_csv(res / "stages.csv").set_index("stage")
-    assert stages.loc["characterise", "status"] == "runs"
-    assert (
-        "this dataset lacks: channel Ur, channel Ir, channel I, daq.ripple"
-        in stages.loc["ripple (Ch. 3)", "needs"]
-    )
-
-
-@pytest.mark.slow
-def test_a_capture_that_contradicts_its_manifest_stops_the_run_and_its_log_says_why(lab_csv):
-    repo, _, bad = lab_csv
-    assert bad.returncode != 0
-    reason = "raw/lab_fs/sine_1hz.nc: fs = 5000 Hz, the manifest declares daq.fs = 5120 Hz (raw/lab_fs/dataset.yaml)"
-    assert reason in bad.stdout + bad.stderr
-    assert reason in (repo / "logs" / "lab_fs" / "check_capture" / "sine_1hz.log").read_text()
-    assert not (repo / "results" / "lab_fs" / "qc" / "sine_1hz.json").exists()
-
-
 def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():
     names = [f"run_{k}" for k in range(31)]
     pages = loop_pages(names)
@@ -526,10 +343,12 @@ def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():
 
 
 def test_a_page_without_loops_says_so():
-    before = set(ch.plt.get_fignums())
+    from matplotlib import pyplot as plt  # after selfsense.io.figures has chosen the Agg backend
+
+    before = set(plt.get_fignums())
     fig = ch.loop_page([], "lab_stack (1 of 1)")
     assert "no capture records a drive voltage U and a displacement" in [
         t.get_text() for t in fig.axes[0].texts
     ]
-    ch.plt.close(fig)
-    assert set(ch.plt.get_fignums()) == before
+    plt.close(fig)
+    assert set(plt.get_fignums()) == before

@@ -8,7 +8,7 @@ from selfsense.methods.gamma import GammaPolynomial
 from selfsense.methods.ripple import SamplingPlan
 from selfsense.methods.thermal import ThermalModel, ThermalProperties, predict_temperature
 
-from .tolerances import sums
+from ..tolerances import sums
 
 PROPS = ThermalProperties(7800, 350, 740e-9, 640e-6)
 
@@ -63,7 +63,8 @@ def test_extract_is_chunk_invariant_and_measures_hysteresis_power(stack_params, 
         return np.concatenate([p[0]["P_PS"] for p in parts])
 
     whole = run([len(t)])
-    # means of 4800 samples per 0.1 s, summed in other chunks; U − (k/α)x cancels |U|/|U_H| of the digits
+    # means of 4800 samples per 0.1 s, summed in other chunks; U − (k/α)x cancels |U|/|U_H| of the
+    # digits
     kappa = np.max(np.abs(measured["U"])) / np.max(np.abs(truth["U_H"]))
     np.testing.assert_allclose(run([10_000, 7, len(t) - 10_007]), whole, rtol=sums(4800) * kappa)
     true_power = np.mean((truth["U_H"] * np.gradient(truth["q"]) * fs)[int(fs) // 2 :])
@@ -77,7 +78,8 @@ def test_gamma_t_samples_see_every_phase_of_any_drive(period):
     """One window kept per group of 200, at every phase of a drive of any period (in windows): the
     widest gap between the kept phases stays within a few times the even spread's 1/n (the
     three-distance theorem bounds {k·φ}'s gaps by ≈ 2.6/n; 4/n leaves room for the stride's own
-    residues), where a fixed stride kept two phases of a 50 Hz drive (80 windows) and one of 100 Hz."""
+    residues), where a fixed stride kept two phases of a 50 Hz drive (80 windows) and one of
+    100 Hz."""
     every, groups = 200, 5000
     window = np.arange(groups * every)
     kept = window[ch7.kept_windows(window, every)]

@@ -7,7 +7,7 @@ from selfsense.chapters.ch6 import errors, segment_maxima, segment_windows, tabl
 from selfsense.methods.control import IntegralController, tracking_prediction
 from selfsense.twin.closed_loop import HPOIntegralController
 
-from .tolerances import CLOSED_FORM
+from ..tolerances import CLOSED_FORM
 
 
 def test_gain_and_loop_shape():

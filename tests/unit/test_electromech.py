@@ -135,7 +135,7 @@ def test_the_u_h_share_is_held_to_the_peak_of_the_twins_hysteresis_voltage_over_
     assert rows.loc[2, "error [%]"] == pytest.approx(-50.0, rel=1e-4)
 
 
-def test_the_model_on_truth_gives_the_built_values_where_eq_4_4_holds_and_reads_a_domain_share_as_slope():
+def test_model_on_truth_is_the_built_set_where_eq_4_4_holds_and_reads_a_domain_share_as_slope():
     """rule model_recovery's "model on truth": Case 2 on the twin's noiseless states over the
     ripple's windows. With C_e = C_P0 + ΔCx·x it is the built set; a domain share d·u_H with u_H =
     β·x + (a loop term orthogonal to x over whole cycles) is read as the slope ΔCx + d·β, and α

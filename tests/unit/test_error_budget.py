@@ -1,18 +1,15 @@
-"""The observer's error budget: each source lands where it belongs, the sources add up to the error,
-and on the smoke DAG the total is Table 5.4's."""
+"""The observer's error budget (selfsense.verify.error_budget): each source lands where it belongs
+and the sources add up to the error. On the smoke DAG the total is Table 5.4's:
+tests/workflow/test_verify_tables.py."""
 
-import json
 import re
 
 import numpy as np
-import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.io.manifest import load_yaml
 from selfsense.methods.observer import HPOGains, HybridPositionObserver
-from selfsense.scorecard.registry import BUDGET_TABLE, LEFT_OUT, parse_registry
 from selfsense.verify.error_budget import (
     AT_MAX_SPREAD,
     CHARGE_SOURCES,
@@ -24,10 +21,7 @@ from selfsense.verify.error_budget import (
 )
 from selfsense.verify.truth import TRUTH_STATES, Truth
 
-from .conftest import ROOT
-from .tolerances import CLOSED_FORM, rtol
-
-REGISTRY = ROOT / "workflow" / "scorecard.yaml"
+from ..tolerances import CLOSED_FORM, rtol
 
 FS = 48_000.0
 GAINS = HPOGains(17.0, 2 * np.pi, 1.0)
@@ -125,7 +119,8 @@ def test_an_offset_step_leaves_the_analytic_response_of_eq_5_7():
     # the trapezoid integrates a step from sample 0 as if it began half a sample earlier
     shifted = t + 0.5 / FS
     analytic = 1e-3 * shifted * np.exp(-GAINS.omega_s * shifted) / GAINS.a0
-    # beyond that, the trapezoid and Tustin's warping are second order: (ωS/fs)² = 1.7e-8 of the size
+    # beyond that, the trapezoid and Tustin's warping are second order: (ωS/fs)² = 1.7e-8 of the
+    # size
     err = np.max(np.abs(parts["probe offset"] - analytic)) / np.max(analytic)
     assert err < 10 * (GAINS.omega_s / FS) ** 2
 
@@ -182,9 +177,9 @@ def test_the_stats_report_the_sources_at_the_instant_of_the_max_and_shares_with_
 
 
 def test_spans_of_one_label_are_counted_together_and_their_spread_over_tests_split():
-    """Two segments, each in three tests; chunks cut across the spans. A segment's row is over all its
-    tests; its σ over the tests is Table 6.1's (ddof = 1) of the tests' maxima, and of the sources at
-    each test's max; a label with no samples has no row."""
+    """Two segments, each in three tests; chunks cut across the spans. A segment's row is over all
+    its tests; its σ over the tests is Table 6.1's (ddof = 1) of the tests' maxima, and of the
+    sources at each test's max; a label with no samples has no row."""
     t = np.arange(60.0)
     tests = (
         np.repeat([1.0, 2.0, 4.0, 1.0, 1.0, 1.0], 10) * 1e-6
@@ -296,120 +291,3 @@ def test_the_charge_position_error_splits_into_current_path_q_x_map_and_laser(lo
         for c in row
         if c.endswith(" rms [µm]") and c != "total rms [µm]"
     ] == list(CHARGE_SOURCES)
-
-
-# --- on the smoke DAG ---------------------------------------------------------------------------
-
-
-@pytest.mark.slow
-def test_smoke_budget_totals_are_table_5_4s_errors_and_chapter_6s_observer_errors(smoke_run):
-    res = smoke_run / "results/pi_p885"
-    budget = pd.read_csv(res / "twin/error_budget.csv")
-    columns = [
-        f"{s} {stat}"
-        for s in SOURCES
-        for stat in ("rms [µm]", "max [µm]", "at total max [µm]", "share of mean square")
-    ]
-    assert {
-        "segment",
-        "frequency [Hz]",
-        "total max error [µm]",
-        "cross terms share of mean square",
-        *columns,
-    } <= set(budget)
-    t54 = pd.read_csv(res / "ch5/table_5_4.csv")
-    assert sorted(budget["frequency [Hz]"].dropna()) == sorted(t54["frequency [Hz]"])
-    # the creep run in its phases as its table counts them; the smoke run's 5 s hold has no steady state
-    assert list(budget.loc[budget["run"] == "ch5_creep", "segment"]) == ["transient"]
-    creep = pd.read_csv(res / "ch5/creep.csv").set_index("phase")["max error [µm]"]
-    assert np.isnan(creep["steady state"])
-    # Chapter 6's rows are its tables' ε_OCL: the logged estimate, which the offline chain equals to the audit's margin
-    audit = (
-        pd.read_csv(res / "ch6/audit.csv").set_index("run")["max |offline − logged| [nm]"] * 1e-3
-    )
-    t62 = pd.read_csv(res / "ch6/table_6_2.csv").set_index(["profile", "error"])
-    t61 = (
-        pd.read_csv(res / "ch6/table_6_1.csv")
-        .set_index(["error", "statistic"])
-        .loc[("e_OCL", "max")]
-    )
-    closed = budget[budget["run"].str.startswith("ch6_")]
-    assert sorted(closed["run"].unique()) == sorted(
-        audit.index[audit.index.str.startswith(("ch6_p1_", "ch6_p2"))]
-    )
-    assert list(closed.loc[closed["run"] == "ch6_p1_closed", "segment"]) == list("abcdefgh")
-    for _, row in closed.iterrows():
-        if (
-            row["run"] == "ch6_p1_closed"
-        ):  # P1's tests one after another: each segment's largest max |ε_OCL|
-            table = t61[f"{row['segment']} [µm]"]
-        else:
-            table = t62.loc[("P" + row["run"].split("_")[1][1:], "e_OCL"), "max [µm]"]
-        assert abs(row["total max error [µm]"] - table) <= audit[row["run"]] + 1e-9 * table, row[
-            "run"
-        ]
-    p2a = t62.loc[("P2a", "e_OCL")]
-    p2_stroke = 100 * p2a["max [µm]"] / p2a["% of stroke"]
-    for _, row in budget.iterrows():
-        run, stroke = row["run"], p2_stroke
-        if not run.startswith("ch6_"):
-            stats = json.loads((res / f"observer/{run}.json").read_text())
-            # the same chain on the same chunks: equal but for the CSV's 10 significant digits
-            table = (
-                stats["max error by phase [µm]"][row["segment"]]
-                if run == "ch5_creep"
-                else stats["max error [µm]"]
-            )
-            assert row["total max error [µm]"] == pytest.approx(table, rel=1e-9), run
-            stroke = stats["stroke [µm]"]
-        at_max = sum(row[f"{s} at total max [µm]"] for s in SOURCES)
-        assert at_max == pytest.approx(row["total at max [µm]"], rel=1e-8), run
-        shares = (
-            sum(row[f"{s} share of mean square"] for s in SOURCES)
-            + row["cross terms share of mean square"]
-        )
-        assert shares == pytest.approx(1.0, rel=1e-8)
-        assert row["max |sum of sources − total| [µm]"] <= 1e-9 * stroke
-    charge = pd.read_csv(res / "twin/charge_budget.csv").set_index("frequency [Hz]")
-    table = pd.read_csv(res / "ch5/charge_sensing.csv").set_index("frequency [Hz]")[
-        "max error [µm]"
-    ]
-    assert list(charge.index) == list(table.index)
-    # the same series and the same fit: equal but for the CSV's 10 significant digits
-    assert charge["total max error [µm]"].to_numpy() == pytest.approx(table.to_numpy(), rel=1e-9)
-    assert (charge["max |sum of sources − total| [µm]"] <= 1e-9 * 30).all()
-    assert (smoke_run / "figures/pi_p885/fig_5_error_budget.png").exists()
-    assert not (
-        smoke_run / "results/tokin_nb40/twin/error_budget.csv"
-    ).exists()  # no observer runs there
-    # the scorecard's note of each number the budget splits names its measured sources
-    card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
-    caused = [
-        (e.source, e.quantity)
-        for e in parse_registry(load_yaml(REGISTRY))
-        if e.cause and e.model == "stack" and e.cause.table == BUDGET_TABLE
-    ]
-    # Table 5.4, the creep run's phases, P1's ε_OCL (Table 6.1, its σ over the tests, the summary); P2's quote rule loop_leak
-    assert len(caused) == 39
-    left_out = card.loc[caused, "note"].str.startswith(
-        LEFT_OUT
-    )  # the smoke run's creep has no steady state
-    assert list(card.loc[caused][left_out].index.get_level_values("quantity")) == [
-        "HPO error in steady state"
-    ]
-    assert (
-        card.loc[caused][~left_out]["note"]
-        .str.contains("Measured cause (twin/error_budget.csv", regex=False)
-        .all()
-    )
-    charged = [
-        (e.source, e.quantity)
-        for e in parse_registry(load_yaml(REGISTRY))
-        if e.cause and e.cause.table == "twin/charge_budget.csv"
-    ]
-    assert len(charged) == 8
-    assert (
-        card.loc[charged, "note"]
-        .str.contains("at the charge–position error's max", regex=False)
-        .all()
-    )

@@ -1,5 +1,6 @@
 """Faults beyond the first fault matrix (docs/reliability.md): silent wrong results, tracebacks
-instead of one line, concurrent runs, progress and the failing rule's log.
+instead of one line, progress and the failing rule's log, at the capture, manifest and
+rule-script level (concurrent runs and --config through Snakemake: tests/workflow/test_faults.py).
 
 Each case either stops with one line naming the file (and key or channel) and leaves no output,
 or is shown not to damage anything.
@@ -25,20 +26,7 @@ from selfsense.io.capture import (
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml, validate_config
 from selfsense.io.provenance import script_logging
 
-from .conftest import ROOT, copy_repo
-from .test_reliability import (
-    CH3,
-    assert_same_capture,
-    bench_manifest,
-    error_line,
-    leftovers,
-    manifest,
-    one_line,
-    run_snakemake,
-    script,
-    synthetic,
-    write_config,
-)
+from ..helpers import ROOT, bench_manifest, leftovers, manifest, one_line, script, synthetic
 
 # -- packing attributes and all-NaN channels (capture level, fast) -------------------------------
 
@@ -270,72 +258,3 @@ def test_long_writes_log_progress_while_they_run(tmp_path):
     logging.getLogger("selfsense").handlers.clear()
     assert seen[1] == 1 and seen[9] == 5 and seen[-1] == 10, seen  # every 10 %, as it goes
     assert "100 % of 96000 samples" in log.read_text()
-
-
-# -- two runs at once (slow) ----------------------------------------------------------------------
-
-
-@pytest.mark.slow
-def test_two_runs_at_once_never_damage_a_capture_and_a_damaged_one_is_found(smoke_run, tmp_path):
-    """Two Snakemake processes simulate the same captures at the same time (--nolock: what a
-    removed lock directory or an --unlock while a run goes on amounts to). Every writer has its
-    own temporary and verifies it before the rename, so every capture reads back whole and equal
-    to a clean run's. A capture damaged afterwards is found by the next run (the jobs that read it
-    rerun, the capture being newer than their outputs, and stop with one line) instead of "Nothing
-    to be done"."""
-    repo = copy_repo(tmp_path / "repo")
-    config = write_config(repo, "pi", ["pi_p885"])
-    captures = [f"raw/pi_p885/{e}.nc" for e in CH3]
-    cmd = [sys.executable, "-m", "snakemake", "--cores", "1", "--nolock"]
-    a = subprocess.Popen(
-        [*cmd, *captures, "--configfile", config],
-        cwd=repo,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    b = subprocess.Popen(
-        [*cmd, *reversed(captures), "--configfile", config],
-        cwd=repo,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    out_a, out_b = a.communicate(timeout=1200), b.communicate(timeout=1200)
-    assert a.returncode == 0, out_a[0][-3000:]
-    assert b.returncode == 0, out_b[0][-3000:]
-    for c in captures:
-        scan_capture(repo / c)  # every sample, every checksum
-        assert_same_capture(repo / c, smoke_run / c)
-    assert leftovers(repo / "raw") == []
-
-    series = "results/pi_p885/ripple/ch3_sine_1hz.nc"  # extract_ripple's: it streams the capture
-    assert run_snakemake(repo, config, series).returncode == 0
-    damaged = repo / "raw" / "pi_p885" / "ch3_sine_1hz.nc"
-    data = bytearray(damaged.read_bytes())
-    # a hole over the middle half: the writer interleaves the variables' chunks, so it hits every one
-    data[len(data) // 4 : 3 * len(data) // 4] = bytes(3 * len(data) // 4 - len(data) // 4)
-    damaged.write_bytes(bytes(data))
-    run = run_snakemake(repo, config, series)
-    assert run.returncode != 0 and "Nothing to be done" not in run.stdout + run.stderr
-    line = error_line(run, "CaptureError: raw/pi_p885/ch3_sine_1hz.nc: ")
-    assert "unreadable capture" in line or "not a readable" in line or "time axis" in line, line
-    assert (
-        "ERROR raw/pi_p885/ch3_sine_1hz.nc: "
-        in (repo / "logs" / "pi_p885" / "extract_ripple" / "ch3_sine_1hz.log").read_text()
-    )
-
-
-@pytest.mark.slow
-def test_a_dash_dash_config_fault_is_blamed_on_it_by_snakemake(tmp_path):
-    repo = copy_repo(tmp_path / "repo")
-    run = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-n", "--cores", "1", "--config", "campain=smoke"],
-        cwd=repo,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert run.returncode != 0
-    line = error_line(run, "unknown key campain")
-    assert "--config: unknown key campain" in line and "config.yaml" not in line, line

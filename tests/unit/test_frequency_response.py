@@ -15,7 +15,7 @@ from selfsense.methods import frequency_response as fr
 from selfsense.methods.drive import Segment, drive_from_protocol
 from selfsense.twin.bench import simulate_capture
 
-from .tolerances import CLOSED_FORM, root_condition, rtol
+from ..tolerances import CLOSED_FORM, root_condition, rtol
 
 FS = 48000.0
 

@@ -18,7 +18,7 @@ from selfsense.methods.gamma import (
     model_selection_table,
 )
 
-from .tolerances import CLOSED_FORM, rtol, sums
+from ..tolerances import CLOSED_FORM, rtol, sums
 
 # Table 5.2 (j = 5, x in µm, C in µF): x decreases from ≈ 33 µm at 2.16 µF to ≈ 0 at 3.13 µF.
 B_TABLE_5_2 = np.array([-4560.5, 8773.922, -6589.93, 2445.475, -450.855, 33.10029])

@@ -1,8 +1,8 @@
-"""Γ and Γ_T refitted on the twin's truth (selfsense.verify.gamma_truth): every combination of true and
-measured inputs, and a fit on noiseless data that gives the generating relation back."""
+"""Γ and Γ_T refitted on the twin's truth (selfsense.verify.gamma_truth): every combination of true
+and measured inputs, and a fit on noiseless data that gives the generating relation back. On the
+smoke DAG the measured refits are the pipeline's own: tests/workflow/test_verify_tables.py."""
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from selfsense.io.manifest import load_yaml
@@ -14,13 +14,12 @@ from selfsense.verify.gamma_truth import (
     INTERACTION,
     MEASURED,
     RESIDUAL,
-    SLOPE_T_T,
     curve_rows,
     variants,
 )
 
-from .conftest import ROOT
-from .tolerances import rtol
+from ..helpers import ROOT
+from ..tolerances import rtol
 
 ENTRIES = parse_registry(load_yaml(ROOT / "workflow" / "scorecard.yaml"))
 
@@ -39,7 +38,8 @@ def test_variants_replace_every_subset_of_the_inputs_by_the_truth():
 
 
 def _stroke_of(printed, stroke, n, rng):
-    """C [F] and x [m] along the printed curve's own C range (Table 5.2's fit), dense at the ends."""
+    """C [F] and x [m] along the printed curve's own C range (Table 5.2's fit), dense at the
+    ends."""
     from selfsense.methods.gamma import printed_range
 
     lo, hi = printed_range(printed, stroke)
@@ -85,28 +85,3 @@ def test_the_interaction_of_a_noiseless_relation_is_its_own():
         row = curve_rows(data, {}, printed, stroke, (23.0,), interaction_order=5).iloc[0]
         kappa = fit_gamma(C, x, 5, temperature=T, interaction=True).condition_number
         assert row[f"{INTERACTION}, {ALL_TRUE}"] == pytest.approx(g_ct, abs=rtol(kappa) * stroke)
-
-
-@pytest.mark.slow
-def test_smoke_refits_with_the_measured_inputs_are_the_pipelines_own(smoke_run):
-    """The 'measured' variant is the fit the pipeline made: its distance is curve_vs_thesis's, its
-    scatter and g those of Tables 7.2 and 7.3."""
-    res = smoke_run / "results/pi_p885"
-    for folder, fit in (("ch5", "gamma"), ("ch7", "gamma_t")):
-        ours = pd.read_csv(res / folder / f"{fit}_vs_thesis.csv").set_index("fit")
-        truth = pd.read_csv(res / "twin" / f"{fit}_truth.csv").set_index("fit")
-        for name in ours.index:
-            assert truth.loc[name, f"{DISTANCE}, {MEASURED}"] == pytest.approx(
-                ours.loc[name, DISTANCE], rel=1e-9
-            )
-    n5 = truth.loc["thesis order"]
-    assert n5[f"{RESIDUAL}, {MEASURED}"] == pytest.approx(
-        pd.read_csv(res / "ch7/table_7_2.csv").set_index("model").loc["n=5", "standard error [µm]"],
-        rel=1e-9,
-    )
-    assert n5[f"{SLOPE_T_T}, {MEASURED}"] == pytest.approx(
-        pd.read_csv(res / "ch7/table_7_3_coefficients.csv")
-        .set_index("coefficient")
-        .loc["g", "t Stat"],
-        rel=1e-9,
-    )

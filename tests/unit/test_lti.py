@@ -1,6 +1,6 @@
-"""selfsense.methods.lti against the scipy.signal functions it stands in for: the same operations in the same
-order, so the twin's captures and the observer's estimates do not change; equal bit for bit here,
-and within the rounding of their few operations on any other BLAS or CPU."""
+"""selfsense.methods.lti against the scipy.signal functions it stands in for: the same operations
+in the same order, so the twin's captures and the observer's estimates do not change; equal bit for
+bit here, and within the rounding of their few operations on any other BLAS or CPU."""
 
 import numpy as np
 import pytest
@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from selfsense.methods.lti import bilinear, butterworth_highpass2, filter_run, tustin
 from selfsense.methods.observer import HPOGains, _state_matrices
 
-from .tolerances import CLOSED_FORM, assert_close, sums
+from ..tolerances import CLOSED_FORM, assert_close, sums
 
 
 @pytest.mark.parametrize("gains", [HPOGains(17.0), HPOGains(16.4, 3.0, 0.7)])

@@ -7,7 +7,7 @@ import yaml
 
 from selfsense.io.manifest import ManifestError, expand_protocols, load_config, load_dataset
 
-from .conftest import ROOT
+from ..helpers import ROOT
 
 
 def write_config(tmp_path, **changes):

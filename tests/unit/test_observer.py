@@ -26,7 +26,7 @@ from selfsense.methods.observer import (
     transfer_functions,
 )
 
-from .tolerances import CLOSED_FORM, assert_close, rational_condition, resolvent_condition, rtol
+from ..tolerances import CLOSED_FORM, assert_close, rational_condition, resolvent_condition, rtol
 
 FS = 48_000.0  # stack DAQ rate (docs/sources.md, Table 3.2)
 XCP_EVERY = 12  # one new capacitance-PSS value per 12 samples
@@ -288,7 +288,8 @@ def _random_inputs(n, seed):
 
 def _recursion_tol(disc):
     """Roundings made at every step of x[k+1] = Ad·x[k] + Bd·u[k] decay as Ad's spectral radius ρ:
-    they add up to ≈ ε/(1 − ρ) of the state's size (ρ = e^(−ωS/fs), so 1/(1 − ρ) ≈ 7600 at 48 kHz)."""
+    they add up to ≈ ε/(1 − ρ) of the state's size (ρ = e^(−ωS/fs), so 1/(1 − ρ) ≈ 7600 at
+    48 kHz)."""
     return rtol(1.0 / (1.0 - np.max(np.abs(np.linalg.eigvals(disc.Ad)))))
 
 
@@ -401,7 +402,8 @@ def test_reset_is_equilibrium(gains, method):
     obs.reset(initial_position=x0, initial_offset=i0)
     n = 48_000
     xh, ih = obs.step_full(np.full(n, i0), np.full(n, x0))
-    # the equilibrium solves (I − Ad)z = Bd·u, whose condition is ≈ 1/(1 − ρ); the steps then hold it
+    # the equilibrium solves (I − Ad)z = Bd·u, whose condition is ≈ 1/(1 − ρ); the steps then hold
+    # it
     tol = _recursion_tol(obs.discrete)
     np.testing.assert_allclose(xh, x0, rtol=tol)
     np.testing.assert_allclose(ih, i0, rtol=tol)
@@ -467,7 +469,7 @@ def test_sample_and_hold():
 
 
 # ---------------------------------------------------------------------------------------------
-# Throughput (not a test): python tests/test_observer.py
+# Throughput (not a test): .venv/bin/python -m tests.unit.test_observer
 # ---------------------------------------------------------------------------------------------
 def _throughput(n=20_000_000, repeats=5):
     import time

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from selfsense.methods import powerloss as pl
 
-from .tolerances import CLOSED_FORM, rtol
+from ..tolerances import CLOSED_FORM, rtol
 
 R_PAPER = 21e9
 
@@ -410,7 +410,8 @@ def test_hold_from_record_removes_the_residual_charging():
 
 
 def test_impedance_from_ramp_segments_absorb_a_lagging_meter():
-    """A meter with a 0.5 s lag mis-places tau*dI of charge at each reversal; per-stretch offsets remove it."""
+    """A meter with a 0.5 s lag mis-places tau*dI of charge at each reversal; per-stretch offsets
+    remove it."""
     t, d, i, V = _synthetic_ramp(2e9, I=300e-9)
     dt = t[1] - t[0]
     decay = np.exp(-dt / 0.5)

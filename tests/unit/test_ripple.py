@@ -19,7 +19,7 @@ from selfsense.methods.ripple import (
     table_3_2,
 )
 
-from .tolerances import CLOSED_FORM, rtol
+from ..tolerances import CLOSED_FORM, rtol
 
 FR = 100e3
 FS = 48e3

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from selfsense.methods.metrics import direction, hysteresis_percent
 from selfsense.methods.ripple import SamplingPlan, WindowMeans, extract_impedance, impedance_series
 
-from .tolerances import sums
+from ..tolerances import sums
 
 PLAN = SamplingPlan(1e5, 12, 4, 4)
 FS = PLAN.fs

@@ -32,7 +32,7 @@ from selfsense.scorecard.registry import (
 from selfsense.scorecard.render import landing_rst, out_of_band_rst, pending_rst, scorecard_html
 from selfsense.scorecard.scoring import band, judge, lookup, score, scorecard
 
-from .conftest import ROOT
+from ..helpers import ROOT
 
 REGISTRY = ROOT / "workflow" / "scorecard.yaml"
 STACK = {"name": "stack_ds", "model": "stack", "twin": {}}
@@ -320,7 +320,8 @@ def registry():
     return parse_registry(load_yaml(REGISTRY), str(REGISTRY))
 
 
-# number of published numbers per source table of docs/sources.md: guards against entries lost in edits
+# number of published numbers per source table of docs/sources.md: guards against entries lost in
+# edits
 EXPECTED = {
     ("stack", "Table 3.1"): 10,
     ("stack", "Table 3.2"): 12,
@@ -390,8 +391,8 @@ def test_a_cause_names_the_largest_sources_the_error_budget_measured_at_the_erro
     s = score(e, {"ch9/t.csv": TABLE, BUDGET_TABLE: budget})
     assert s.verdict == WITHIN
     assert s.cause == (
-        f"Measured cause ({BUDGET_TABLE}, run = p1, segment = b): at the observer error's max, -1.90 µm, "
-        "its largest sources are C_e estimate -1.50, Γ map -0.50, q–x map +0.30 µm"
+        f"Measured cause ({BUDGET_TABLE}, run = p1, segment = b): at the observer error's max, "
+        "-1.90 µm, its largest sources are C_e estimate -1.50, Γ map -0.50, q–x map +0.30 µm"
     )
     assert (
         s.cause in scorecard([e], {"ch9/t.csv": TABLE, BUDGET_TABLE: budget}, STACK).iloc[0]["note"]
@@ -471,8 +472,9 @@ def test_a_cause_reads_the_spread_over_tests_or_quotes_another_tables_columns():
         }
     )
     assert score(sigma, {"ch9/t.csv": TABLE, "twin/tracking_budget.csv": budget}).cause == (
-        "Measured cause (twin/tracking_budget.csv, segment = b): σ over the tests of the tracking error's max, "
-        "0.073 µm; the σ of its largest sources at each test's max are hysteresis 0.061, laser 0.050, creep 0.002 µm"
+        "Measured cause (twin/tracking_budget.csv, segment = b): σ over the tests of the tracking "
+        "error's max, 0.073 µm; the σ of its largest sources at each test's max are hysteresis "
+        "0.061, laser 0.050, creep 0.002 µm"
     )
     assert (
         score(quoted, {"ch9/t.csv": TABLE}).cause

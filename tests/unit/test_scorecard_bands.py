@@ -11,7 +11,7 @@ from selfsense.scorecard.calibration import load_targets
 from selfsense.scorecard.registry import last_digit, parse_registry
 from selfsense.scorecard.scoring import band
 
-from .conftest import ROOT
+from ..helpers import ROOT
 
 REGISTRY = ROOT / "workflow" / "scorecard.yaml"
 

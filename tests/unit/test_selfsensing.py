@@ -62,9 +62,9 @@ def test_chain_is_chunk_invariant(bench_run):
 
 
 def test_the_creep_tables_phases_count_every_sample_not_the_figures_traces(bench_run):
-    """Each phase's max is over all its samples (the traces keep one in 48): the two phases split the
-    error after the warm-up, so the larger of their maxima is the run's, and each is at least the
-    traces' max over the same times."""
+    """Each phase's max is over all its samples (the traces keep one in 48): the two phases split
+    the error after the warm-up, so the larger of their maxima is the run's, and each is at least
+    the traces' max over the same times."""
     t, measured, gamma = bench_run
     chunks = [
         (s, {k: measured[k][s : s + 40_000] for k in ("Ur", "Ir", "I", "x_laser")})

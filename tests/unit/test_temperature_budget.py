@@ -1,6 +1,6 @@
-"""Chapter 7's temperature budget: each source is its closed form on a synthetic run, the sources add
-up to the error, the true heat is the twin's per-sample sum, and the budget is of the coupled stats'
-number."""
+"""Chapter 7's temperature budget (selfsense.verify.temperature_budget): each source is its closed
+form on a synthetic run, the sources add up to the error, the true heat is the twin's per-sample
+sum, and the budget is of the coupled stats' number."""
 
 import numpy as np
 import pytest
@@ -23,7 +23,7 @@ from selfsense.verify.temperature_budget import (
 )
 from selfsense.verify.truth import Truth
 
-from .tolerances import CLOSED_FORM, rtol, sums
+from ..tolerances import CLOSED_FORM, rtol, sums
 
 FS, DECIMATION, INTERVAL = 2400.0, 12, 0.1  # 240 samples, 20 stored truth values per interval
 N = int(FS * INTERVAL)
@@ -40,7 +40,8 @@ POWER_ERROR = {"PS": 0.03, "HPO": 0.08}
 
 
 def synthetic_truth():
-    """States at the stored samples (q from the sample before the first, as the kernel's zero state)."""
+    """States at the stored samples (q from the sample before the first, as the kernel's zero
+    state)."""
     t = np.arange(0, N_SAMPLES, DECIMATION) / FS
     q = P0 / U_H * (t + 1 / FS)
     U_P = 50.0 + 30.0 * np.sin(2 * np.pi * 7.0 * t)  # anything: the heat takes U_drive − U_P
@@ -62,7 +63,8 @@ def test_each_source_is_its_closed_form_and_they_add_up():
     P_true = true_heat(
         Truth(states, DECIMATION, N_SAMPLES, names=HEAT_STATES), FS, INTERVAL, INTERVALS
     )
-    # the last interval ends past the last stored value (true_heat); its power acts on no trace sample
+    # the last interval ends past the last stored value (true_heat); its power acts on no trace
+    # sample
     np.testing.assert_allclose(P_true[:-1], P0, rtol=sums(N), atol=0)
     t = traces["time"]
     T_true = Truth(states, DECIMATION, N_SAMPLES, names=("T",)).at(np.rint(t * FS))["T"]
@@ -93,8 +95,8 @@ def test_each_source_is_its_closed_form_and_they_add_up():
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 300))
 def test_the_sources_add_up_to_the_error_and_its_max_is_the_coupled_stats(seed, n):
-    """Any traces, model temperatures and truth: the parts add up sample by sample, and the total's max
-    is the one against_measured (rule coupled) states for each estimator."""
+    """Any traces, model temperatures and truth: the parts add up sample by sample, and the total's
+    max is the one against_measured (rule coupled) states for each estimator."""
     r = np.random.default_rng(seed)
     T = {k: 23.0 + 40.0 * r.random(n) for k in ("T_SH_PS", "T_SH_HPO", "T_mid", "model", "true")}
     for key in ESTIMATORS.values():
@@ -113,7 +115,8 @@ def test_the_sources_add_up_to_the_error_and_its_max_is_the_coupled_stats(seed, 
 
 def test_the_true_heat_is_the_kernels_per_sample_sum_of_states_cubic_between_stored_samples():
     """U_drive − U_P and q cubic in time: the 4-point cubic rebuilds every sample exactly, so each
-    interval's mean is Σ (U_drive − U_P)[n]·(q[n] − q[n−1])·fs / N, whatever the block it is read in."""
+    interval's mean is Σ (U_drive − U_P)[n]·(q[n] − q[n−1])·fs / N, whatever the block it is read
+    in."""
     n = np.arange(-1, N_SAMPLES)
     s = n / N_SAMPLES
     q = 1e-4 * (1 + 2 * s - 3 * s**2 + 4 * s**3)
@@ -154,8 +157,9 @@ def write_capture(path, states):
 
 
 def test_a_captures_budget_reads_its_truth_and_checks_the_coupled_stats(tmp_path):
-    """From a capture file: the same rows as from its /truth's stored (float32) values, with the stats'
-    max beside the budget's; stats of another run, or traces off the estimator's grid, stop it."""
+    """From a capture file: the same rows as from its /truth's stored (float32) values, with the
+    stats' max beside the budget's; stats of another run, or traces off the estimator's grid, stop
+    it."""
     states, traces = synthetic_truth(), synthetic_traces()
     path = write_capture(tmp_path / "run.nc", states)
     stored = {k: v.astype(np.float32) for k, v in states.items()}

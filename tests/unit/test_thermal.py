@@ -30,7 +30,7 @@ from selfsense.methods.thermal import (
     zoh_coefficients,
 )
 
-from .tolerances import CLOSED_FORM, rtol, sums
+from ..tolerances import CLOSED_FORM, rtol, sums
 
 RHO, C, V, A = 7800.0, 350.0, 740e-9, 640e-6
 MODEL_28 = ThermalModel.from_k_T(28.0, P885_PROPERTIES)
@@ -102,7 +102,8 @@ def test_step_matches_analytic_solution_even_on_coarse_grid(dt):
     t = np.arange(0.0, 1000.0, dt)
     T = predict_temperature(t, np.full_like(t, P), MODEL_28, T_amb=T_amb)
     expected = T_amb + MODEL_28.gamma * P * (1.0 - np.exp(-t / MODEL_28.tau))
-    # the recursion's roundings (each ≤ ε of ≈ 70 °C) decay as a = e^(−dt/τ): they add up to ε/(1 − a)
+    # the recursion's roundings (each ≤ ε of ≈ 70 °C) decay as a = e^(−dt/τ): they add up to
+    # ε/(1 − a)
     atol = float(rtol(1 / (1 - np.exp(-dt / MODEL_28.tau)))) * 70.0
     np.testing.assert_allclose(T, expected, rtol=0, atol=atol)
     np.testing.assert_allclose(MODEL_28.step_response(t, P), expected - T_amb, atol=atol)

@@ -1,14 +1,12 @@
-"""Chapter 6's tracking budget: each source is the term of the voltage balance it names, the sources
-add up to the error, and on the smoke DAG the totals are Tables 6.1–6.2's tracking errors."""
+"""Chapter 6's tracking budget (selfsense.verify.tracking_budget): each source is the term of the
+voltage balance it names and the sources add up to the error. On the smoke DAG the totals are
+Tables 6.1–6.2's tracking errors: tests/workflow/test_verify_tables.py."""
 
 import numpy as np
-import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.io.manifest import load_yaml
-from selfsense.scorecard.registry import parse_registry
 from selfsense.verify.tracking_budget import (
     CLOSED_SOURCES,
     CONTROLLER_SOURCES,
@@ -18,8 +16,7 @@ from selfsense.verify.tracking_budget import (
     split,
 )
 
-from .conftest import ROOT
-from .tolerances import CLOSED_FORM
+from ..tolerances import CLOSED_FORM
 
 ALPHA_OVER_K = 9.36 / 25.1e6  # Table 4.2–4.3's α and k [m/V]
 
@@ -76,8 +73,9 @@ OMEGA_C, FS, NS = (
 
 
 def test_the_loop_sensitivity_is_python_controls_closed_loop_of_the_delayed_integrator():
-    """S = 1/(1 + L), L(z) = h[(ns + 1)/2·z⁻¹ + (ns − 1)/2·z⁻²]/(1 − z⁻¹) at the means' rate, h = ω_C/fs:
-    the lfilter coefficients against python-control's feedback of that L, to rounding."""
+    """S = 1/(1 + L), L(z) = h[(ns + 1)/2·z⁻¹ + (ns − 1)/2·z⁻²]/(1 − z⁻¹) at the means' rate,
+    h = ω_C/fs: the lfilter coefficients against python-control's feedback of that L, to
+    rounding."""
     import control as ct
     from scipy.signal import freqz
 
@@ -153,69 +151,3 @@ def test_the_controller_split_finds_the_loops_lag_and_the_hysteresis_it_rejects(
     lag = means["x_ref"] - ALPHA_OVER_K * u_linear.reshape(-1, NS).mean(axis=1)
     for name, expected in (("loop lag", lag), ("hysteresis", total - lag)):
         assert np.abs(parts[name] - expected)[steady].max() <= bound(expected), name
-
-
-@pytest.mark.slow
-def test_smoke_tracking_budget_totals_are_tables_6_1_and_6_2s_errors(smoke_run):
-    res = smoke_run / "results/pi_p885"
-    budget = pd.read_csv(res / "twin/tracking_budget.csv")
-    t61 = pd.read_csv(res / "ch6/table_6_1.csv").set_index(["error", "statistic"])
-    t62 = pd.read_csv(res / "ch6/table_6_2.csv").set_index(["profile", "error"])
-    assert sorted(budget["run"].unique()) == sorted(
-        f"ch6_p{p}_{loop}" for p in ("1", "2a", "2b", "2c", "2d") for loop in ("open", "closed")
-    )
-    for _, row in budget.iterrows():
-        closed = row["run"].endswith("_closed")
-        error, sources = ("e_TCL", CLOSED_SOURCES) if closed else ("e_TOL", OPEN_SOURCES)
-        if row["run"].startswith("ch6_p1_"):
-            table = t61.loc[(error, "max"), f"{row['segment']} [µm]"]
-            # Table 6.1's σ is over the tests (the smoke run has 2) of each test's max
-            assert row["tests"] == t61.loc[(error, "σ"), "tests"] == 2
-            assert row["total max σ over tests [µm]"] == pytest.approx(
-                t61.loc[(error, "σ"), f"{row['segment']} [µm]"], rel=1e-9, abs=1e-12
-            )
-        else:
-            table = t62.loc[("P" + row["run"].split("_")[1][1:], error), "max [µm]"]
-        # the same 4 kHz means of the same run: equal but for the CSV's 10 significant digits
-        assert row["total max error [µm]"] == pytest.approx(table, rel=1e-9), (
-            row["run"],
-            row["segment"],
-        )
-        at_max = sum(row[f"{s} at total max [µm]"] for s in sources)
-        assert at_max == pytest.approx(row["total at max [µm]"], rel=1e-8)
-        assert row["max |sum of sources − total| [µm]"] <= 1e-9 * 30  # a 30 µm stroke
-        others = {s for s in OPEN_SOURCES + CLOSED_SOURCES if s not in sources}
-        assert row[[f"{s} at total max [µm]" for s in others]].isna().all()
-        if not closed:  # the twin's open loop drives U = x_R·k/α with its own α/k: only the drive's hold is left
-            assert abs(row["feedforward at total max [µm]"]) < 0.1
-    controller = pd.read_csv(res / "twin/controller_budget.csv")
-    assert sorted(controller["run"].unique()) == sorted(
-        f"ch6_p{p}_closed" for p in ("1", "2a", "2b", "2c", "2d")
-    )
-    for _, row in controller[
-        controller["run"] != "ch6_p1_closed"
-    ].iterrows():  # Table 6.1 has no ε_CCL
-        profile = "P" + row["run"].split("_")[1][1:]
-        assert row["total max error [µm]"] == pytest.approx(
-            t62.loc[(profile, "e_CCL"), "max [µm]"], rel=1e-9
-        )
-        assert sum(row[f"{s} at total max [µm]"] for s in CONTROLLER_SOURCES) == pytest.approx(
-            row["total at max [µm]"], rel=1e-8
-        )
-    assert not (
-        smoke_run / "results/tokin_nb40/twin/tracking_budget.csv"
-    ).exists()  # no Chapter 6 there
-    card = pd.read_csv(res / "scorecard.csv").set_index(["source", "quantity"])
-    caused = [
-        (e.source, e.quantity)
-        for e in parse_registry(load_yaml(ROOT / "workflow" / "scorecard.yaml"))
-        if e.cause and e.cause.table == "twin/tracking_budget.csv"
-    ]
-    assert (
-        len(caused) == 65
-    )  # Tables 6.1–6.2's ε_TOL and ε_TCL, Table 6.1's σ of them over the tests, P1's summary
-    assert (
-        card.loc[caused, "note"]
-        .str.contains(r"(?:at|σ over the tests of) the tracking error's max")
-        .all()
-    )

@@ -1,4 +1,5 @@
-"""The digital twin: calibration against the thesis's observations, kernel vs reference, determinism.
+"""The digital twin: calibration against the thesis's observations, kernel vs reference,
+determinism.
 
 These test the twin (its physics and parameters), not the analysis: each band is the thesis's
 observation with the tolerance of its calibration band (docs/twin.md).
@@ -19,10 +20,16 @@ from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed, simulate_capture
 from selfsense.twin.instruments import SlowProcess
 
-from .conftest import ROOT, raised_sine
-from .tolerances import rtol
+from ..helpers import ROOT
+from ..tolerances import rtol
 
 FS = 48000.0
+
+
+def raised_sine(f, duration, fs=FS, hi=100.0):
+    """t [s] and a raised sine from 0 to hi at f [Hz]."""
+    t = np.arange(int(round(duration * fs))) / fs
+    return t, hi * 0.5 * (1 - np.cos(2 * np.pi * f * t))
 
 
 def run(params, U, load_stiffness=0.0):
@@ -437,8 +444,6 @@ def test_a_capture_blosc_cannot_store_is_written_again_with_zlib(tmp_path, monke
     import selfsense.twin.experiment as twin
     from selfsense.io.capture import UnshrinkableChunk, compression_of
     from selfsense.io.manifest import load_config
-
-    from .conftest import ROOT
 
     tried, simulate = [], twin.simulate_capture
 

@@ -1,12 +1,11 @@
 """The twin's calibration: targets and their bands, the table rule twin_calibration writes from the
-pipeline's tables, the signatures measured on short twin runs (scripts/calibrate_twin.py)."""
+pipeline's tables, the signatures measured on short twin runs (scripts/calibrate_twin.py). The
+smoke DAG's calibration table: tests/workflow/test_verify_tables.py."""
 
 import dataclasses
-import importlib.util
 import math
 import shutil
 
-import numpy as np
 import pandas as pd
 import pytest
 
@@ -25,16 +24,9 @@ from selfsense.twin.experiment import daq_plan
 from selfsense.twin.params import TwinParams
 from selfsense.verify.signatures import ShortRuns
 
-from .conftest import ROOT
+from ..helpers import ROOT, load_module, script
 
 TARGETS = ROOT / "workflow" / "twin_calibration.yaml"
-
-
-def module(path):
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    loaded = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(loaded)
-    return loaded
 
 
 def target(low=10.0, high=14.0):
@@ -194,9 +186,7 @@ def test_the_rule_script_reads_the_pipelines_tables(tmp_path):
     results = tmp_path / "results" / "pi_p885"
     upstream(results)
     out = tmp_path / "calibration.csv"
-    module(ROOT / "workflow" / "scripts" / "twin_calibration.py").main(
-        str(TARGETS), str(results), str(out)
-    )
+    script("twin_calibration").main(str(TARGETS), str(results), str(out))
     table = pd.read_csv(out).set_index("signature")
     assert (out.parent / "calibration.csv.json").exists()
     rows = {t.id: t.signature for t in load_targets(TARGETS).targets}
@@ -298,11 +288,12 @@ def test_the_search_writes_its_values_into_a_manifest_copy(tmp_path):
         ROOT / "raw" / "pi_p885", raw / "pi_p885", ignore=shutil.ignore_patterns("*.nc")
     )
     path = raw / "pi_p885" / "dataset.yaml"
-    written = "scripts/calibrate_twin.py"  # the comment line of a search's values, if the manifest has one
+    # the comment line of a search's values, if the manifest has one
+    written = "scripts/calibrate_twin.py"
     before = [line for line in path.read_text().splitlines() if written not in line]
-    script = module(ROOT / "scripts" / "calibrate_twin.py")
-    script.write_manifest(path, {"hysteresis.v_total": 7.36, "thermal.k_T": 27.59})
-    script.write_manifest(path, {"hysteresis.v_total": 7.5})  # again: one comment line, not two
+    calibrate = load_module(ROOT / "scripts" / "calibrate_twin.py")
+    calibrate.write_manifest(path, {"hysteresis.v_total": 7.36, "thermal.k_T": 27.59})
+    calibrate.write_manifest(path, {"hysteresis.v_total": 7.5})  # again: one comment line, not two
     twin = TwinParams.from_manifest(load_dataset(raw, "pi_p885")["twin"])
     assert (twin.hysteresis.v_total, twin.thermal.k_T) == (7.5, 27.59)
     after = path.read_text().splitlines()
@@ -318,43 +309,11 @@ def test_the_search_writes_its_values_into_a_manifest_copy(tmp_path):
     assert len(changed) == 2 and all(a.split(":")[0] == b.split(":")[0] for a, b in changed)
     assert "# [V]" in next(b for a, b in changed if "v_total" in b)  # the line's own comment stays
     with pytest.raises(ManifestError, match="dataset.yaml: key twin.hysteresis.nothing not found"):
-        script.write_manifest(path, {"hysteresis.nothing": 1.0})
+        calibrate.write_manifest(path, {"hysteresis.nothing": 1.0})
 
 
 def test_the_search_refuses_a_free_parameter_the_twin_lacks():
-    script = module(ROOT / "scripts" / "calibrate_twin.py")
+    calibrate = load_module(ROOT / "scripts" / "calibrate_twin.py")
     params = TwinParams.from_manifest(load_dataset(ROOT / "raw", "pi_p885")["twin"])
     with pytest.raises(ManifestError, match="^targets.yaml: key free.ripple.nothing: not a number"):
-        script.check_free({"ripple.nothing": (0, 1)}, params, "targets.yaml")
-
-
-# --- the workflow ---------------------------------------------------------------------------------
-
-
-@pytest.mark.slow
-def test_the_smoke_dag_writes_the_calibration_table(smoke_run):
-    table = pd.read_csv(smoke_run / "results/pi_p885/twin/calibration.csv").set_index("signature")
-    calibration = load_targets(smoke_run / "workflow/twin_calibration.yaml")
-    assert list(table.index) == [t.signature for t in calibration.targets]
-    results = smoke_run / "results/pi_p885"
-    for t in calibration.targets:
-        row = table.loc[t.signature]
-        if pd.isna(row["twin value"]):  # the smoke runs are too short to identify τ
-            assert row["note"].startswith(f"not measured ({t.locate.table}: not computed"), t.id
-            continue
-        upstream_table = pd.read_csv(results / t.locate.table)
-        where = np.ones(len(upstream_table), dtype=bool)
-        for key, value in t.locate.where:
-            column = upstream_table[key]
-            where &= (
-                np.isclose(column.astype(float), value)
-                if isinstance(value, (int, float))
-                else (column.astype(str) == value).to_numpy()
-            )
-        assert row["twin value"] == pytest.approx(
-            upstream_table.loc[where, t.locate.column].iloc[0], rel=1e-9
-        )
-        assert bool(row["within"]) is t.within(row["twin value"])
-    assert not (
-        smoke_run / "results/tokin_nb40/twin/calibration.csv"
-    ).exists()  # not the thesis's actuator
+        calibrate.check_free({"ripple.nothing": (0, 1)}, params, "targets.yaml")

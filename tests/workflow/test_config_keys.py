@@ -10,11 +10,11 @@ import yaml
 
 from selfsense.io.manifest import load_config
 
-from .conftest import ROOT, snakemake
+from ..helpers import ROOT, SMOKE_CONFIG, run_snakemake
 
 pytestmark = pytest.mark.slow
 
-SMOKE = ROOT / "tests" / "config" / "smoke.yaml"
+SMOKE = ROOT / SMOKE_CONFIG
 
 #: config key: (a changed value, the rules whose params declare it; see workflow/rules/*.smk)
 USES = {
@@ -87,7 +87,8 @@ def reasons(output):
 
 
 def test_every_config_key_is_covered():
-    # every leaf the workflow sees (smoke.yaml, config.yaml and the schema's defaults) is listed here
+    # every leaf the workflow sees (smoke.yaml, config.yaml and the schema's defaults) is listed
+    # here
     seen = set(leaves(load_config(SMOKE))) | set(leaves(load_config(ROOT / "config.yaml")))
     assert seen == set(USES) | STRUCTURAL
 
@@ -97,7 +98,7 @@ def test_a_config_change_reruns_exactly_the_rules_that_declare_it(smoke_tree, tm
     value, rules = USES[key]
     changed = tmp_path / "changed.yaml"
     changed.write_text(yaml.safe_dump(with_change(key, value), sort_keys=False))
-    dry = snakemake(smoke_tree, "-n", "--quiet", "rules", config=str(changed))
+    dry = run_snakemake(smoke_tree, "-n", "--quiet", "rules", config=str(changed))
     assert dry.returncode == 0, dry.stderr[-2000:]
     out = dry.stdout + dry.stderr
     if not rules:

@@ -31,11 +31,9 @@ from selfsense.scorecard.registry import (
     parse_registry,
 )
 
-from .conftest import measured_copy_remakes, snakemake
+from ..helpers import SMOKE_CONFIG, measured_copy_remakes, run_snakemake
 
 pytestmark = pytest.mark.slow
-
-SMOKE = "tests/config/smoke.yaml"
 
 
 def outputs(repo):
@@ -45,7 +43,7 @@ def outputs(repo):
 
 
 def datasets(repo):
-    return load_yaml(repo / SMOKE)["datasets"]
+    return load_yaml(repo / SMOKE_CONFIG)["datasets"]
 
 
 @pytest.fixture(scope="module")
@@ -161,7 +159,7 @@ def test_every_caption_and_the_landing_text_render_without_a_docutils_message(sm
         *dict.fromkeys(f.name for f in files),
     ]
     links = "\n\n" + "\n".join(f".. _{t}: javascript:void(0)" for t in targets) + "\n"
-    config = load_yaml(smoke_run / SMOKE) | {"campaign": "smoke"}
+    config = load_yaml(smoke_run / SMOKE_CONFIG) | {"campaign": "smoke"}
     snake = SimpleNamespace(config=config, wildcards=SimpleNamespace(dataset="pi_p885"))
     env = jinja2.Environment(trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined)
     failures = {}
@@ -244,15 +242,17 @@ def test_every_results_folder_is_read_by_the_scorecard(smoke_run):
         card = pd.read_csv(results / "scorecard.csv")
         scored = card[card["verdict"].isin([WITHIN, OUT, INFORMATION])]
         read = {src.split("/")[0] for src in scored["read from"].dropna()}
-        # qc/ and characterise/ describe the captures (validation; stroke, gain, loop width whatever
-        # the protocol), not numbers of the sources; a dataset's own reference values read the latter
+        # qc/ and characterise/ describe the captures (validation; stroke, gain, loop width
+        # whatever the protocol), not numbers of the sources; a dataset's own reference values
+        # read the latter
         folders = {d.name for d in results.iterdir() if d.is_dir() and any(d.glob("*.csv"))} - {
             "qc",
             "characterise",
         }
         unread = sorted(folders - read)
         assert not unread, (
-            f"results/{dataset}/{unread}: no scorecard entry reads them; give their entries a locate: in workflow/scorecard.yaml"
+            f"results/{dataset}/{unread}: no scorecard entry reads them; give their entries a "
+            "locate: in workflow/scorecard.yaml"
         )
     stack = pd.read_csv(smoke_run / "results/pi_p885/scorecard.csv")
     assert {"published", "twin recovery"} <= set(
@@ -315,11 +315,11 @@ def jobs(dry_run_output):
 
 def test_changing_one_parameter_reruns_only_what_depends_on_it(smoke_tree, tmp_path):
     # a second config file, not --config: --config cannot type a nested value (ripple.n_periods)
-    changed = yaml.safe_load((smoke_tree / SMOKE).read_text())
+    changed = yaml.safe_load((smoke_tree / SMOKE_CONFIG).read_text())
     changed["ripple"]["n_periods"] = 8
     # key order kept: Snakemake compares a dict param by its text, so a reordered config reruns
     (tmp_path / "np8.yaml").write_text(yaml.safe_dump(changed, sort_keys=False))
-    dry = snakemake(smoke_tree, "-n", config=str(tmp_path / "np8.yaml"))
+    dry = run_snakemake(smoke_tree, "-n", config=str(tmp_path / "np8.yaml"))
     assert dry.returncode == 0, dry.stderr[-3000:]
     planned = jobs(dry.stdout)
     assert any(r.startswith("Params have changed") for r in planned["extract_ripple"])
@@ -338,7 +338,7 @@ def test_changing_one_parameter_reruns_only_what_depends_on_it(smoke_tree, tmp_p
 
 def made_by(repo):
     """{output file: rule} of every file the DAG makes (snakemake --summary)."""
-    run = snakemake(repo, "--summary")
+    run = run_snakemake(repo, "--summary")
     assert run.returncode == 0, run.stderr[-3000:]
     rows = [line.split("\t") for line in run.stdout.splitlines()[1:] if line.count("\t") >= 2]
     return {row[0]: row[2] for row in rows}
@@ -370,7 +370,7 @@ def test_rebuilding_from_the_same_captures_gives_byte_identical_tables(smoke_tre
             (copy / p).unlink()
         allowed = {made[p] for p in tables}
     # the flag after the rule list ends it (and --configfile's), so the tables are the targets
-    run = snakemake(copy, "--allowed-rules", *sorted(allowed), "--rerun-incomplete", *tables)
+    run = run_snakemake(copy, "--allowed-rules", *sorted(allowed), "--rerun-incomplete", *tables)
     assert run.returncode == 0, run.stderr[-3000:]
     assert [p for p in tables if (copy / p).read_bytes() != before[p]] == []
     assert {p: p.stat().st_mtime_ns for p in copy.glob("raw/*/*.nc")} == captures

@@ -11,7 +11,8 @@ summary table into the DOM, and `chromium --headless --dump-dom` prints that DOM
 the same view is saved beside it (tmp dir) for a person to look at.
 
 Chromium is Debian's `chromium`; where it is missing the test installs it with apt-get if it can
-(root, apt-get on the PATH), as tests/test_slurm.py brings up SLURM, and skips saying why if not.
+(root, apt-get on the PATH), as tests/workflow/test_slurm.py brings up SLURM, and skips saying why
+if not.
 """
 
 import html
@@ -33,15 +34,18 @@ WIDTH, HEIGHT = 1400, 2000
 PROBE = """
 <script>
 (function probe(tries, settled) {
-  const title = [...document.querySelectorAll("h1")].find(h => h.textContent.includes("reproduced"));
-  const table = [...document.querySelectorAll("table")].find(t => t.textContent.includes("within band"));
+  const title = [...document.querySelectorAll("h1")]
+    .find(h => h.textContent.includes("reproduced"));
+  const table = [...document.querySelectorAll("table")]
+    .find(t => t.textContent.includes("within band"));
   if ((!title || !table) && tries < 200) { setTimeout(() => probe(tries + 1, false), 50); return; }
   if (!settled) { setTimeout(() => probe(tries, true), 3000); return; }
   const box = el => { if (!el) return null; const r = el.getBoundingClientRect();
                       return {top: r.top, bottom: r.bottom, left: r.left, right: r.right}; };
   const out = document.createElement("pre");
   out.id = "layout-probe";
-  out.textContent = JSON.stringify({title: box(title), table: box(table), titleText: title && title.textContent,
+  out.textContent = JSON.stringify({title: box(title), table: box(table),
+                                    titleText: title && title.textContent,
                                     width: window.innerWidth, height: window.innerHeight});
   document.body.appendChild(out);
 })(0, false);
@@ -85,7 +89,8 @@ def chromium():
 
 
 def headless(chromium, profile, *args):
-    """Chromium headless at WIDTH×HEIGHT, with enough virtual time for the report's app to render."""
+    """Chromium headless at WIDTH×HEIGHT, with enough virtual time for the report's app to
+    render."""
     return subprocess.run(
         [
             chromium,

@@ -18,7 +18,7 @@ import subprocess
 
 import pytest
 
-from .conftest import ROOT, copy_repo, snakemake
+from ..helpers import ROOT, copy_repo, run_snakemake
 
 pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
@@ -56,7 +56,7 @@ def slurm_cluster():
 
 def test_chapter_3_tables_via_slurm_equal_the_local_run(slurm_cluster, smoke_run, tmp_path):
     repo = copy_repo(tmp_path / "repo")
-    run = snakemake(repo, "--workflow-profile", "profiles/slurm", *BARE_CLUSTER, *TABLES)
+    run = run_snakemake(repo, "--workflow-profile", "profiles/slurm", *BARE_CLUSTER, *TABLES)
     assert run.returncode == 0, run.stderr[-3000:]
     done = re.search(r"(\d+) of \1 steps \(100%\) done", run.stderr)
     assert done and run.stderr.count("has been submitted with SLURM jobid") == int(done[1]), (

@@ -9,7 +9,7 @@ import pytest
 
 from selfsense.io.capture import read_series
 
-from .conftest import copy_repo, snakemake
+from ..helpers import copy_repo, run_snakemake
 
 pytestmark = pytest.mark.slow
 
@@ -35,7 +35,7 @@ def test_every_rule_leaves_a_log_and_a_benchmark(smoke_run):
 
 
 def test_up_to_date_tree_has_nothing_to_do(smoke_tree):
-    dry = snakemake(smoke_tree, "-n")
+    dry = run_snakemake(smoke_tree, "-n")
     assert dry.returncode == 0
     assert "Nothing to be done" in dry.stdout + dry.stderr
 
@@ -48,7 +48,7 @@ def _jobs_after_editing(repo, module):
     text, stat = path.read_bytes(), path.stat()
     try:
         path.write_bytes(text + b"# an edit\n")
-        dry = snakemake(repo, "-n", "--quiet", "rules")
+        dry = run_snakemake(repo, "-n", "--quiet", "rules")
     finally:
         path.write_bytes(text)
         os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
@@ -63,13 +63,13 @@ def _jobs_after_editing(repo, module):
 def test_a_library_edit_reruns_the_rules_whose_code_it_changes(smoke_tree):
     # the ripple estimator runs in every analysis of the ripple and in the closed loop's real-time
     # chain, but not in an open-loop simulation
-    ripple = _jobs_after_editing(smoke_tree, "ripple.py")
+    ripple = _jobs_after_editing(smoke_tree, "methods/ripple.py")
     assert {"extract_ripple", "observe", "thermal_extract", "simulate_closed_loop"} <= ripple
     assert "simulate" not in ripple
     assert {"simulate", "simulate_closed_loop"} <= _jobs_after_editing(smoke_tree, "twin/kernel.py")
-    # the curve comparisons read the thesis's printed Γ from the registry through the scorecard module,
-    # and the twin's calibration table locates its numbers with the scorecard's locators
-    assert _jobs_after_editing(smoke_tree, "scorecard.py") == {
+    # the curve comparisons read the thesis's printed Γ from the scorecard's registry, and the
+    # twin's calibration table locates its numbers with the registry's locators
+    assert _jobs_after_editing(smoke_tree, "scorecard/registry.py") == {
         "scorecard",
         "scorecard_summary",
         "curve_vs_thesis",
@@ -98,8 +98,9 @@ def test_chapter_3_figures_and_hysteresis(smoke_run):
         for ext in ("png", "pdf"):
             assert (smoke_run / f"figures/pi_p885/fig_3_{n}.{ext}").exists()
     loops = pd.read_csv(smoke_run / "results/pi_p885/ch3/hysteresis.csv").set_index("loop")
-    # the thesis's central finding: C_e–x has far less hysteresis than C_e–U (≈ 10 % against < 3 %).
-    # Each width on its own is a calibration signature, checked on the full runs by twin_calibration.
+    # the thesis's central finding: C_e–x has far less hysteresis than C_e–U (≈ 10 % against
+    # < 3 %). Each width on its own is a calibration signature, checked on the full runs by
+    # twin_calibration.
     width = loops["width along vertical [% of range]"]
     assert width["C_e–U"] > 3 * width["C_e–x_laser"]
 
@@ -260,7 +261,7 @@ def test_chapter_7_runs_and_says_why_when_runs_are_too_short(smoke_run):
 def test_every_job_that_reads_a_capture_takes_its_qc_report(tmp_path):
     # check_capture fails on a bad capture: a job that takes the capture without its report would
     # still run on it (and under --keep-going make tables from it)
-    dry = snakemake(copy_repo(tmp_path / "repo"), "-n")
+    dry = run_snakemake(copy_repo(tmp_path / "repo"), "-n")
     assert dry.returncode == 0, dry.stderr[-2000:]
     jobs = re.findall(
         r"^rule (\w+):\n(?:    .*\n)*?    input: (.*)$", dry.stdout + dry.stderr, re.M
