@@ -46,7 +46,7 @@ from selfsense.io.capture import TWIN_COMPRESSION
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = 48000.0
-# what a scratch copy leaves out: outputs, captures, caches (as tests/conftest.py's copy_repo)
+# what a scratch copy leaves out: outputs, captures, caches (as tests/helpers.py's copy_repo)
 SCRATCH_IGNORE = shutil.ignore_patterns(
     ".venv",
     ".git",

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A single-node SLURM cluster on this machine, from the distribution's packages, to try
-# profiles/slurm without a real cluster and for tests/test_slurm.py.
+# profiles/slurm without a real cluster and for tests/workflow/test_slurm.py.
 #
 #   scripts/slurm_local.sh [start]   install munge/slurmctld/slurmd (apt) if missing, write the
 #                                    config, start the daemons on loopback, wait until the node
