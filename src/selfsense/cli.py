@@ -28,9 +28,11 @@ worked example (a 1 Hz, ±150 V sine at 5 kHz: columns t [s], U [V], x [µm]):
 
 writes raw/my_stack/sine_1hz.nc and raw/my_stack/dataset.yaml (scaffolded, or updated when the
 dataset exists); then results/my_stack/characterise/summary.csv and
-figures/my_stack/characterise/loops_01.png. Columns go by name or by index (x_laser=2:um); a .mat file
+figures/my_stack/characterise/loops_01.png. Columns go by name or by index (x_laser=2:um); \
+a .mat file
 names its variables (U=rec.Y[0].Data:V, x_laser=data[1]:um). Units are converted to the
-contract's (V, A, m, N); channels: U, I, x_laser or x_disp, F, Ur, Ir, ... (docs/capture-contract.md).
+contract's (V, A, m, N); channels: U, I, x_laser or x_disp, F, Ur, Ir, ... \
+(docs/capture-contract.md).
 """
 
 

@@ -31,7 +31,8 @@ FIGURES, MODEL_FIGURE = figure_names.CH3, figure_names.CH3_MODEL
 
 
 def steady(series: Mapping[str, np.ndarray], skip: float) -> dict[str, np.ndarray]:
-    """The series after its first ``skip`` seconds (the first cycle starts from the virgin state)."""
+    """The series after its first ``skip`` seconds (the first cycle starts from the virgin
+    state)."""
     keep = series["time"] >= skip
     return {k: np.asarray(v)[keep] for k, v in series.items()}
 
@@ -117,8 +118,9 @@ def figure_3_2(stack: Mapping[str, float], ripple_amplitude: float, fr: float):
 def figures_ch3(
     capture, series_by_label: Mapping[str, Mapping[str, np.ndarray]], fr: float, ns: int
 ) -> dict:
-    """Figures 3.3, 3.4, 3.7 and 3.9–3.14: ``capture`` is the :data:`SHOWN_HZ` run, ``series_by_label``
-    the steady ripple series by label, that run's first; ``fr`` [Hz] and ``ns`` the DAQ's ripple plan."""
+    """Figures 3.3, 3.4, 3.7 and 3.9–3.14: ``capture`` is the :data:`SHOWN_HZ` run,
+    ``series_by_label`` the steady ripple series by label, that run's first; ``fr`` [Hz] and ``ns``
+    the DAQ's ripple plan."""
     with open_capture(capture, require=("U", "I")) as cap:
         start = max(0, cap.n - int(SHOWN_TAIL_S * cap.fs))
         last = cap.read(("U", "I"), start)

@@ -145,7 +145,8 @@ def _frequency(name: str) -> float:
 
 
 def table_4_2(per_set: pd.DataFrame) -> pd.DataFrame:
-    """Mean and standard deviation over the sets, beside the manufacturer's and the thesis's values."""
+    """Mean and standard deviation over the sets, beside the manufacturer's and the thesis's
+    values."""
     rows = []
     for key, label, unit, scale in PARAMETERS:
         row = {"parameter": label, "unit": unit}

@@ -494,7 +494,8 @@ def figures_ch5(
 
 
 def figure_5_3(table: pd.DataFrame, peaks: pd.DataFrame, G):
-    """Fig 5.3: the measured points of :func:`selfsense.methods.frequency_response.response_table` over the model ``G`` on a fine grid."""
+    """Fig 5.3: the measured points of :func:`selfsense.methods.frequency_response.response_table`
+    over the model ``G`` on a fine grid."""
     from selfsense.io import figures
     from selfsense.methods.frequency_response import THESIS_RESONANCE_HZ, evaluate
 

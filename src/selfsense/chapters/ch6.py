@@ -104,7 +104,8 @@ def results(
     k_over_alpha: float,
     omega_c: float,
 ) -> dict[str, pd.DataFrame]:
-    """Tables 6.1 (P1 tests), 6.2 (P2 profiles), the P3 summary and the loop's tracking prediction."""
+    """Tables 6.1 (P1 tests), 6.2 (P2 profiles), the P3 summary and the loop's tracking
+    prediction."""
     p1 = {"e_TOL": [], "e_TCL": [], "e_OCL": []}
     rows62, p1_stroke = [], 0.0
     for name, run in runs.items():
@@ -161,7 +162,8 @@ def segment_windows(protocol: Mapping, omega_c: float) -> list[tuple[str, float,
 def segment_maxima(
     t: np.ndarray, errs: Mapping[str, np.ndarray], windows: Sequence[tuple[str, float, float]]
 ) -> dict[str, list[float]]:
-    """Per error signal, the max |ε| in each steady window [start, end) of :func:`segment_windows`."""
+    """Per error signal, the max |ε| in each steady window [start, end) of
+    :func:`segment_windows`."""
     return {
         name: [float(np.max(np.abs(e[(t >= a) & (t < b)]))) for _, a, b in windows]
         for name, e in errs.items()

@@ -365,7 +365,8 @@ def prediction_errors(
 
 
 def gamma_t_data(samples: Mapping[str, np.ndarray], T_mid_time, T_mid) -> tuple[np.ndarray, ...]:
-    """C_e [F], x [m] and the middle thermometer interpolated to each window [°C] (Eq 7.13's data)."""
+    """C_e [F], x [m] and the middle thermometer interpolated to each window [°C] (Eq 7.13's
+    data)."""
     T = np.interp(samples["time"], T_mid_time, T_mid)
     ok = np.isfinite(samples["C_e"]) & np.isfinite(samples["x_laser"])
     return samples["C_e"][ok], samples["x_laser"][ok], T[ok]
@@ -413,7 +414,8 @@ def gamma_t(data, validation, orders=(4, 5, 6), order: int = 5, candidates=(1, 2
 
 
 def figure_7_7(samples: Mapping[str, np.ndarray]):
-    """Fig 7.7: C_e against position on the 50 Hz run while the stack heats (:func:`gamma_t`'s samples)."""
+    """Fig 7.7: C_e against position on the 50 Hz run while the stack heats (:func:`gamma_t`'s
+    samples)."""
     from selfsense.io import (
         figures,  # here: the streaming jobs that import this module need no matplotlib
     )
@@ -483,8 +485,8 @@ def against_measured(
     result: Mapping[str, float],
     measured: Mapping[str, np.ndarray],
 ):
-    """:func:`coupled_estimation`'s traces beside the measured middle temperature, cut to their common
-    length, and the result with each estimate's max error against it."""
+    """:func:`coupled_estimation`'s traces beside the measured middle temperature, cut to their
+    common length, and the result with each estimate's max error against it."""
     n = min(len(traces["time"]), len(measured["time"]))
     out = {k: v[:n] for k, v in traces.items()} | {"T_mid": measured["T_mid"][:n]}
     errors = {
@@ -495,7 +497,8 @@ def against_measured(
 
 
 def coupled_table(stats: Mapping[str, Mapping]) -> pd.DataFrame:
-    """The coupled estimation's errors per run ({run: stats record}), the thesis's beside the mixed run."""
+    """The coupled estimation's errors per run ({run: stats record}), the thesis's beside the mixed
+    run."""
     thesis = {f"thesis {k}": v for k, v in THESIS_COUPLED_MIXED.items()}
     return pd.DataFrame(
         [
@@ -668,7 +671,8 @@ def figure_7_9(
     plan: SamplingPlan,
     interval: float = COUPLING_INTERVAL,
 ):
-    """Fig 7.9 as the pipeline runs it (:func:`coupled_estimation`), annotated with its identified values.
+    """Fig 7.9 as the pipeline runs it (:func:`coupled_estimation`), annotated with its identified
+    values.
 
     (a) the self-heating model fed by the observer: P = (U − (k/α)x̂)·I averaged per interval,
     ΔT = γP/(τs+1) discretised exactly (ZOH), T_SH(HPO) = T_amb + ΔT; (b) the observer whose Γ_T
@@ -806,7 +810,8 @@ def figure_7_9(
                 heating_wires,
             ),
             (
-                f"(b) Temperature-compensated HPO (Eq 5.5–5.9, 7.13), Tustin at {plan.fs / 1e3:g} kHz; "
+                "(b) Temperature-compensated HPO (Eq 5.5–5.9, 7.13), "
+                f"Tustin at {plan.fs / 1e3:g} kHz; "
                 f"T and x̂ exchanged every {interval:g} s",
                 observer,
                 observer_wires,

@@ -1,8 +1,8 @@
 """Ronkanen, Kallio, Koivo 2002: Tables 1–2, Figures 2–11 and the positioning results.
 
 Captures in (as :class:`Record`), tables (DataFrames) and figures out; the maths is in
-:mod:`selfsense.methods.powerloss`. Units are SI inside; nA, GΩ, µm and µAs appear only in column names
-and axis labels.
+:mod:`selfsense.methods.powerloss`. Units are SI inside; nA, GΩ, µm and µAs appear only in column
+names and axis labels.
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ UM, NA, GOHM = 1e6, 1e9, 1e-9
 MAX_POINTS = 20000
 #: reversals smaller than this share of a record's range are not branch ends
 MIN_SWING = 0.05
-#: the positioning experiments (Section 7), each run under both controls: "<kind>_<control>" names them
+#: the positioning experiments (Section 7), each run under both controls:
+#: "<kind>_<control>" names them
 KINDS = ("decay", "repeat", "drift")
 CONTROLS = ("current", "voltage")
 PAIRS = tuple(f"{k}_{c}" for k in KINDS for c in CONTROLS)
@@ -104,7 +105,8 @@ def read_records(paths: Iterable[str | Path]) -> dict[str, Record]:
 def by_kind(
     records: Mapping[str, Record], captures: Mapping[str, str | Path]
 ) -> dict[str, dict[str, Record]]:
-    """{kind: {control: Record}} of the positioning runs; ``captures``: {"<kind>_<control>": path}."""
+    """{kind: {control: Record}} of the positioning runs; ``captures``:
+    {"<kind>_<control>": path}."""
     return {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
 
 
@@ -119,7 +121,8 @@ def add_run_arguments(cli) -> None:
 
 
 def load_identified(path: str | Path, key: str) -> float:
-    """One of the identified constants :func:`identify` returns (e.g. R [Ω], a_cmd [m/C]), as written to CSV."""
+    """One of the identified constants :func:`identify` returns (e.g. R [Ω], a_cmd [m/C]), as
+    written to CSV."""
     return float(pd.read_csv(path).set_index("key").loc[key, "value"])
 
 
@@ -165,10 +168,11 @@ def identify(
     """Ramps table, Table 1 and the identified constants (R, a, a_cmd) from the captures.
 
     R comes from the second half of the hold (the meter and the creep have settled) with the
-    residual drift removed through a from the ramps (:func:`selfsense.methods.powerloss.hold_from_record`).
-    a_cmd, the displacement per *commanded* charge that the 'displacement to current' block
-    needs (Eq 3), is calibrated on the best-compensated ramp — the one whose trial impedance is
-    closest to the X identified from it — so it carries the current loop's own gain.
+    residual drift removed through a from the ramps
+    (:func:`selfsense.methods.powerloss.hold_from_record`). a_cmd, the displacement per *commanded*
+    charge that the 'displacement to current' block needs (Eq 3), is calibrated on the
+    best-compensated ramp — the one whose trial impedance is closest to the X identified from it —
+    so it carries the current loop's own gain.
     """
     ramp_table = pd.DataFrame([ramp_row(r, velocity_window) for r in ramps])
     a = float(ramp_table["a [m/C]"].median())
@@ -410,7 +414,8 @@ def figures_paper(
     drift_start: float,
     velocity_window: float,
 ) -> dict[str, object]:
-    """Figures 2–11 by file name (:data:`FIGURES`): ``ramps`` in the order of :data:`RAMP_FIGURES`, ``pairs`` from :func:`by_kind`."""
+    """Figures 2–11 by file name (:data:`FIGURES`): ``ramps`` in the order of :data:`RAMP_FIGURES`,
+    ``pairs`` from :func:`by_kind`."""
     velocity = dict(zip(RAMP_FIGURES, ramps))
     built = {2: figure_2(hold)}
     for n, rec in velocity.items():

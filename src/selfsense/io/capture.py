@@ -302,8 +302,8 @@ class CaptureWriter:
             self._progress(start + n)
 
     def _put(self, name: str, start: int, values: np.ndarray) -> None:
-        """Write one variable's next values and fold them into its CRC-32 for the read-back (in order: the
-        writer appends sequentially)."""
+        """Write one variable's next values and fold them into its CRC-32 for the read-back (in
+        order: the writer appends sequentially)."""
         try:
             self._nc[name][start : start + len(values)] = values
         except RuntimeError as err:  # a chunk the cache flushed failed its filters
@@ -381,7 +381,8 @@ def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | Non
     differs, or None."""
     try:
         with netCDF4.Dataset(path, "r") as nc:
-            # netCDF-C's default cache, 64 MB per variable, grew the writer with the capture (0.9 GB at 77 M samples)
+            # netCDF-C's default cache, 64 MB per variable, grew the writer with the capture
+            # (0.9 GB at 77 M samples)
             _limit_chunk_cache(nc)
             for name, written in crcs.items():
                 var = nc[name]
@@ -538,7 +539,8 @@ class Capture:
     def read(
         self, names: Sequence[str], start: int = 0, stop: int | None = None, dim: str = "time"
     ) -> dict[str, np.ndarray]:
-        """Channels ``names`` over samples [start, stop) as float64 in SI units (NaN where missing)."""
+        """Channels ``names`` over samples [start, stop) as float64 in SI units (NaN where
+        missing)."""
         self._require(names)
         out = {}
         for name in names:
@@ -847,7 +849,8 @@ def series_scalars(path: os.PathLike | str) -> dict[str, float]:
 def read_series(
     path: os.PathLike | str, names: Sequence[str] | None = None
 ) -> dict[str, np.ndarray]:
-    """A derived series written by :class:`SeriesWriter`, whole (they are ns× smaller than captures)."""
+    """A derived series written by :class:`SeriesWriter`, whole (they are ns× smaller than
+    captures)."""
     try:
         with netCDF4.Dataset(path) as nc:
             names = list(nc.variables) if names is None else names

@@ -1,4 +1,5 @@
-"""A capture against its dataset's manifest (docs/capture-contract.md, "Agreement with the manifest").
+"""A capture against its dataset's manifest
+(docs/capture-contract.md, "Agreement with the manifest").
 
 The manifest declares what the DAQ records: its sampling rate, its channels (``daq.channels``,
 and the controller's logged channels by their ``daq.ranges``), optionally each sensor's units,

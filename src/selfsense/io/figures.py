@@ -57,9 +57,10 @@ def loop_grid(rows, title):
         for ax in ax_row[len(panels) :]:
             ax.axis("off")
         for ax, (x, y, xlabel, ylabel) in zip(ax_row, panels):
-            # points, not a line: thinned to the figure's resolution, a long run at a fast drive keeps
-            # about one point per cycle, and a line through them crosses the panel at every sample (a
-            # scribble that hid the loop and took Agg 1 s a panel to fill); raster in the PDF too
+            # points, not a line: thinned to the figure's resolution, a long run at a fast drive
+            # keeps about one point per cycle, and a line through them crosses the panel at every
+            # sample (a scribble that hid the loop and took Agg 1 s a panel to fill); raster in the
+            # PDF too
             ax.plot(x, y, ".", ms=1.0, mew=0, rasterized=True)
             ax.set(xlabel=xlabel, ylabel=ylabel)
             ax.grid(alpha=0.3)
@@ -269,8 +270,9 @@ def magnitude_plot(freqs_hz, curves: dict, title):
 def bode(table: pd.DataFrame, model_f, model_G, peaks: pd.DataFrame, thesis_hz: float, title):
     """Fig 5.3: measured points against the model line, magnitude and phase; resonances marked.
 
-    ``table`` has the measured columns of :func:`selfsense.methods.frequency_response.response_table`,
-    ``model_G`` is complex on ``model_f`` [Hz] (m/C, numerically µm/µC), ``peaks`` is
+    ``table`` has the measured columns of
+    :func:`selfsense.methods.frequency_response.response_table`, ``model_G`` is complex on
+    ``model_f`` [Hz] (m/C, numerically µm/µC), ``peaks`` is
     :func:`~selfsense.methods.frequency_response.resonance_table`.
     """
     fig, (mag, phase) = _fig(2, 1, sharex=True)

@@ -342,12 +342,14 @@ def _manifest(path: Path, req: Request, fs: float, values: Mapping[str, np.ndarr
             )
         if not math.isclose(manifest["daq"]["fs"], fs, rel_tol=1e-6):
             raise ImportProblem(
-                f"{req.source}: fs = {fs:g} Hz, {path} declares daq.fs = {manifest['daq']['fs']:g} Hz"
+                f"{req.source}: fs = {fs:g} Hz, "
+                f"{path} declares daq.fs = {manifest['daq']['fs']:g} Hz"
             )
     else:
         manifest = {
             "name": req.dataset,
-            "description": f"Imported from {req.source.name} by selfsense import: describe the actuator here.",
+            "description": f"Imported from {req.source.name} by selfsense import: "
+            "describe the actuator here.",
             "source": "measured",
             **({"model": req.model} if req.model else {}),
             "daq": {"fs": fs, "channels": [], "ranges": {}},

@@ -49,7 +49,8 @@ def _where(error: jsonschema.ValidationError) -> str:
 
 
 def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
-    """Validate ``doc`` against the schema <schema_name>; raise ManifestError on the first problem."""
+    """Validate ``doc`` against the schema <schema_name>; raise ManifestError on the first
+    problem."""
     _check_finite(doc, source)
     schema = load_yaml(SCHEMAS / schema_name)
     validator = jsonschema.Draft202012Validator(schema)
@@ -257,7 +258,8 @@ def protocol_duration(protocol: Mapping[str, Any]) -> float:
 def expand_protocols(
     protocol_names: list[str], campaign: str, directory: str | Path = PROTOCOLS
 ) -> dict[str, Experiment]:
-    """The experiment catalogue for a campaign: sets expanded to <name>_s<k>, smoke overrides applied."""
+    """The experiment catalogue for a campaign: sets expanded to <name>_s<k>, smoke overrides
+    applied."""
     experiments: dict[str, Experiment] = {}
     for chapter in protocol_names:
         path = Path(directory) / f"{chapter}.yaml"

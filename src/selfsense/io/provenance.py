@@ -156,7 +156,8 @@ def write_json(obj: Any, path: str | os.PathLike) -> None:
 
 
 def read_records(paths: Iterable[str | os.PathLike]) -> list[dict[str, Any]]:
-    """JSON reports written with :func:`write_json`, without their provenance (a summary table's rows)."""
+    """JSON reports written with :func:`write_json`, without their provenance (a summary table's
+    rows)."""
     return [
         {k: v for k, v in json.loads(Path(p).read_text()).items() if k != "provenance"}
         for p in paths

@@ -132,7 +132,8 @@ def creep_after_step(
 ) -> dict[str, float]:
     """Creep of a held step (the thesis's Chapter 5 creep run): x at the end of the final hold
     minus x ``settle_s`` after the step, and as % of the step's displacement. NaN when the
-    capture does not end in a hold of at least ``min_hold_s`` after a step of ≥ 20 % of its range."""
+    capture does not end in a hold of at least ``min_hold_s`` after a step of ≥ 20 % of its
+    range."""
     none = {"creep": np.nan, "creep_percent": np.nan, "hold_s": np.nan}
     span = float(np.ptp(u))
     tail = max(1, len(u) // 100)
@@ -165,7 +166,8 @@ def charge(current: np.ndarray, fs: float) -> np.ndarray:
 def charge_measures(
     u: np.ndarray, x: np.ndarray, q: np.ndarray, up: np.ndarray
 ) -> dict[str, float]:
-    """dx/dq [m/C] and the q–U slope [F] by least squares, the q–U loop width [% of charge range]."""
+    """dx/dq [m/C] and the q–U slope [F] by least squares, the q–U loop width [% of charge
+    range]."""
     out = {"dx_dq": _slope(q, x), "capacitance": _slope(u, q), "q_loop_width": np.nan}
     if _has_loop(up):
         out["q_loop_width"] = 100 * branch_gap(u, q, up) / float(np.ptp(q))
@@ -279,7 +281,8 @@ def loop_panels(reduced: Reduced, x_channel: str, name: str, max_points: int = 2
 def characterise_capture(
     path, settle_s: float, min_hold_s: float
 ) -> tuple[dict, LoopPanels | None]:
-    """One capture streamed once: its table row, and its loops (None without U or a displacement)."""
+    """One capture streamed once: its table row, and its loops (None without U or a
+    displacement)."""
     name = Path(path).stem
     with open_capture(path) as cap:
         x = displacement_channel(cap.channels)

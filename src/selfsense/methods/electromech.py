@@ -300,7 +300,8 @@ def as_row(p: ModelParameters, mp: MaterialProperties) -> dict[str, float]:
 
 
 def geometry_from_actuator(actuator: dict, where: str = "actuator") -> Geometry:
-    """Geometry from a manifest's actuator section (dimensions_mm, active_volume_mm3, layer_thickness_um)."""
+    """Geometry from a manifest's actuator section (dimensions_mm, active_volume_mm3,
+    layer_thickness_um)."""
     try:
         w, d, _ = actuator["dimensions_mm"]
         area = w * d * 1e-6
@@ -319,7 +320,8 @@ MODEL_KEYS = ("C_P0", "dC_x", "k", "alpha", "b", "m")
 
 def model_record(case2: pd.DataFrame) -> dict[str, float]:
     """The identified model for later stages: the mean of each parameter over the Case 2 sets,
-    and k/α [V/m], which splits the hysteresis voltage off the drive for the loss power (Eq 7.7–7.11).
+    and k/α [V/m], which splits the hysteresis voltage off the drive for the loss power
+    (Eq 7.7–7.11).
 
     The damping b is the mean over the sets driven at half the highest frequency or more. Its
     charge b·ẋ·C_P/α grows with the drive frequency: at 10 Hz it is ≈ 2e-4 of the charge, below

@@ -17,8 +17,8 @@ Choices, with the reasons:
   fs/ns (4 kHz on the stack's DAQ, ≈ 0.2 A: more than the drive current near the resonance) and
   slow drifts (laser, creep), which a rectangular window leaks at 1/(π·cycles).
 - q is the running sum h·ΣI, the integral every stage takes of the measured current
-  (:func:`selfsense.methods.ripple.impedance_series`); its phasor is exactly I·h/(1 − e^(−jωh)), which
-  tends to Eq 5.2's I/(jω) for ωh ≪ 1 but at 48 kHz already differs by 13.5° at 3.6 kHz.
+  (:func:`selfsense.methods.ripple.impedance_series`); its phasor is exactly I·h/(1 − e^(−jωh)),
+  which tends to Eq 5.2's I/(jω) for ωh ≪ 1 but at 48 kHz already differs by 13.5° at 3.6 kHz.
 - The model's C_P is the clamped capacitance at the sweep's operating point,
   C_P = C_P0 + ΔCx·x̄ (Eq 4.4–4.6), x̄ the mean laser position during the sweep above its value
   during the leading hold at 0 V: the sweep runs about a DC bias, and Eq 5.2's C_P is the
@@ -236,7 +236,8 @@ def resonance_table(measured: Measured, G: control.TransferFunction, m: float) -
 
 
 def measure_sweep(capture, segments: Sequence, settle_s: float) -> Measured:
-    """:func:`measure` over an open stepped-sine capture whose drive has ``segments``, one window at a time."""
+    """:func:`measure` over an open stepped-sine capture whose drive has ``segments``, one window
+    at a time."""
     plan = sweep_plan(segments, capture.fs, settle_s)
     rest = capture.read(["x_laser"], *plan.rest)["x_laser"]
     return measure(

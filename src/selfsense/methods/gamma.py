@@ -535,7 +535,8 @@ def curve_table(
     x_max_um: float,
     temperatures: Sequence[float] = (0.0,),
 ) -> pd.DataFrame:
-    """One row per fit (e.g. "thesis order", "our order"): its order and :func:`curve_difference`."""
+    """One row per fit (e.g. "thesis order", "our order"): its order and
+    :func:`curve_difference`."""
     import pandas as pd
 
     return pd.DataFrame(

@@ -1,4 +1,5 @@
-"""Error statistics and loop measures used across chapters (max error, % of stroke, hysteresis %)."""
+"""Error statistics and loop measures used across chapters (max error, % of stroke,
+hysteresis %)."""
 
 from __future__ import annotations
 
@@ -18,7 +19,8 @@ def branch_means(
     bins: int = 40,
     min_count: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A loop as two curves: the vertical quantity averaged per bin of the horizontal one, per branch.
+    """A loop as two curves: the vertical quantity averaged per bin of the horizontal one, per
+    branch.
 
     The horizontal axis is binned over the range both branches cover; each branch is averaged
     per bin (the estimates are noisy sample by sample). Returns the bin centres and the rising

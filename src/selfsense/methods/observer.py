@@ -148,7 +148,8 @@ class HPOGains:
 
 
 def load_gains(path: str | Path) -> HPOGains:
-    """The observer gains (Table 5.3) the charge-sensing stage wrote as ``record() | provenance``."""
+    """The observer gains (Table 5.3) the charge-sensing stage wrote as
+    ``record() | provenance``."""
     return HPOGains.from_record(json.loads(Path(path).read_text()))
 
 

@@ -524,7 +524,8 @@ def impedance_from_ramp(
 def charging_current(
     current: ArrayLike, voltage: ArrayLike, impedance: float
 ) -> NDArray[np.float64]:
-    """i_c = i_t - V/X (Eqs. 4, 13): the part of the measured current that reaches the capacitance."""
+    """i_c = i_t - V/X (Eqs. 4, 13): the part of the measured current that reaches the
+    capacitance."""
     return np.asarray(current, float) - np.asarray(voltage, float) / impedance
 
 

@@ -168,8 +168,9 @@ def plan_from_fs(
 
 
 def plan_from_capture(capture, n_periods: int) -> SamplingPlan:
-    """The plan an open :class:`~selfsense.io.capture.Capture` was sampled with, from its ``fs`` and its
-    ``fr_nominal``/``ns`` attributes, checked as :func:`plan_from_fs` checks it (Eq 3.3-3.5)."""
+    """The plan an open :class:`~selfsense.io.capture.Capture` was sampled with, from its ``fs``
+    and its ``fr_nominal``/``ns`` attributes, checked as :func:`plan_from_fs` checks it
+    (Eq 3.3-3.5)."""
     return plan_from_fs(
         capture.fs,
         float(capture.attribute("fr_nominal")),
@@ -338,7 +339,8 @@ class RippleExtractor:
         ir = np.asarray(ir_chunk, dtype=np.float64)
         if ur.ndim != 1 or ur.shape != ir.shape:
             raise ValueError(
-                f"ur and ir chunks must be 1-D and equally long, got shapes {ur.shape} and {ir.shape}"
+                "ur and ir chunks must be 1-D and equally long, "
+                f"got shapes {ur.shape} and {ir.shape}"
             )
         index, sums = self._windows.process(ur, ir)
         A_V, B_V, A_I, B_I = sums / (2 * self.plan.n_periods)

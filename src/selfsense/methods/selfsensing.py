@@ -18,7 +18,8 @@ from selfsense.methods.ripple import RippleExtractor, SamplingPlan, plan_from_ca
 
 
 class LaserChunk(NamedTuple):
-    """One chunk of a capture through the chain, beside the laser (:meth:`SelfSensingChain.against_laser`)."""
+    """One chunk of a capture through the chain, beside the laser
+    (:meth:`SelfSensingChain.against_laser`)."""
 
     start: int  # global index of the chunk's first sample
     t: np.ndarray  # sample times [s]
@@ -52,8 +53,8 @@ class SelfSensingChain:
         self.masked_windows = 0
 
     def process(self, ur: np.ndarray, ir: np.ndarray, current: np.ndarray) -> dict[str, np.ndarray]:
-        """One chunk: returns per-sample x̂ (x_hat), held x_CP (x_cp), Î0 (i0_hat) and the current the
-        observer was fed (current: NaN samples zeroed)."""
+        """One chunk: returns per-sample x̂ (x_hat), held x_CP (x_cp), Î0 (i0_hat) and the current
+        the observer was fed (current: NaN samples zeroed)."""
         blocks = self.extractor.process(ur, ir)
         x_cp = self.gamma.predict(blocks.C_e, self.temperature)
         good = np.isfinite(x_cp)
@@ -92,7 +93,8 @@ def audit_realtime(
     capture, gamma: GammaPolynomial, gains: HPOGains, n_periods: int
 ) -> dict[str, float]:
     """The self-sensing chain recomputed offline from a closed-loop capture's raw channels against
-    the real-time estimate x̂ its loop logged: max |offline − logged| and the log's resolution [m]."""
+    the real-time estimate x̂ its loop logged: max |offline − logged| and the log's resolution
+    [m]."""
     worst = 0.0
     with open_capture(capture, require=("Ur", "Ir", "I", "x_hpo_rt")) as cap:
         chain = SelfSensingChain(plan_from_capture(cap, n_periods), gamma, gains, cap.fs)

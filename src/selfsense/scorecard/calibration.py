@@ -9,7 +9,8 @@ phase (Fig 3.4), the stroke (Table 5.4) and U_P at its top (Table 4.3), the stea
 selfsense/io/schemas/twin_calibration.schema.yaml): the thesis's value, a band with its reason, and
 the cell of the pipeline's own tables that holds the twin's value, located as the scorecard locates
 its numbers. The same targets judge the campaign's tables (rule twin_calibration) and the short
-runs of a calibration search (scripts/calibrate_twin.py). Pure: documents and tables in, a table out.
+runs of a calibration search (scripts/calibrate_twin.py). Pure: documents and tables in, a table
+out.
 """
 
 from __future__ import annotations
@@ -59,7 +60,8 @@ class Target:
     locate: Locator
 
     def within(self, value: float) -> bool:
-        """Inside the band, edges included (as the scorecard judges: a CSV round trip is not exact)."""
+        """Inside the band, edges included (as the scorecard judges: a CSV round trip is not
+        exact)."""
         return judge(value, self.low, self.high) == WITHIN
 
     def distance(self, value: float, margin: float = 0.0) -> float:
@@ -118,7 +120,8 @@ def parse_targets(doc: Any, source: str | Path = "workflow/twin_calibration.yaml
     for name, (low, high) in doc["free"].items():
         if not low < high:
             raise ManifestError(
-                f"{source}: key free.{name}: [{low:g}, {high:g}] must be [low, high] with low < high"
+                f"{source}: key free.{name}: [{low:g}, {high:g}] "
+                "must be [low, high] with low < high"
             )
         free[name] = (float(low), float(high))
     return Calibration(tuple(targets), free)

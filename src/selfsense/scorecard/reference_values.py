@@ -1,11 +1,12 @@
 """A measured dataset's own reference values (its manifest's ``reference:``, e.g. a data sheet's
 stroke, capacitance, stiffness) beside what the pipeline measured, as scorecard rows.
 
-They replace the source's published numbers for that dataset (:func:`selfsense.scorecard.applicable`
-drops those): a foreign actuator is graded against its own data sheet, not the PI P-885's. The
-rows have the scorecard's columns and ``kind: emergent`` (the value comes out of the analysis of
-the captures, nothing in the pipeline was set to give it); each band is the manifest's, set by
-whoever wrote the reference down, before the result.
+They replace the source's published numbers for that dataset
+(:func:`selfsense.scorecard.registry.applicable` drops those): a foreign actuator is graded against
+its own data sheet, not the PI P-885's. The rows have the scorecard's columns and
+``kind: emergent`` (the value comes out of the analysis of the captures, nothing in the pipeline
+was set to give it); each band is the manifest's, set by whoever wrote the reference down, before
+the result.
 """
 
 from __future__ import annotations

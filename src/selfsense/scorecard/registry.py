@@ -54,8 +54,8 @@ COLUMNS = [
 EDGE_RTOL = 1e-9
 #: how a scorecard note starts when the stage made the table but left the number out
 LEFT_OUT = "left out by its stage: "
-#: the observer's error budget (rule error_budget, twin datasets only): what an entry's `cause` reads
-#: unless it names another of CAUSE_TABLES
+#: the observer's error budget (rule error_budget, twin datasets only): what an entry's `cause`
+#: reads unless it names another of CAUSE_TABLES
 BUDGET_TABLE = "twin/error_budget.csv"
 #: the error budgets a `cause` can read (twin datasets only), and the error each splits
 #: how a measured cause's part of a note starts (Cause.note), which the summary counts by
@@ -130,7 +130,8 @@ class Tolerance:
 
 
 def last_digit(printed: str) -> float:
-    """The value of one unit of the last digit of a number as printed: '0.637' → 0.001, '400' → 1."""
+    """The value of one unit of the last digit of a number as printed:
+    '0.637' → 0.001, '400' → 1."""
     mantissa, _, exponent = printed.lower().partition("e")
     decimals = len(mantissa.partition(".")[2].rstrip()) if "." in mantissa else 0
     return 10.0 ** (int(exponent or 0) - decimals)
@@ -165,10 +166,11 @@ class Cause:
     """What was measured of a number's error: the row ``where`` of ``table`` (results/<dataset>/).
 
     An error budget (one of CAUSE_TABLES) is read at the error's max, or with ``statistic`` "σ" at
-    the spread over P1's tests of each test's max (:func:`selfsense.verify.error_budget.spread_over_spans`);
-    any other table is quoted: its ``quote`` columns, which the entry's note interprets. The
-    ``located`` columns are selected by their values in the entry's own located row: a number
-    stated at the segment its table names (P1's worst) is explained at that segment.
+    the spread over P1's tests of each test's max
+    (:func:`selfsense.verify.error_budget.spread_over_spans`); any other table is quoted: its
+    ``quote`` columns, which the entry's note interprets. The ``located`` columns are selected by
+    their values in the entry's own located row: a number stated at the segment its table names
+    (P1's worst) is explained at that segment.
     """
 
     table: str = BUDGET_TABLE
@@ -178,7 +180,8 @@ class Cause:
     located: tuple[str, ...] = ()
 
     def at(self, row: pd.Series, name: str) -> Cause:
-        """The cause with its ``located`` columns selected at their values in ``row`` (of table ``name``)."""
+        """The cause with its ``located`` columns selected at their values in ``row`` (of table
+        ``name``)."""
         absent = [c for c in self.located if c not in row.index]
         if absent:
             raise LookupError(f"{name} has no column {absent[0]!r} to select the cause's row by")
@@ -201,7 +204,8 @@ class Cause:
             suffix, style = AT_MAX_SPREAD, ".3f"
             head = (
                 f"σ over the tests of {CAUSE_TABLES[self.table]}'s max, "
-                f"{float(row['total max σ over tests [µm]']):.3f} µm; the σ of its largest sources at each test's max are "
+                f"{float(row['total max σ over tests [µm]']):.3f} µm; "
+                "the σ of its largest sources at each test's max are "
             )
         else:
             suffix, style = AT_MAX, "+.2f"
@@ -277,7 +281,8 @@ def parse_registry(doc: Any, source: str = "workflow/scorecard.yaml") -> list[En
             if named is not None and named != entries[-1].band:
                 raise RegistryError(
                     f"{where}: its band is named {named.name!r} like a rule of `bands:` "
-                    "but differs from it: name the rule by its alias, or give the band a name of its own"
+                    "but differs from it: name the rule by its alias, "
+                    "or give the band a name of its own"
                 )
     seen: set[tuple[str, str, str]] = set()
     for entry in entries:
@@ -327,7 +332,8 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
     if centre is not None and (value["kind"] != "recovery" or truth is not None):
         raise RegistryError(
             f"{where}: a centre is for a published recovery number (the twin's truth as "
-            "the source's model reads it); a twin recovery row reads its truth with published: {truth: ...}"
+            "the source's model reads it); "
+            "a twin recovery row reads its truth with published: {truth: ...}"
         )
     return Entry(
         section=section,
@@ -429,8 +435,9 @@ def printed_gamma(
     entries: Sequence[Entry], source: str, coefficients: Sequence[str], g: str | None = None
 ):
     """The Γ (Table 5.2) or Γ_T (Table 7.3) ``source`` prints, from the registry's ``coefficients``
-    (b0…b5) and ``g``, and the stroke [µm] its C range spans (:func:`selfsense.methods.gamma.printed_range`)."""
-    from selfsense.scorecard.gamma import GammaPolynomial
+    (b0…b5) and ``g``, and the stroke [µm] its C range spans
+    (:func:`selfsense.methods.gamma.printed_range`)."""
+    from selfsense.methods.gamma import GammaPolynomial
 
     gamma = GammaPolynomial(
         tuple(printed(entries, "stack", source, q) for q in coefficients),
@@ -459,7 +466,8 @@ def lookup(locator: Locator, table: pd.DataFrame, column: str | None = None) -> 
 
 
 def one_row(table: pd.DataFrame, where: Sequence[tuple[str, Any]], name: str) -> pd.Series:
-    """The one row of ``table`` (called ``name`` in errors) that ``where`` selects; LookupError else."""
+    """The one row of ``table`` (called ``name`` in errors) that ``where`` selects; LookupError
+    else."""
     absent = [k for k, _ in where if k not in table.columns]
     if absent:
         raise LookupError(f"{name} has no column {absent[0]!r}")

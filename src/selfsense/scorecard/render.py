@@ -91,8 +91,8 @@ def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
         headline(table)
         + "\n\n"
         + "\n".join(_table(table[table["kind"] == EMERGENT], "Emergent numbers by chapter"))
-        + "\n\nClosed-form, recovery and calibration numbers are checks of the method and the twin, not "
-        'reproductions (docs/scorecard.md, "Kinds of numbers").\n'
+        + "\n\nClosed-form, recovery and calibration numbers are checks of the method "
+        'and the twin, not reproductions (docs/scorecard.md, "Kinds of numbers").\n'
     )
 
 
@@ -206,7 +206,8 @@ def _pending(card: pd.DataFrame) -> list[str]:
 
 
 def _lists_page(cards: Mapping[str, pd.DataFrame], title: str, lists, empty: str) -> str:
-    """reStructuredText of a page: its title, then per dataset a section with its tally and lists."""
+    """reStructuredText of a page: its title, then per dataset a section with its tally and
+    lists."""
     lines = [title, "=" * len(title), ""]
     for dataset, card in _filled(cards).items():
         head = _rst(dataset)
@@ -249,7 +250,8 @@ def _rst(text: Any) -> str:
 
 
 def scorecard_html(card: pd.DataFrame, title: str) -> str:
-    """A self-contained page of the scorecard (the report shows HTML inline, a CSV only as a download)."""
+    """A self-contained page of the scorecard (the report shows HTML inline, a CSV only as a
+    download)."""
     tally = ", ".join(f"{n} {v}" for v, n in counts(card).items())
     head = "".join(f"<th>{html.escape(c)}</th>" for c in COLUMNS)
     body = "\n".join(
@@ -288,9 +290,11 @@ def counts_markdown(counts_: pd.DataFrame, campaign: str) -> str:
     """The README's numbers: emergent published numbers within band per dataset and chapter, then
     the other kinds, from the summary the pipeline writes (results/scorecard_counts.csv)."""
     lines = [
-        f"Published numbers within their band on the `{campaign}` campaign (from `results/scorecard_counts.csv`):",
+        f"Published numbers within their band on the `{campaign}` campaign "
+        "(from `results/scorecard_counts.csv`):",
         "",
-        "| dataset | chapter | emergent: within band / reproduced | closed form | recovery | calibration |",
+        "| dataset | chapter | emergent: within band / reproduced "
+        "| closed form | recovery | calibration |",
         "|---|---|---|---|---|---|",
     ]
     for (dataset, chapter), part in counts_.groupby(["dataset", "chapter"], sort=False):
@@ -314,7 +318,8 @@ def deviations_markdown(cards: Mapping[str, pd.DataFrame]) -> str:
             for _, row in part.iterrows():
                 unit = f" {row['unit']}" if row["unit"] else ""
                 lines.append(
-                    f"  - {row['source']}, {row['quantity']}: {row['published']:.4g} → {row['reproduced']:.4g}{unit}"
+                    f"  - {row['source']}, {row['quantity']}: "
+                    f"{row['published']:.4g} → {row['reproduced']:.4g}{unit}"
                 )
         lines.append("")
     return "\n".join(lines).rstrip()

@@ -34,7 +34,8 @@ from selfsense.scorecard.registry import (
 
 @dataclass(frozen=True)
 class Score:
-    """One scored entry: its published value and band, the reproduced one (None when not reproduced)."""
+    """One scored entry: its published value and band, the reproduced one (None when not
+    reproduced)."""
 
     entry: Entry
     published: float

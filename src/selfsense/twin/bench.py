@@ -101,7 +101,9 @@ class Bench:
         self.ripple = RippleSource(params.ripple, daq.fs, rng)
         self.hp_u = HighPass(params.ripple.highpass_hz, daq.fs)
         self.hp_i = HighPass(params.ripple.highpass_hz, daq.fs)
-        if not drive_leak:  # a what-if for studies (selfsense.verify.loop_leak): the ripple channels see the ripple alone
+        # a what-if for studies (selfsense.verify.loop_leak): the ripple channels see the
+        # ripple alone
+        if not drive_leak:
             self.hp_u.b = self.hp_i.b = np.zeros_like(self.hp_u.b)
         self.offset_drift = SlowProcess(rng, ins.I_offset_drift, 0.05)
         self.laser_drift = SlowProcess(rng, ins.laser_drift, 0.005)

@@ -341,7 +341,8 @@ def run_reference(
     mode: str, drive: np.ndarray, noise: np.ndarray, kc: KernelConstants, state: np.ndarray
 ) -> np.ndarray:
     """Plain-Python reference of :func:`run_kernel`: Brent's method for the voltage balance, the
-    library's :class:`~selfsense.methods.powerloss.CurrentPID` and Eq 13/15 from :mod:`selfsense.methods.powerloss`."""
+    library's :class:`~selfsense.methods.powerloss.CurrentPID` and Eq 13/15 from
+    :mod:`selfsense.methods.powerloss`."""
     sc = dict(zip(_SCALARS, kc.scalars))
     q_b, U_c = kc.elements(state)
     Q, V, m, reading = state[:4]
@@ -517,7 +518,8 @@ def simulate_experiment(
     compression: Mapping[str, Any],
     where: str = "twin",
 ) -> ScanReport:
-    """One catalogue experiment on the bender twin, as :func:`selfsense.twin.simulate_experiment` resolved it."""
+    """One catalogue experiment on the bender twin, as
+    :func:`selfsense.twin.experiment.simulate_experiment` resolved it."""
     return simulate_bender_capture(
         path,
         BenderParams.from_manifest(twin, where),

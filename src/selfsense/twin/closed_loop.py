@@ -90,8 +90,8 @@ class HPOIntegralController:
 def controller_factory(
     n_periods: int, gamma: GammaPolynomial, observer: HPOGains, controller: IntegralController
 ):
-    """``controller_for`` of :func:`selfsense.twin.simulate_experiment`: each closed-loop run's
-    :func:`realtime_controller` with these identified values."""
+    """``controller_for`` of :func:`selfsense.twin.experiment.simulate_experiment`: each
+    closed-loop run's :func:`realtime_controller` with these identified values."""
     return lambda daq, drive, warmup: realtime_controller(
         daq, drive, warmup, n_periods, gamma, observer, controller
     )

@@ -1,8 +1,10 @@
-"""The digital twin of the test bench (docs/design.md, "The digital twin").
+"""The twin's entry point: one experiment of a simulated dataset's catalogue into its capture.
 
 :func:`simulate_experiment` is the one entry point the workflow uses: it resolves a dataset's
-manifest and an experiment of the catalogue into the twin's parameters, the DAQ plan and the
-drive, and writes that experiment's capture.
+manifest and an experiment of the catalogue into the twin's parameters, the DAQ plan
+(:func:`daq_plan`) and the drive, and writes that experiment's capture with the stack's
+:class:`~selfsense.twin.bench.Bench`, or with :mod:`selfsense.twin.bender` for a bender dataset.
+The twin as a whole is described in :mod:`selfsense.twin` (docs/design.md, "The digital twin").
 """
 
 from __future__ import annotations
@@ -55,12 +57,13 @@ def simulate_experiment(
 ) -> ScanReport:
     """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
     capture is validated as it is written, :meth:`selfsense.io.capture.CaptureWriter.scan_report`).
-    ``drive_leak=False`` is a study's what-if (:class:`.bench.Bench`), never a capture of the campaign.
+    ``drive_leak=False`` is a study's what-if (:class:`.bench.Bench`), never a capture of the
+    campaign.
 
     Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
-    bench's real-time loop (:func:`selfsense.methods.control.realtime_controller`). It is passed in rather
-    than imported so that the open-loop twin does not depend on the self-sensing code it is
-    there to test.
+    bench's real-time loop (:func:`selfsense.twin.closed_loop.realtime_controller`). It is passed
+    in rather than imported so that the open-loop twin does not depend on the self-sensing code it
+    is there to test.
     """
     manifest = load_dataset(raw_dir, dataset)
     where = Path(raw_dir) / dataset / "dataset.yaml"
@@ -112,9 +115,8 @@ def _simulate(
 ) -> ScanReport:
     """One run of the experiment into ``path`` with the writer's ``compression`` arguments."""
     if manifest["model"] == "bender":
-        from selfsense.twin import (
-            bender,  # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
-        )
+        # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
+        from selfsense.twin import bender
 
         return bender.simulate_experiment(
             path,

@@ -76,7 +76,8 @@ def resolve(values: np.ndarray, resolution: float) -> np.ndarray:
 
 
 def effective_resistance(C_e: np.ndarray, rp: RippleParams) -> np.ndarray:
-    """R_e of the series R–C at the ripple (Fig 3.14): falls as C_e rises, φ = phase_deg at C_ref."""
+    """R_e of the series R–C at the ripple (Fig 3.14): falls as C_e rises, φ = phase_deg at
+    C_ref."""
     R_ref = 1.0 / (2 * np.pi * rp.f_nominal * rp.C_ref * np.tan(np.radians(rp.phase_deg)))
     return R_ref + rp.R_slope * (C_e - rp.C_ref)
 
@@ -92,7 +93,8 @@ def small_signal(
 
 
 class RippleSource:
-    """The boost converter's ripple with a slowly wandering frequency; phase carries across chunks."""
+    """The boost converter's ripple with a slowly wandering frequency; phase carries across
+    chunks."""
 
     def __init__(self, rp: RippleParams, fs: float, rng: np.random.Generator):
         self.rp = rp

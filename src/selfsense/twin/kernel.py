@@ -8,16 +8,16 @@ Model (thesis Eq 1.4–1.6, 1.11–1.12, 4.6, 7.2), one voltage-source sample at
     ρcv dT/dt = (U_H + Σ U_c)·I − k_T A (T − T_amb)    thermal (Eq 7.2), exact discretisation
 
 U_H is the Maxwell resistive-capacitive operator on q (Eq 1.11–1.12, :mod:`.maxwell`): rate
-independent, so the voltage balance is solved for U_P at each sample. The mechanics is discretised with Tustin's
-method because its direct feed-through puts this sample's force into this sample's position:
-the charge balance then contains x_n implicitly and the electromechanical coupling carries no
-one-sample delay. (A zero-order hold delays it one sample, and when Maxwell elements leave
-saturation after a reversal, dU_H/dq is large enough to make that delayed loop oscillate.) The fast kernel does it by safeguarded Newton
-on the piecewise-smooth monotone balance; the reference (`run_reference`) by Brent's method,
-so the two agree only if both solve the same model.
+independent, so the voltage balance is solved for U_P at each sample. The mechanics is discretised
+with Tustin's method because its direct feed-through puts this sample's force into this sample's
+position: the charge balance then contains x_n implicitly and the electromechanical coupling
+carries no one-sample delay. (A zero-order hold delays it one sample, and when Maxwell elements
+leave saturation after a reversal, dU_H/dq is large enough to make that delayed loop oscillate.)
+The fast kernel does it by safeguarded Newton on the piecewise-smooth monotone balance; the
+reference (`run_reference`) by Brent's method, so the two agree only if both solve the same model.
 
-State vector layout: [s1, s2, T, q, U_P] (s = Tustin state of the mechanics) + q_b (Maxwell element anchors) + U_c (creep voltages);
-U_P is kept only as the next sample's starting guess.
+State vector layout: [s1, s2, T, q, U_P] (s = Tustin state of the mechanics) + q_b (Maxwell element
+anchors) + U_c (creep voltages); U_P is kept only as the next sample's starting guess.
 """
 
 from __future__ import annotations

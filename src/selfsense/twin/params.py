@@ -76,7 +76,8 @@ class HysteresisParams:
     (the domain walls' friction grows with their speed, so the loop widens with the drive's rate:
     docs/twin.md, "Rate-dependent loss"). It is a Voigt element whose relaxation time tau_visc is
     far below the drive's periods (resistive up to Chapter 7's 200 Hz) and far above the ripple's
-    (so the 100 kHz ripple does not see it) and the sample period (the kernel couples it explicitly).
+    (so the 100 kHz ripple does not see it) and the sample period (the kernel couples it
+    explicitly).
     """
 
     elements: int

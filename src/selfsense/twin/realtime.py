@@ -2,19 +2,20 @@
 numba loop (Chapter 6).
 
 :func:`run_blocks` does over a stretch of engaged samples what the Python reference does block by
-block (:func:`.bench._closed_loop_chunk` with :class:`selfsense.methods.control.HPOIntegralController`,
-whose ``run_blocks`` calls it): the controller's command from the errors of the block before (Eq
-6.1–6.3), the stack's response (:func:`.kernel.run_kernel`), the instruments as
-:meth:`.bench.Bench.step` makes them (:func:`.record.record_block` over the block: ripple current
-through R_e–C_e, the ripple channels' high-pass, the probes' offsets and drifts, the ADC), then,
-sample by sample, the real-time chain on
+block (:func:`.bench._closed_loop_chunk` with
+:class:`selfsense.twin.closed_loop.HPOIntegralController`, whose ``run_blocks`` calls it): the
+controller's command from the errors of the block before (Eq 6.1–6.3), the stack's response
+(:func:`.kernel.run_kernel`), the instruments as :meth:`.bench.Bench.step` makes them
+(:func:`.record.record_block` over the block: ripple current through R_e–C_e, the ripple channels'
+high-pass, the probes' offsets and drifts, the ADC), then, sample by sample, the real-time chain on
 the quantised channels: folded-bin Fourier sums over np periods (Eq 3.6–3.7), C_e (Eq 3.12),
 x_CP = Γ(C_e) (Eq 5.4) held until the next window, and the HPO (Eq 5.5–5.9,
-:func:`selfsense.methods.observer.hpo_update`). The reference's operations in its order, so the captures
-are the reference's bit for bit here; the twin's time-only signals (ripple carrier, drifts, noise)
-are made beforehand by :meth:`.bench.Bench.time_signals`, as the reference makes them once per
-chunk. Every state lives in the Python objects before and after, so the two paths can take turns;
-the tests hold this loop to the reference. The open-loop twin imports no self-sensing code.
+:func:`selfsense.methods.observer.hpo_update`). The reference's operations in its order, so the
+captures are the reference's bit for bit here; the twin's time-only signals (ripple carrier,
+drifts, noise) are made beforehand by :meth:`.bench.Bench.time_signals`, as the reference makes
+them once per chunk. Every state lives in the Python objects before and after, so the two paths can
+take turns; the tests hold this loop to the reference. The open-loop twin imports no self-sensing
+code.
 """
 
 from __future__ import annotations
@@ -62,8 +63,8 @@ def closed_loop_kernel(
     sig, bench, adc: as record.record_block. weights: sin and cos rows (ns).
     tail: (2, ns) samples of the open period; sums: (4, np − 1) last whole periods' sums, oldest
     first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
-    loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np, pending_len,
-    Î0 of the last sample].
+    loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np,
+    pending_len, Î0 of the last sample].
     Writes measured (6, n), truth (10, n), logs (x_ref, x_hpo_rt, u_cmd) and updates every state.
     """
     n = t_ref.size
@@ -153,7 +154,7 @@ def closed_loop_kernel(
 def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, dict]:
     """The engaged stretch t of a chunk through :func:`closed_loop_kernel`, from and back into the
     state of ``bench`` (a :class:`.bench.Bench`) and ``controller`` (an
-    :class:`selfsense.methods.control.HPOIntegralController`); returns (measured, truth, logs) as
+    :class:`selfsense.twin.closed_loop.HPOIntegralController`); returns (measured, truth, logs) as
     :meth:`.bench.Bench.step` and the controller's ``observe`` do."""
     n, chain = len(t), controller.chain
     windows, obs = chain.extractor._windows, chain.observer

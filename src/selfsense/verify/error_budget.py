@@ -1,7 +1,9 @@
-"""The observer's error budget: its error against the laser split into sources with the twin's truth.
+"""The observer's error budget: its error against the laser split into sources with the twin's
+truth.
 
-A verification step, like :mod:`selfsense.verify.recovery`: it needs a simulated capture's ``/truth``
-group (noiseless x, q, C_e and the probe offset I_0), so it runs on the twin's datasets only.
+A verification step, like :mod:`selfsense.verify.recovery`: it needs a simulated capture's
+``/truth`` group (noiseless x, q, C_e and the probe offset I_0), so it runs on the twin's datasets
+only.
 
 Why the error splits exactly
 ----------------------------
@@ -19,8 +21,8 @@ Each difference is split once more at a truth signal, giving the six sources of 
 * ``probe offset``  H_I·(∫I_0 dt / a0) = (x̂/I_0)·I_0 (Eq 5.7): the true probe offset I_0 and its
   drift, as far as the offset estimator Î_0 (Eq 5.5) has not yet absorbed it;
 * ``current noise`` H_I·(∫(I − I_0) dt / a0 − q/a0): everything else in the measured current that
-  is not the stack's charge — the probe's resolution, the 100 kHz ripple current (folded onto fs/ns),
-  ADC quantisation — and the trapezoidal rule's error against the true charge q;
+  is not the stack's charge — the probe's resolution, the 100 kHz ripple current (folded onto
+  fs/ns), ADC quantisation — and the trapezoidal rule's error against the true charge q;
 * ``q–x map``       H_I·(q/a0 − x): the q–x hysteresis and the error of the identified a0;
 * ``C_e estimate``  H_CP·(Γ(Ĉ_e) − Γ(C_e)): the ripple estimator's noise, its window and hold lag
   (Eq 3.6–3.13) and any bias against the true small-signal capacitance C_e, through Γ;
@@ -105,7 +107,8 @@ class Superposition:
 @dataclass
 class BudgetStats:
     """Streaming statistics of an error and its ``sources`` over the samples counted (Table 5.4's
-    for the observer's; :mod:`selfsense.verify.tracking_budget` counts Chapter 6's tracking error)."""
+    for the observer's; :mod:`selfsense.verify.tracking_budget` counts Chapter 6's tracking
+    error)."""
 
     sources: tuple[str, ...] = SOURCES
     n: int = 0
@@ -250,14 +253,16 @@ class SpanBudgets:
             budget.add(t, total, parts, counted[label])
 
     def rows(self) -> dict[str, dict[str, float]]:
-        """{label: :meth:`BudgetStats.row`} of each label with samples, with :func:`spread_over_spans`
-        where a label has several spans."""
+        """{label: :meth:`BudgetStats.row`} of each label with samples, with
+        :func:`spread_over_spans` where a label has several spans."""
         rows = {}
         for label, budget in self.labels.items():
             tests = [
                 one for (name, _, _), one in zip(self.spans, self.each) if name == label and one.n
             ]
-            if budget.n:  # a span the run is too short for (the creep's steady state on the smoke DAG) has no row
+            # a span the run is too short for (the creep's steady state on the smoke DAG)
+            # has no row
+            if budget.n:
                 rows[label] = budget.row() | (spread_over_spans(tests) if len(tests) > 1 else {})
         return rows
 
@@ -298,7 +303,8 @@ def capture_budget(
     (given the creep run's ``transient_s``, in its transient and steady state as its table counts,
     :func:`selfsense.chapters.ch5.creep_phases`); given the loop's ``omega_c``, as Chapter 6 counts
     a closed-loop run: at the loop's rate, from its settling on (Table 6.2), or, given P1's
-    protocol, in each segment's steady windows (Table 6.1, :func:`selfsense.chapters.ch6.segment_windows`)."""
+    protocol, in each segment's steady windows (Table 6.1,
+    :func:`selfsense.chapters.ch6.segment_windows`)."""
     windows = segment_windows(p1_protocol, omega_c) if p1_protocol else ()
     with open_capture(path, require=CHANNELS) as cap:
         truth = Truth.from_capture(cap)
@@ -328,10 +334,10 @@ CHARGE_SOURCES = ("current path", "q–x map", "laser")
 def charge_position_budget(
     series: Mapping[str, np.ndarray], truth: Truth, fs: float, block_len: int
 ) -> dict[str, float]:
-    """Fig 5.2's charge–position error, x_I − x_laser with x_I = q/a0 (:func:`selfsense.chapters.ch5.charge_sensing`:
-    the integrated current with q0 + I_0·t fitted out, the laser from its start), split at the
-    truth's charge q and position x over the same windows of ``block_len`` samples, x taken from its
-    first window as the laser is:
+    """Fig 5.2's charge–position error, x_I − x_laser with x_I = q/a0
+    (:func:`selfsense.chapters.ch5.charge_sensing`: the integrated current with q0 + I_0·t fitted
+    out, the laser from its start), split at the truth's charge q and position x over the same
+    windows of ``block_len`` samples, x taken from its first window as the laser is:
 
         q_c/a0 − x_laser = (q_c − q − c)/a0 + ((q + c)/a0 − x) + (x − x_laser)
                            current path       q–x map             laser
@@ -353,7 +359,8 @@ def charge_position_budget(
 
 def capture_charge_budget(series, capture, n_periods: int) -> dict[str, float]:
     """:func:`charge_position_budget` of one Chapter 5 sine: its ripple series (rule
-    ``extract_ripple``, windows of ``n_periods`` folded periods) and the simulated capture it came from."""
+    ``extract_ripple``, windows of ``n_periods`` folded periods) and the simulated capture it came
+    from."""
     with open_capture(capture) as cap:
         truth = Truth.from_capture(cap, names=("x", "q"))
         fs, block_len = cap.fs, plan_from_capture(cap, n_periods).block_len

@@ -43,7 +43,8 @@ def window_truth(
     truth: Truth, time: np.ndarray, fs: float, block_len: int, names: Sequence[str]
 ) -> dict[str, np.ndarray]:
     """The truth states ``names`` averaged over the ripple windows a series was taken over: a
-    window of ``block_len`` samples centred on each ``time`` [s] (:func:`selfsense.methods.ripple.impedance_series`)."""
+    window of ``block_len`` samples centred on each ``time`` [s]
+    (:func:`selfsense.methods.ripple.impedance_series`)."""
     last = np.rint(np.asarray(time) * fs + (block_len - 1) / 2).astype(np.int64)
     means = truth.means(last, block_len)
     return {name: means[name] for name in names}
@@ -81,11 +82,11 @@ def curve_rows(
 ) -> pd.DataFrame:
     """One row per fit of ``orders`` ({name: order}), in columns "<quantity>, <variant>" for each
     variant of :func:`variants`: max |Γ − Γ_thesis| over the printed curve's C range
-    (:func:`selfsense.methods.gamma.curve_difference`), the residual standard error (the scatter Tables 5.2
-    and 7.2–7.3 report through R², MS and F) and, with a temperature, g and its t statistic. With
-    ``interaction_order`` (Γ_T), a row more: the fit with a C·T term (Table 7.2's last column), its
-    coefficient and t statistic (the t, not Table 7.2's p, which underflows to 0 for every |t| above
-    ≈ 38)."""
+    (:func:`selfsense.methods.gamma.curve_difference`), the residual standard error (the scatter
+    Tables 5.2 and 7.2–7.3 report through R², MS and F) and, with a temperature, g and its t
+    statistic. With ``interaction_order`` (Γ_T), a row more: the fit with a C·T term (Table 7.2's
+    last column), its coefficient and t statistic (the t, not Table 7.2's p, which underflows to 0
+    for every |t| above ≈ 38)."""
     rows = []
     for name, order in orders.items():
         row: dict[str, object] = {"fit": name, "order": order}
@@ -108,8 +109,8 @@ def curve_rows(
 
 
 def _statistics(fit, variant: str, coefficients: Mapping[str, tuple[str, str]]) -> dict[str, float]:
-    """A fit's residual standard error and, for each of ``coefficients`` ({name: (column of its value,
-    column of its t)}), its value and t statistic, in columns for ``variant``."""
+    """A fit's residual standard error and, for each of ``coefficients`` ({name: (column of its
+    value, column of its t)}), its value and t statistic, in columns for ``variant``."""
     out = {f"{RESIDUAL}, {variant}": float(np.sqrt(fit.results.mse_resid))}
     if coefficients:
         table = coefficient_table(fit)
@@ -129,8 +130,9 @@ def gamma_variants(
     n_periods: int,
     warmup: float,
 ) -> dict[str, dict[str, np.ndarray]]:
-    """:func:`variants` of Γ's data (Table 5.2): the windows :func:`selfsense.chapters.ch5.gamma_data`
-    keeps of the 0.1 Hz run's ripple ``series``, the twin's x zeroed at the first as the laser's is."""
+    """:func:`variants` of Γ's data (Table 5.2): the windows
+    :func:`selfsense.chapters.ch5.gamma_data` keeps of the 0.1 Hz run's ripple ``series``, the
+    twin's x zeroed at the first as the laser's is."""
     kept = {
         k: np.asarray(v)[::n_periods] for k, v in series.items()
     }  # gamma_data(kept, 1) = gamma_data(series, np)
@@ -171,7 +173,8 @@ def capture_variants(
     thermometer: Mapping[str, np.ndarray] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """:func:`gamma_variants` of a simulated capture's ripple ``series`` or, given the middle
-    thermometer's ``thermometer`` ({"time", "T_mid"}), :func:`gamma_t_variants` of its Γ_T samples."""
+    thermometer's ``thermometer`` ({"time", "T_mid"}), :func:`gamma_t_variants` of its Γ_T
+    samples."""
     with open_capture(capture) as cap:
         truth = Truth.from_capture(cap, names=("C_e", "x", "T"))
         fs, block_len, warmup = (

@@ -1,18 +1,19 @@
 """The closed loop's drive at the folded ripple frequency, and what it does to C_e (a twin study).
 
-A verification step, like :mod:`selfsense.verify.error_budget`: it reads the twin's truth, and runs on the
-twin's datasets only. In the real-time loop of Chapter 6 (:class:`selfsense.methods.control.HPOIntegralController`)
-the observer integrates the measured current sample by sample, the 100 kHz ripple current folded
-onto fs/ns with it (part of the error budget's "current noise"), and the integral controller,
-stepping every sample at ω_C (Eq 6.1–6.3), passes part of that folded ripple on to the drive. The
-drive reaches the ripple channels through their high-pass filters
-(:class:`selfsense.twin.instruments.HighPass`), where a component at the folded ripple frequency
-cannot be told from the ripple: it moves C_e (Eq 3.12) and, through Γ (Eq 5.4), x̂.
+A verification step, like :mod:`selfsense.verify.error_budget`: it reads the twin's truth, and runs
+on the twin's datasets only. In the real-time loop of Chapter 6
+(:class:`selfsense.twin.closed_loop.HPOIntegralController`) the observer integrates the measured
+current sample by sample, the 100 kHz ripple current folded onto fs/ns with it (part of the error
+budget's "current noise"), and the integral controller, stepping every sample at ω_C (Eq 6.1–6.3),
+passes part of that folded ripple on to the drive. The drive reaches the ripple channels through
+their high-pass filters (:class:`selfsense.twin.instruments.HighPass`), where a component at the
+folded ripple frequency cannot be told from the ripple: it moves C_e (Eq 3.12) and, through
+Γ (Eq 5.4), x̂.
 
 :func:`leak_row` measures each closed-loop capture twice: as the campaign simulated it, and
 simulated again with the drive kept out of the ripple channels (the twin's what-if,
-``drive_leak=False``; :func:`selfsense.twin.simulate_experiment`), everything else equal. Per
-variant: the drive command's component at the folded ripple frequency against the ripple
+``drive_leak=False``; :func:`selfsense.twin.experiment.simulate_experiment`), everything else
+equal. Per variant: the drive command's component at the folded ripple frequency against the ripple
 voltage's, each over every ripple window (their median ratio); the C_e estimate's error against the
 truth over the same windows; and the observer error as Table 6.2 counts it with its C_e estimate
 part at that max (:func:`selfsense.verify.error_budget.capture_budget`).
@@ -110,8 +111,8 @@ def leak_study(
 ) -> list[dict[str, object]]:
     """:func:`leak_row` of each closed-loop capture (raw/<dataset>/<experiment>.nc) against the same
     experiment simulated again (``config``: the campaign and capture settings, ``controller_for``:
-    :func:`selfsense.methods.control.controller_factory`'s) with the drive kept out of the ripple channels,
-    into a scratch folder: the what-if captures are not the campaign's."""
+    :func:`selfsense.twin.closed_loop.controller_factory`'s) with the drive kept out of the ripple
+    channels, into a scratch folder: the what-if captures are not the campaign's."""
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
         for path in map(Path, captures):

@@ -1,10 +1,10 @@
 """Ronkanen's Section 7 results on the twin's truth: how much of each is the sensor's.
 
-A verification step, like :mod:`selfsense.verify.error_budget`: it reads a simulated capture's ``/truth``
-group, so it runs on the twin's datasets only. The bender's displacement is a·Q (Eq 2; docs/twin.md),
-so under current control everything the true displacement drifts is the charge's — the leakage
-compensation's error, the drive's, the creep's — and what the sensor adds (its noise, slow drift
-and resolution) is the measured value less the true one.
+A verification step, like :mod:`selfsense.verify.error_budget`: it reads a simulated capture's
+``/truth`` group, so it runs on the twin's datasets only. The bender's displacement is a·Q (Eq 2;
+docs/twin.md), so under current control everything the true displacement drifts is the charge's —
+the leakage compensation's error, the drive's, the creep's — and what the sensor adds (its noise,
+slow drift and resolution) is the measured value less the true one.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ SENSOR = "sensor (measured − true x)"
 
 def true_displacement(path: str | Path) -> np.ndarray:
     """The twin's displacement a·Q [m] at every sample of a simulated capture, from its stored truth
-    (the 4-point cubic of :meth:`selfsense.verify.error_budget.Truth.at`)."""
+    (the 4-point cubic of :meth:`selfsense.verify.truth.Truth.at`)."""
     with open_capture(path) as cap:
         truth = Truth.from_capture(cap, names=("x",))
     return truth.at(np.arange(truth.n_samples))["x"]

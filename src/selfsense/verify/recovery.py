@@ -27,8 +27,8 @@ from selfsense.verify.truth import Truth
 
 
 def ce_tracking(series: Mapping[str, np.ndarray], truth: Truth, fs: float) -> dict[str, float]:
-    """How closely the estimated C_e follows the twin's true small-signal C_e (rms and max, % of it),
-    the truth read at each window's time [s]."""
+    """How closely the estimated C_e follows the twin's true small-signal C_e (rms and max, % of
+    it), the truth read at each window's time [s]."""
     c_true = truth.at(np.asarray(series["time"], dtype=float) * fs)["C_e"]
     err = 100 * (np.asarray(series["C_e"]) / c_true - 1)
     err = err[np.isfinite(err)]

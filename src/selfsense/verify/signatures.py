@@ -4,8 +4,8 @@ Each run is an experiment of a campaign's catalogue (the smoke campaign's by def
 not the thesis's minutes), written by :func:`simulate_capture` into a scratch folder and analysed
 with the functions the pipeline's rules call, into tables shaped as the pipeline's. The
 calibration targets' locators then read them as they read a campaign's tables
-(:func:`selfsense.scorecard.calibration.calibration_table`), so a search and rule twin_calibration judge
-one signature by one definition. Runs and what they give (docs/twin.md, "Calibration"):
+(:func:`selfsense.scorecard.calibration.calibration_table`), so a search and rule twin_calibration
+judge one signature by one definition. Runs and what they give (docs/twin.md, "Calibration"):
 
 - ch3_sine_10hz, 100 V at 10 Hz: the ripple series of rule extract_ripple → the loop widths and
   phases of rule ch3_hysteresis (ch3/hysteresis.csv, ch3/phases.csv; Figs 3.4, 3.10–3.14);
@@ -17,8 +17,9 @@ one signature by one definition. Runs and what they give (docs/twin.md, "Calibra
 - Chapter 7 by closed form, not a 600 s run: τ = ρcv/(k_T A) (Eq 7.5), and the steady temperature
   T_amb + γ P (Eq 7.4 at s = 0, γ = 1/(k_T A), Eq 7.6) with P the heating power (Eq 7.10) of
   ch5_sine_100hz, seconds of ch7_freq_100hz's drive (100 V at 100 Hz) with the stack near ambient
-  (ch7/freq_trend.csv, ch7/table_7_1.csv). The campaign identifies τ and γ from the heating curve instead, where C_P's
-  temperature dependence shifts them by a few % (docs/twin.md, "Thermal parameters").
+  (ch7/freq_trend.csv, ch7/table_7_1.csv). The campaign identifies τ and γ from the heating curve
+  instead, where C_P's temperature dependence shifts them by a few %
+  (docs/twin.md, "Thermal parameters").
 """
 
 from __future__ import annotations
@@ -58,8 +59,8 @@ COMPANIONS = ("U", "x_laser", "I")
 @dataclass(frozen=True)
 class ShortRuns:
     """What the short runs share whatever the twin's parameters: the dataset's DAQ, its campaign's
-    catalogue (:func:`selfsense.io.manifest.expand_protocols`), its geometry and moving mass (for the
-    Chapter 4 identification), its seed, the config's ripple np and Chapter 6 ω_C, and a scratch
+    catalogue (:func:`selfsense.io.manifest.expand_protocols`), its geometry and moving mass (for
+    the Chapter 4 identification), its seed, the config's ripple np and Chapter 6 ω_C, and a scratch
     folder for the captures."""
 
     daq: DaqPlan
@@ -200,7 +201,8 @@ def _identify(
 
 
 def _stroke(path: Path) -> float:
-    """Max − min of the laser after the warm-up, zeroed at the start, as ch5.run_observer measures it [m]."""
+    """Max − min of the laser after the warm-up, zeroed at the start, as ch5.run_observer measures
+    it [m]."""
     with open_capture(path, require=("x_laser",)) as cap:
         settle = float(cap.attribute("warmup_s"))
         x = np.concatenate([d["x_laser"] for _, d in cap.iter_chunks(("x_laser",))])

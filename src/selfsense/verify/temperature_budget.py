@@ -1,11 +1,12 @@
 """Chapter 7's coupled temperature error split into its sources with the twin's truth.
 
-A verification step, like :mod:`selfsense.verify.error_budget` and :mod:`selfsense.verify.tracking_budget`: it
-needs a simulated capture's ``/truth`` group, so it runs on the twin's datasets only. Rule
-`coupled` (:func:`selfsense.chapters.ch7.coupled_estimation`) predicts the stack's temperature with
-the identified first-order model γ/(τs + 1) (Eq 7.4), stepped exactly (zero-order hold) over 0.1 s
-intervals from T_amb and driven by the loss power (U − (k/α)x)·I averaged over each (Eq 7.10, 7.12):
-x the laser's position for T_SH(PS), the observer's estimate for T_SH(HPO).
+A verification step, like :mod:`selfsense.verify.error_budget` and
+:mod:`selfsense.verify.tracking_budget`: it needs a simulated capture's ``/truth`` group, so it
+runs on the twin's datasets only. Rule `coupled` (:func:`selfsense.chapters.ch7.coupled_estimation`)
+predicts the stack's temperature with the identified first-order model γ/(τs + 1) (Eq 7.4),
+stepped exactly (zero-order hold) over 0.1 s intervals from T_amb and driven by the loss power
+(U − (k/α)x)·I averaged over each (Eq 7.10, 7.12): x the laser's position for T_SH(PS), the
+observer's estimate for T_SH(HPO).
 :func:`selfsense.chapters.ch7.against_measured` takes each estimate's max |T_SH − T_mid| against
 the middle IR thermometer over every sample of the traces. With T_model(P_true) the same model,
 stepped the same way, driven by the twin's true heat over the same intervals, and T the stack's
@@ -27,18 +28,20 @@ The true heat
 The twin heats with its own hysteresis and creep loss (docs/twin.md), per sample
 (U_drive − U_P)·(q[n] − q[n−1])·fs: U_drive − U_P = U_H + ΣU_c by the voltage balance (Eq 1.6),
 the charge before the first sample zero as in the kernel's initial state. Its means over the
-estimator's intervals are taken by the estimator's own :class:`~selfsense.methods.thermal.PowerAverager`.
-The truth is stored every 12th sample (4 kHz); the states are rebuilt at every sample by the
-4-point cubic of :meth:`selfsense.verify.error_budget.Truth.at` and summed as the kernel sums them. Against
-the kernel's own 48 kHz sum on 0–100 V raised sines (the mixed run's drives), the interval means
-are off by +0.004 % at 20 Hz, +0.002 % at 50 Hz and −0.08 % at 100 Hz (worst interval 0.13 %),
-+0.07 % at 200 Hz: what the cubic misses are the Maxwell operator's kinks, where an element
-saturates and at the reversals. A straight line between stored samples would miss −0.13, −0.4 and
-−1.1 % (each chord cuts the loop short), the kernel's right-endpoint sum taken at 4 kHz +1.3, +3.3
-and +6.2 % (dU_H/dq ≥ 0 makes every step's ΔU_H·Δq count). On the mixed run's 100 Hz stretch, a
-rise of about 30 K, −0.08 % is −0.03 K of T_model(P_true), carried by ``power estimate`` and
-``thermal model`` with opposite signs (their sum does not use it); over the thesis campaign's whole
-mixed run, the twin's own τ and γ driven by these means give its true T within 0.03 K (rms 0.011 K).
+estimator's intervals are taken by the estimator's own
+:class:`~selfsense.methods.thermal.PowerAverager`. The truth is stored every 12th sample (4 kHz);
+the states are rebuilt at every sample by the 4-point cubic of
+:meth:`selfsense.verify.truth.Truth.at` and summed as the kernel sums them. Against the kernel's
+own 48 kHz sum on 0–100 V raised sines (the mixed run's drives), the interval means are off by
++0.004 % at 20 Hz, +0.002 % at 50 Hz and −0.08 % at 100 Hz (worst interval 0.13 %), +0.07 % at
+200 Hz: what the cubic misses are the Maxwell operator's kinks, where an element saturates and at
+the reversals. A straight line between stored samples would miss −0.13, −0.4 and −1.1 % (each
+chord cuts the loop short), the kernel's right-endpoint sum taken at 4 kHz +1.3, +3.3 and +6.2 %
+(dU_H/dq ≥ 0 makes every step's ΔU_H·Δq count). On the mixed run's 100 Hz stretch, a rise of
+about 30 K, −0.08 % is −0.03 K of T_model(P_true), carried by ``power estimate`` and
+``thermal model`` with opposite signs (their sum does not use it); over the thesis campaign's
+whole mixed run, the twin's own τ and γ driven by these means give its true T within 0.03 K
+(rms 0.011 K).
 """
 
 from __future__ import annotations
@@ -136,8 +139,8 @@ def temperature_budget(
     T_mid (:func:`budget_row`), from the true mean power over each interval that starts at
     ``traces["time"]`` and the true temperature at those times.
 
-    Given rule `coupled`'s ``stats``, each row also holds the max error they state, which must be the
-    budget's: the traces are the arrays it was taken from.
+    Given rule `coupled`'s ``stats``, each row also holds the max error they state, which must be
+    the budget's: the traces are the arrays it was taken from.
     """
     t = np.asarray(traces["time"], dtype=float)
     T_model = predict_temperature(

@@ -30,17 +30,20 @@ Closed loop, with the estimate x̂ the loop logged (channel ``x_hpo_rt``):
 
 The controller's own error ε_CCL = x_R − x̂ (Table 6.2) is split further, through the loop that
 made it. The loop integrates ε_CCL per sample, each sample of a block applying the error of the same
-sample of the block before (:class:`selfsense.methods.control.HPOIntegralController`), so that over the
-means, for an error constant within a block,
+sample of the block before (:class:`selfsense.twin.closed_loop.HPOIntegralController`), so that
+over the means, for an error constant within a block,
 
     (α/k)(ū_k − ū_(k−1)) = (ω_C/fs)·[(ns + 1)/2·ε_(k−1) + (ns − 1)/2·ε_(k−2)],
 
 and with x̂ = (α/k)·u_cmd + d, where d is everything the quasi-static plant (Eq 6.3's α/k) does not
-explain, ε_CCL = S·(x_R − d), S(z) = (1 − z⁻¹)/(1 − z⁻¹ + h₁z⁻¹ + h₂z⁻²) the loop's sensitivity at the
-means' rate (:func:`loop_sensitivity`). Splitting d at the truth as the open loop's ε_TOL is split:
+explain, ε_CCL = S·(x_R − d), S(z) = (1 − z⁻¹)/(1 − z⁻¹ + h₁z⁻¹ + h₂z⁻²) the loop's sensitivity at
+the means' rate (:func:`loop_sensitivity`). Splitting d at the truth as the open loop's
+ε_TOL is split:
 
-    ε_CCL = S·x_R + S·(α/k)U_H + S·(α/k)(U − U_P − U_H) − S·[x − (α/k)U_P] − S·[x̂ − x] − S·(α/k)(U − u_cmd) + r
-            loop lag  hysteresis   creep                  stack dynamics     observer     drive             loop model
+    ε_CCL = S·x_R + S·(α/k)U_H + S·(α/k)(U − U_P − U_H) − S·[x − (α/k)U_P]
+            loop lag  hysteresis   creep                  stack dynamics
+          − S·[x̂ − x] − S·(α/k)(U − u_cmd) + r
+            observer     drive             loop model
 
 * ``loop lag``: what the linear Type-I loop with its one-block delay leaves of the reference, the
   error a hysteresis-free stack and a perfect observer would still have (|1 − T| of
@@ -54,7 +57,7 @@ means' rate (:func:`loop_sensitivity`). Splitting d at the truth as the open loo
   within a block; the engagement's first block).
 
 The truth is stored every ``decimation``-th sample; each mean's truth is the mean of the 4-point
-cubic (:meth:`selfsense.verify.error_budget.Truth.means`) over the mean's samples. That is exact for the
+cubic (:meth:`selfsense.verify.truth.Truth.means`) over the mean's samples. That is exact for the
 smooth P2 profiles, not for what happens between two stored values: P1's voltage steps and the
 bench's 2.5 kHz mode they ring, above the stored rate's 2 kHz Nyquist frequency. In the means next
 to a step the interpolated U, U_P and x are off, and feedforward, stack dynamics and laser take
@@ -125,7 +128,8 @@ def controller_split(
     engaged: np.ndarray,
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """ε_CCL = x_R − x̂ of one closed-loop run's means and its sources (module docstring), in metres;
-    the loop's filter starts from rest at the first ``engaged`` mean, as the loop does (0 before)."""
+    the loop's filter starts from rest at the first ``engaged`` mean, as the loop does (0
+    before)."""
     x_hat, x, U = run["x_hat"], true["x"], true["U_drive"]
     drives = {
         "loop lag": run["x_ref"],
@@ -150,8 +154,9 @@ def capture_tracking_budget(
     """One Chapter 6 run's tracking budget, counted as its table counts: P1 (``ch6_p1_*``) per
     segment a–h over the steady windows of :func:`selfsense.chapters.ch6.segment_windows` (Table
     6.1), a P2 profile from the loop's settling on (:func:`selfsense.chapters.ch6.settled_after`,
-    Table 6.2). Returns {"tracking": {segment or "": :meth:`selfsense.verify.error_budget.BudgetStats.row`}}
-    and, in closed loop, "controller": the same of ε_CCL's split (:func:`controller_split`)."""
+    Table 6.2). Returns {"tracking": {segment or "":
+    :meth:`selfsense.verify.error_budget.BudgetStats.row`}} and, in closed loop, "controller": the
+    same of ε_CCL's split (:func:`controller_split`)."""
     run = load_run(path, protocol, command=closed)
     if closed and (run["x_hat"] is None or run["u_cmd"] is None):
         raise ValueError(

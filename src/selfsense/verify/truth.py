@@ -62,8 +62,8 @@ class Truth:
 
     @classmethod
     def from_capture(cls, capture, names: tuple[str, ...] = TRUTH_STATES) -> Truth:
-        """The states ``names`` of an open simulated :class:`selfsense.io.capture.Capture` over its length
-        (the rest of its /truth is not kept)."""
+        """The states ``names`` of an open simulated :class:`selfsense.io.capture.Capture` over its
+        length (the rest of its /truth is not kept)."""
         attrs, states = capture.read_truth()
         return cls.from_group(
             attrs,
@@ -97,7 +97,8 @@ class Truth:
 
     def means(self, last: np.ndarray, n: int, block: int = 1 << 14) -> dict[str, np.ndarray]:
         """Each state's mean over the ``n`` samples ending at each global index of ``last`` (the
-        windows a series of means was taken over), ``block`` windows at a time to bound the memory."""
+        windows a series of means was taken over), ``block`` windows at a time to bound the
+        memory."""
         offsets = np.arange(1 - n, 1)
         parts = []
         for start in range(0, len(last), block):
