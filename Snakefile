@@ -1,5 +1,8 @@
 # selfsense: Islam 2013 (piezo stack self-sensing) and Ronkanen 2002 (bender current control).
-# `snakemake --cores 2` makes every capture and result; see README.md.
+# `snakemake --cores 2` makes every capture and result; see README.md. Helpers, the stage plan and
+# every name the rule files share live in workflow/rules/common.smk; each other .smk holds one
+# stage's rules and the *_OUTPUTS list of what they make; settings are config.yaml's
+# (docs/configuration.md).
 from snakemake.utils import min_version
 
 min_version("9.0")
@@ -19,6 +22,7 @@ include: "workflow/rules/control.smk"
 include: "workflow/rules/thermal.smk"
 include: "workflow/rules/powerloss.smk"
 include: "workflow/rules/characterise.smk"
+include: "workflow/rules/verify.smk"
 include: "workflow/rules/stages.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/twin.smk"
@@ -35,6 +39,7 @@ rule all:
         THERMAL_OUTPUTS,
         POWERLOSS_OUTPUTS,
         CHARACTERISE_OUTPUTS,
+        VERIFY_OUTPUTS,
         STAGE_PLAN_OUTPUTS,
         REPORT_OUTPUTS,
         TWIN_OUTPUTS,

@@ -27,7 +27,7 @@ def assert_one_line(excinfo, *fragments):
 def test_repository_config_is_valid_and_gets_defaults():
     config = load_config(ROOT / "config.yaml")
     assert config["raw_dir"] == "raw"
-    assert config["resources"] == {"simulate_mem_mb": 1000, "analysis_mem_mb": 1500}
+    assert config["resources"]["stream"] == {"mem_mb": 1500, "runtime": 30}
 
 
 def test_misspelt_key(tmp_path):

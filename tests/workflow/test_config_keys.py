@@ -49,10 +49,26 @@ USES = {
     "capture.compression": ("zlib", {"simulate", "simulate_closed_loop"}),
     "capture.complevel": (2, {"simulate", "simulate_closed_loop"}),
     "capture.truth_decimation": (6, {"simulate", "simulate_closed_loop"}),
-    # a job's resources are no rerun trigger: no rule is rerun
-    "resources.simulate_mem_mb": (1234, set()),
-    "resources.analysis_mem_mb": (1234, set()),
+    "characterise.settle_s": (0.2, {"characterise_page"}),
+    "characterise.min_hold_s": (2.0, {"characterise_page"}),
+    "ripple.skip_s": (0.2, {"ch3_hysteresis", "ch3_figures"}),
+    "ripple.np_study_wander_hz": ([0, 50], {"ce_np_study"}),
+    "ripple.np_study_drive_hz": (50.0, {"ce_np_study"}),
+    "identify.static_hold_s": (0.6, {"static_stiffness"}),
+    "thermal.power_interval_s": (0.2, {"thermal_extract"}),
+    "thermal.gamma_t_every": (100, {"thermal_extract"}),
+    "thermal.gamma_t_orders": ([4, 5], {"gamma_t_fit"}),
+    "thermal.gamma_t_order": (4, {"gamma_t_fit"}),
+    "thermal.gamma_t_candidates": ([1, 2, 3, 4, 5], {"gamma_t_fit"}),
+    "thermal.frequency_effect_bins": (10, {"frequency_effect"}),
+    "thermal.frequency_effect_min_windows": (5, {"frequency_effect"}),
+    "powerloss.velocity_window_s": (1.0, {"powerloss_identify", "powerloss_figures"}),
+    "powerloss.drift_duration_s": (60.0, {"powerloss_performance", "powerloss_truth"}),
 }
+
+#: a job's resources are no rerun trigger: changing every size at once reruns nothing
+#: (test_changing_the_job_sizes_reruns_nothing)
+RESOURCES = "resources."
 
 #: keys that choose which jobs and files exist rather than what a job computes (a change makes a
 #: different DAG, not a rerun of this one)
@@ -90,7 +106,19 @@ def test_every_config_key_is_covered():
     # every leaf the workflow sees (smoke.yaml, config.yaml and the schema's defaults) is listed
     # here
     seen = set(leaves(load_config(SMOKE))) | set(leaves(load_config(ROOT / "config.yaml")))
-    assert seen == set(USES) | STRUCTURAL
+    assert {k for k in seen if not k.startswith(RESOURCES)} == set(USES) | STRUCTURAL
+
+
+def test_changing_the_job_sizes_reruns_nothing(smoke_tree, tmp_path):
+    config = yaml.safe_load(SMOKE.read_text())
+    config["resources"] = {
+        size: {"mem_mb": 1234, "runtime": 77} for size in load_config(SMOKE)["resources"]
+    }
+    changed = tmp_path / "changed.yaml"
+    changed.write_text(yaml.safe_dump(config, sort_keys=False))
+    dry = run_snakemake(smoke_tree, "-n", "--quiet", "rules", config=str(changed))
+    assert dry.returncode == 0, dry.stderr[-2000:]
+    assert "Nothing to be done" in dry.stdout + dry.stderr, (dry.stdout + dry.stderr)[-2000:]
 
 
 @pytest.mark.parametrize("key", USES)

@@ -4,13 +4,6 @@
 # check_capture validates them.
 
 
-def capture_samples(dataset, experiment):
-    """A simulated capture's length in samples. The longest are simulated first (rule priority):
-    started last, one of them would keep a core busy alone at the end of the run."""
-    protocol = EXPERIMENTS[dataset][experiment].protocol
-    return int(protocol_duration(protocol) * DATASETS[dataset]["daq"]["fs"])
-
-
 if SIMULATED:
 
     rule simulate:
@@ -35,8 +28,7 @@ if SIMULATED:
             "benchmarks/out/{dataset}/simulate/{experiment}.tsv"
         threads: 1
         resources:
-            mem_mb=config["resources"]["simulate_mem_mb"],
-            runtime=60,
+            **resources_for("simulate"),
         priority: lambda w: capture_samples(w.dataset, w.experiment) // 1000
         script:
             "../scripts/simulate.py"
@@ -61,8 +53,7 @@ if MEASURED:
             "benchmarks/out/{dataset}/check_capture/{experiment}.tsv"
         threads: 1
         resources:
-            mem_mb=500,
-            runtime=10,
+            **resources_for("medium"),
         script:
             "../scripts/check_capture.py"
 
@@ -70,7 +61,7 @@ if MEASURED:
 rule capture_summary:
     """One table of every capture of a dataset: duration, channels, NaN and clipped counts."""
     input:
-        reports=lambda w: [f"results/{w.dataset}/qc/{e}.json" for e in EXPERIMENTS[w.dataset]],
+        reports=lambda w: [f"results/{w.dataset}/qc/{e}.json" for e in CAPTURES[w.dataset]],
         library=library_sources("capture_summary"),
     output:
         table=report("results/{dataset}/qc/captures.csv", caption="../report/captures.rst",
@@ -81,8 +72,7 @@ rule capture_summary:
         "benchmarks/out/{dataset}/capture_summary.tsv"
     threads: 1
     resources:
-        mem_mb=200,
-        runtime=5,
+        **resources_for("small"),
     script:
         "../scripts/capture_summary.py"
 

@@ -2,19 +2,7 @@
 # voltage U and a displacement (x_laser or x_disp) of a dataset whose DAQ records both: stroke,
 # gains, the x–U loop's width and nonlinearity, creep after a held step, and with the current the
 # charge–position slope and the q–U loop; a loop figure six captures a page and a table per dataset.
-
-# from the capture contract, not selfsense.methods.characterise: that imports matplotlib, ≈ 0.5 s of every
-# Snakemake start (each dry run, each cluster job)
-from selfsense.io.capture import DISPLACEMENT
-from selfsense.chapters.figure_names import loop_pages
-
-#: datasets whose DAQ records a drive voltage and a displacement
-CHARACTERISE_DATASETS = [d for d in DATASETS
-                         if has_channels(d, "U") and any(has_channels(d, x) for x in DISPLACEMENT)]
-
-
-#: {dataset: {page: its experiments}} of the loop figures
-LOOP_PAGES = {d: loop_pages(EXPERIMENTS[d]) for d in CHARACTERISE_DATASETS}
+# Which datasets run it: the stage plan (CHARACTERISE_DATASETS in common.smk).
 
 
 rule characterise_page:
@@ -33,8 +21,8 @@ rule characterise_page:
                       subcategory="Characterisation"),
     params:
         title=lambda w: f"{w.dataset} ({int(w.page)} of {len(LOOP_PAGES[w.dataset])})",
-        settle_s=0.1,  # x after a step is read this long after it (the stack's mechanics settle in ms)
-        min_hold_s=1.0,  # a shorter final hold is no creep test
+        settle_s=config["characterise"]["settle_s"],
+        min_hold_s=config["characterise"]["min_hold_s"],
     wildcard_constraints:
         page=r"\d+",
     log:
@@ -43,8 +31,7 @@ rule characterise_page:
         "benchmarks/out/{dataset}/characterise_page/{page}.tsv"
     threads: 1
     resources:
-        mem_mb=config["resources"]["analysis_mem_mb"],
-        runtime=30,
+        **resources_for("stream"),
     script:
         "../scripts/characterise_page.py"
 
@@ -67,8 +54,7 @@ rule characterise:
         "benchmarks/out/{dataset}/characterise.tsv"
     threads: 1
     resources:
-        mem_mb=500,
-        runtime=5,
+        **resources_for("medium"),
     script:
         "../scripts/characterise.py"
 

@@ -1,4 +1,6 @@
-# Config and manifest validation in one place, and the lookups every rule file uses.
+# Config and manifest validation in one place, the stage plan, and every helper and name the rule
+# files use: the rule files (workflow/rules/*.smk) hold rules and the *_OUTPUTS lists of what they
+# make, nothing else, so no rule file depends on another's module-level names.
 import ast
 import threading
 from functools import cache
@@ -6,7 +8,13 @@ from pathlib import Path
 
 from snakemake.utils import validate
 
-from selfsense.io.manifest import PROTOCOLS, SCHEMAS, expand_protocols, load_dataset, protocol_duration, validate_config
+from selfsense.chapters import figure_names
+from selfsense.chapters.figure_names import loop_pages
+from selfsense.io.manifest import PROTOCOLS, SCHEMAS, expand_protocols, load_dataset, load_yaml, protocol_duration, validate_config
+from selfsense.scorecard.calibration import load_targets
+from selfsense.scorecard.reference_values import tables_read as reference_tables
+from selfsense.scorecard.registry import applicable, parse_registry, tables_read
+from selfsense import stages
 
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
 # defaults. --configfile files override config.yaml; Snakemake lists them before it in
@@ -90,6 +98,13 @@ def report_figure(name, subcategory):
                   subcategory=subcategory)
 
 
+def resources_for(size):
+    """A rule's resources (mem_mb [MB], runtime [min]): the named job size of config.yaml's
+    resources: section (docs/configuration.md). Every rule takes its resources from here, so a
+    site changes one size, not each rule; profiles/slurm turns them into sbatch --mem and -t."""
+    return dict(config["resources"][size])
+
+
 RAW = Path(config["raw_dir"])
 DATASETS = {name: load_dataset(RAW, name) for name in config["datasets"]}
 SIMULATED = [n for n, m in DATASETS.items() if m["source"] == "simulated"]
@@ -136,19 +151,12 @@ def protocol_file(dataset, experiment):
     return str(PROTOCOLS / f"{EXPERIMENTS[dataset][experiment].chapter}.yaml")
 
 
-def has_channels(dataset, *channels):
-    return set(channels) <= set(DATASETS[dataset]["daq"]["channels"])
-
-
-def experiment_frequency(name):
-    """Drive frequency [Hz] from a catalogue name such as ch5_sine_0p1hz."""
-    token = next((t for t in name.split("_") if t.endswith("hz")), None)
-    return float(token[:-2].replace("p", ".")) if token else None
+experiment_frequency = stages.experiment_frequency
 
 
 def sines(dataset, prefix):
     """{frequency [Hz]: experiment} for the experiments named <prefix><f>hz."""
-    return {experiment_frequency(e): e for e in EXPERIMENTS[dataset] if e.startswith(prefix)}
+    return stages.sines(EXPERIMENTS[dataset], prefix)
 
 
 def drive_frequency(dataset, experiment):
@@ -156,3 +164,239 @@ def drive_frequency(dataset, experiment):
     it differs from the name's."""
     run = EXPERIMENTS[dataset][experiment]
     return run.protocol["segments"][0]["frequency"] if run is not None else experiment_frequency(experiment)
+
+
+def capture_samples(dataset, experiment):
+    """A simulated capture's length in samples. The longest are simulated first (by priority);
+    started last, one of them would keep a core busy alone at the end of the run."""
+    protocol = EXPERIMENTS[dataset][experiment].protocol
+    return int(protocol_duration(protocol) * DATASETS[dataset]["daq"]["fs"])
+
+
+# ---- The stage plan (selfsense.stages): which stages run for each dataset and, for the skipped
+# ones, what the dataset lacks. Rule stage_plan writes it (results/<dataset>/stages.csv), and the
+# *_DATASETS lists below, which gate every rule file, are derived from it and from nothing else.
+# A dataset without the channels or experiments a stage needs skips it with a stated reason, it
+# does not crash. A stage that runs checks here, before any job, that the manifest has the keys
+# it computes with (one line naming the file and the key).
+
+STAGE_PLANS = {d: stages.plan_stages(DATASETS[d], EXPERIMENTS[d]) for d in DATASETS}
+for _d, _plan in STAGE_PLANS.items():
+    stages.check_manifest_keys(DATASETS[_d], _plan, RAW / _d / "dataset.yaml")
+
+
+def datasets_running(stage):
+    """The datasets the stage (a key of selfsense.stages.STAGES) runs for, in config order."""
+    return [d for d in DATASETS if STAGE_PLANS[d].runs(stage)]
+
+
+def simulated(datasets):
+    """Those of the datasets the twin made: only they have a /truth to verify against."""
+    return [d for d in datasets if d in SIMULATED]
+
+
+def with_twin(datasets):
+    """Those of the datasets whose manifest describes a twin (its mechanics, for model studies)."""
+    return [d for d in datasets if "twin" in DATASETS[d]]
+
+
+CHARACTERISE_DATASETS = datasets_running("characterise")
+RIPPLE_DATASETS = datasets_running("ripple")
+CH3_DATASETS = datasets_running("ch3")
+IDENTIFY_DATASETS = datasets_running("identify")
+GAMMA_DATASETS = datasets_running("gamma")
+OBSERVER_DATASETS = datasets_running("observer")
+FREQUENCY_RESPONSE_DATASETS = datasets_running("frequency_response")
+CONTROL_DATASETS = datasets_running("control")
+THERMAL_DATASETS = datasets_running("thermal")
+POWERLOSS_DATASETS = datasets_running("powerloss")
+
+
+#: {dataset: the experiments whose captures it has or the workflow can make}: the captures'
+#: table and the characterise stage read these (a simulated dataset's closed-loop runs need the
+#: control stage)
+CAPTURES = {d: stages.captures_made(DATASETS[d], EXPERIMENTS[d], STAGE_PLANS[d]) for d in DATASETS}
+
+
+# ---- Characterise: the loop figures' pages
+
+#: {dataset: {page: its experiments}} of the loop figures
+LOOP_PAGES = {d: loop_pages(CAPTURES[d]) for d in CHARACTERISE_DATASETS}
+
+
+# ---- Chapter 3
+
+CH3_SERIES = stages.CH3_SERIES
+CH3_FIGURES, CH3_MODEL_FIGURE = figure_names.CH3, figure_names.CH3_MODEL
+
+
+# ---- Chapter 4
+
+CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
+CH4_FIGURES = figure_names.CH4
+
+#: the Chapter 4 sine sets of each dataset
+CH4_SETS = {d: stages.ch4_sets(EXPERIMENTS[d]) for d in DATASETS}
+
+#: the static stiffness tests of Eq 4.16: {capture input: experiment}
+CH4_STATIC = dict(zip(("free", "blocked"), stages.CH4_STATIC))
+
+#: the capture whose truth the identified model is held to (Fig 4.8's U_H at its frequency too)
+RECOVERY_SINE = "ch4_sine_10hz_s1"
+
+
+def ch4_series(wildcards):
+    """The ripple series of the dataset's Chapter 4 sets, in CH4_SETS's order."""
+    return [f"results/{wildcards.dataset}/ripple/{e}.nc" for e in CH4_SETS[wildcards.dataset]]
+
+
+# ---- Chapter 5
+
+GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
+                "coefficients": "table_5_2_coefficients.csv", "anova_j5": "table_5_2_anova_j5.csv",
+                "coefficients_j5": "table_5_2_coefficients_j5.csv", "basis": "gamma_basis.csv"}
+
+GAMMA_RUN = stages.GAMMA_RUN  # Γ is fitted on the 0.1 Hz run (Tables 5.1, 5.2)
+
+#: the creep run of Chapter 5 and the stepped-sine sweep of Fig 5.3
+CREEP_RUN, SWEEP_RUN = stages.CREEP_RUN, stages.SWEEP_RUN
+
+CH5_FIGURES, FREQUENCY_RESPONSE_FIGURE = figure_names.CH5, figure_names.CH5_SWEEP
+OBSERVER_STUDY_FIGURE, ERROR_BUDGET_FIGURE = figure_names.CH5_STUDY, figure_names.CH5_BUDGET
+
+#: {frequency [Hz]: experiment} of the 10–300 Hz sines a0 is fitted on (Eq 5.3)
+CHARGE_SINES = {d: stages.charge_sines(EXPERIMENTS[d]) for d in DATASETS}
+
+#: {frequency [Hz]: experiment} of the sines the observer is evaluated on (Table 5.4)
+OBSERVED_SINES = {d: stages.observed_sines(EXPERIMENTS[d]) for d in DATASETS}
+
+#: {experiment: Table 5.4 frequency [Hz], None for the creep run} of every open-loop run the observer is evaluated on
+OBSERVED_RUNS = {d: {e: f for f, e in OBSERVED_SINES[d].items()} | {stages.CREEP_RUN: None} for d in DATASETS}
+
+
+# ---- Chapter 6
+
+CH6_TABLES = ["table_6_1", "p1_summary", "table_6_2", "p3", "tracking"]
+CH6_FIGURES = figure_names.CH6
+
+#: the closed-loop experiments of each dataset (audited against the estimate their loop logged)
+CLOSED_LOOP = {d: stages.closed_loop(EXPERIMENTS[d]) for d in DATASETS}
+
+#: the Chapter 6 runs of each dataset, open and closed loop
+CH6_RUNS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch6_")] for d in DATASETS}
+
+#: the runs of Tables 6.1–6.2 whose tracking error the budget splits
+TRACKED_RUNS = {d: [e for e in CH6_RUNS[d] if e.startswith(("ch6_p1_", "ch6_p2"))] for d in DATASETS}
+
+#: the closed-loop runs whose observer error Chapter 6 tabulates (ε_OCL: P1 in Table 6.1, P2a–d in
+#: Table 6.2), which the error budget splits too
+CH6_BUDGET_RUNS = {d: [e for e in CLOSED_LOOP[d] if e.startswith(("ch6_p1_", "ch6_p2"))] for d in DATASETS}
+
+#: {experiment: Table 5.4 frequency [Hz] or None} of every run the error budget splits
+BUDGET_RUNS = {d: OBSERVED_RUNS[d] | dict.fromkeys(CH6_BUDGET_RUNS[d]) for d in DATASETS}
+
+#: the closed-loop runs the leak study simulates again (Table 6.2's P2 profiles: seconds each)
+LEAK_RUNS = {d: [e for e in CLOSED_LOOP[d] if e.startswith("ch6_p2")] for d in DATASETS}
+
+
+# ---- Chapter 7
+
+#: the runs the coupled observer/thermal estimation is evaluated on (Figures 7.10–7.12)
+COUPLED_FIGURES = figure_names.CH7_COUPLED
+CH7_COUPLED = list(stages.CH7_COUPLED)
+
+#: the runs the thermal model's predictions are checked on (Figures 7.5, 7.6)
+CH7_CHECKS = list(stages.CH7_CHECKS)
+CH7_VOLTAGE_RUN = stages.CH7_VOLTAGE_RUN
+
+THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
+THERMAL_FIGURES = figure_names.CH7_THERMAL
+GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (figure_names.CH7_GAMMA_T, figure_names.CH7_FREQUENCY,
+                                                    figure_names.CH7_DIAGRAM)
+
+GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
+                  "coefficients": "table_7_3_coefficients.csv", "order": "gamma_t_order.csv"}
+
+#: Γ_T is fitted on the 50 Hz run (Tables 7.2, 7.3) and its order validated on the hotter 100 Hz run
+GAMMA_T_RUNS = stages.GAMMA_T_RUNS
+
+
+# ---- Ronkanen 2002 (power loss)
+
+POWERLOSS = "results/{dataset}/powerloss"
+
+RONKANEN_REPORT = {"category": "{dataset}", "subcategory": "Ronkanen 2002"}  # where the report files them
+RONKANEN_FIGURES = figure_names.RONKANEN
+
+#: the open-loop comparison: {"<kind>_<control>": experiment}
+RONKANEN_PAIRS = {f"{kind}_{control}": f"rk_{kind}_{control}"
+                  for kind in ("decay", "repeat", "drift") for control in ("current", "voltage")}
+
+#: Fig 3, 4, 5 (and 6): the ±300 nA ramps with too large, too small and ideal compensation
+RONKANEN_VELOCITY_RAMPS = ["rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300na_2g"]
+
+#: when each run's first segment ends [s]: where its hold starts (Figs 2, 11)
+FIRST_SEGMENT_END = {d: {e: float(x.protocol.get("warmup", 0.0)) + float(x.protocol["segments"][0]["duration"])
+                         for e, x in EXPERIMENTS[d].items() if x is not None} for d in POWERLOSS_DATASETS}
+
+
+# ---- The scorecard and the twin's calibration
+
+SCORECARD_REGISTRY = "workflow/scorecard.yaml"
+
+# parsed once here so that a bad registry stops the workflow with one line before anything runs
+SCORECARD = parse_registry(load_yaml(SCORECARD_REGISTRY), SCORECARD_REGISTRY)
+
+#: the thesis's printed Γ (Table 5.2, j = 5) and Γ_T (Table 7.3, n = 5 with T) against ours, compared
+#: as curves: per fit, the folder, the registry's source and coefficient names, the records compared
+#: (the thesis's order and the order the pipeline uses), the temperatures (Table 7.1's T_ref), and the
+#: run, ripple series and thermometers (Γ_T) each was fitted on, which rule gamma_truth refits
+CURVES = {
+    "gamma": {"folder": "ch5", "source": "Table 5.2", "coefficients": [f"b{i}" for i in range(6)], "g": None,
+              "fits": {"thesis order": "gamma_j5.json", "our order": "gamma.json"}, "temperatures": [0.0],
+              "datasets": GAMMA_DATASETS, "run": GAMMA_RUN, "series": f"ripple/{GAMMA_RUN}.nc", "power": None},
+    "gamma_t": {"folder": "ch7", "source": "Table 7.3", "coefficients": [f"bT{i}" for i in range(6)],
+                "g": "g (temperature coefficient)", "fits": {"thesis order": "gamma_t_n5.json", "our order": "gamma_t.json"},
+                "temperatures": [23.0], "datasets": THERMAL_DATASETS, "run": GAMMA_T_RUNS["fit"],
+                "series": f"thermal/{GAMMA_T_RUNS['fit']}_gamma.nc", "power": f"thermal/{GAMMA_T_RUNS['fit']}.nc"},
+}
+
+
+def curve_fits(w):
+    """The Γ records of one curve (CURVES) of one dataset."""
+    c = CURVES[w.fit]
+    return [f"results/{w.dataset}/{c['folder']}/{f}" for f in c["fits"].values()]
+
+
+@cache
+def stage_outputs():
+    """Everything the stages promise to make: each rule file's *_OUTPUTS, as rule all collects
+    them. Called by input functions only, so when the DAG is built, after every rule file is
+    included (no rule file depends on the order of the includes)."""
+    return frozenset(ACQUIRE_OUTPUTS + RIPPLE_OUTPUTS + IDENTIFY_OUTPUTS + GAMMA_OUTPUTS + OBSERVER_OUTPUTS
+                     + CONTROL_OUTPUTS + THERMAL_OUTPUTS + POWERLOSS_OUTPUTS + CHARACTERISE_OUTPUTS
+                     + CURVE_OUTPUTS + VERIFY_OUTPUTS)
+
+
+def scorecard_tables(dataset):
+    """The registry's tables (and those its reference values are compared with) that some stage
+    makes for the dataset: the scorecard reads (and reruns after) exactly these; the other entries
+    show as "not reproduced yet"."""
+    return [t for t in (f"results/{dataset}/{t}" for t in tables_read(applicable(SCORECARD, DATASETS[dataset]))
+                        + reference_tables(DATASETS[dataset]))
+            if t in stage_outputs()]
+
+
+TWIN_CALIBRATION_TARGETS = "workflow/twin_calibration.yaml"
+
+# parsed once here so that a bad targets file stops the workflow with one line before anything runs
+TWIN_CALIBRATION = load_targets(TWIN_CALIBRATION_TARGETS)
+
+#: datasets the twin made of the thesis's stack: the targets are the thesis's numbers
+CALIBRATED_DATASETS = [d for d in SIMULATED if DATASETS[d].get("model") == "stack"]
+
+
+def calibration_tables(dataset):
+    """The tables of the twin's calibration signatures that some stage makes for the dataset: the
+    others are rows "not measured"."""
+    return [t for t in (f"results/{dataset}/{t}" for t in TWIN_CALIBRATION.tables()) if t in stage_outputs()]

@@ -1,12 +1,5 @@
-# Stage "gamma" (thesis Chapter 5): capacitance self-sensing Γ, Tables 5.1–5.2.
-
-GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
-                "coefficients": "table_5_2_coefficients.csv", "anova_j5": "table_5_2_anova_j5.csv",
-                "coefficients_j5": "table_5_2_coefficients_j5.csv", "basis": "gamma_basis.csv"}
-
-GAMMA_RUN = "ch5_sine_0p1hz"  # Γ is fitted on the 0.1 Hz run (Tables 5.1, 5.2)
-
-GAMMA_DATASETS = [d for d in RIPPLE_DATASETS if GAMMA_RUN in EXPERIMENTS[d]]
+# Stage "gamma" (thesis Chapter 5): capacitance self-sensing Γ, Tables 5.1–5.2. Which datasets run
+# it: the stage plan (GAMMA_DATASETS in common.smk).
 
 
 rule gamma_fit:
@@ -30,11 +23,10 @@ rule gamma_fit:
         "benchmarks/out/{dataset}/gamma_fit.tsv"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=10,
+        **resources_for("large"),
     script:
         "../scripts/gamma_fit.py"
 
 
-#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
 GAMMA_OUTPUTS = expand(rules.gamma_fit.output, dataset=GAMMA_DATASETS)

@@ -1,44 +1,24 @@
 # Stage "identify" (thesis Chapter 4): Case 1 / Case 2 model identification, Tables 4.1–4.3.
-
-from selfsense.chapters.figure_names import CH4 as CH4_FIGURES
-
-CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
-
-#: the Chapter 4 sine sets of each dataset
-CH4_SETS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch4_sine_")] for d in DATASETS}
-
-
-def ch4_series(wildcards):
-    """The ripple series of the dataset's Chapter 4 sets, in CH4_SETS's order."""
-    return [f"results/{wildcards.dataset}/ripple/{e}.nc" for e in CH4_SETS[wildcards.dataset]]
-
-
-#: the capture whose truth the identified model is held to (Fig 4.8's U_H at its frequency too)
-RECOVERY_SINE = "ch4_sine_10hz_s1"
-
-#: datasets with the ripple channels, the Chapter 4 sets and the static stiffness tests
-IDENTIFY_DATASETS = [d for d in RIPPLE_DATASETS if CH4_SETS[d]
-                     and {"ch4_static_free", "ch4_static_blocked"} <= set(EXPERIMENTS[d])]
+# Which datasets run it: the stage plan (IDENTIFY_DATASETS in common.smk).
 
 
 rule static_stiffness:
     """k from the blocked force over the free stroke at U_max (Eq 4.16)."""
     input:
-        unpack(lambda w: captures(w.dataset, free="ch4_static_free", blocked="ch4_static_blocked")),
+        unpack(lambda w: captures(w.dataset, **CH4_STATIC)),
         library=library_sources("static_stiffness"),
     output:
         table=report("results/{dataset}/ch4/static_stiffness.csv", caption="../report/static_stiffness.rst",
                      category="{dataset}", subcategory="Chapter 4"),
     params:
-        t_hold=0.55,
+        t_hold=config["identify"]["static_hold_s"],
     log:
         "logs/{dataset}/static_stiffness.log",
     benchmark:
         "benchmarks/out/{dataset}/static_stiffness.tsv"
     threads: 1
     resources:
-        mem_mb=500,
-        runtime=5,
+        **resources_for("medium"),
     script:
         "../scripts/static_stiffness.py"
 
@@ -60,8 +40,7 @@ rule identify:
         "benchmarks/out/{dataset}/identify.tsv"
     threads: 1
     resources:
-        mem_mb=config["resources"]["analysis_mem_mb"],
-        runtime=20,
+        **resources_for("stream"),
     script:
         "../scripts/identify.py"
 
@@ -69,7 +48,7 @@ rule identify:
 rule ch4_figures:
     """Figures 4.2–4.8."""
     input:
-        unpack(lambda w: captures(w.dataset, force="ch4_sine_50hz_s1", drive="ch4_sine_10hz_s1")),
+        unpack(lambda w: captures(w.dataset, force="ch4_sine_50hz_s1", drive=RECOVERY_SINE)),
         series=ch4_series,
         per_set="results/{dataset}/ch4/sets.csv",
         library=library_sources("ch4_figures"),
@@ -81,44 +60,11 @@ rule ch4_figures:
         "benchmarks/out/{dataset}/ch4_figures.tsv"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=10,
+        **resources_for("large"),
     script:
         "../scripts/ch4_figures.py"
 
 
-rule model_recovery:
-    """Identified parameters against the twin's built values and against the same identification on
-    its noiseless states (parameter recovery)."""
-    input:
-        unpack(lambda w: captures(w.dataset, capture=RECOVERY_SINE, sets=CH4_SETS[w.dataset])),
-        series=ch4_series,
-        per_set="results/{dataset}/ch4/sets.csv",
-        hysteresis="results/{dataset}/ch4/hysteresis_voltage.csv",
-        static="results/{dataset}/ch4/static_stiffness.csv",
-        manifest=RAW / "{dataset}" / "dataset.yaml",
-        library=library_sources("model_recovery"),
-    output:
-        table=report("results/{dataset}/twin/model_recovery.csv", caption="../report/model_recovery.rst",
-                     category="{dataset}", subcategory="Twin validation"),
-    params:
-        frequency=lambda w: EXPERIMENTS[w.dataset][RECOVERY_SINE].protocol["segments"][0]["frequency"],
-        n_periods=config["ripple"]["n_periods"],
-    log:
-        "logs/{dataset}/model_recovery.log",
-    benchmark:
-        "benchmarks/out/{dataset}/model_recovery.tsv"
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=5,
-    script:
-        "../scripts/model_recovery.py"
-
-
-#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
-IDENTIFY_OUTPUTS = (
-    expand([*rules.static_stiffness.output, *rules.identify.output, *rules.ch4_figures.output],
-           dataset=IDENTIFY_DATASETS)
-    + expand(rules.model_recovery.output, dataset=[d for d in IDENTIFY_DATASETS if d in SIMULATED])
-)
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
+IDENTIFY_OUTPUTS = expand([*rules.static_stiffness.output, *rules.identify.output, *rules.ch4_figures.output],
+                          dataset=IDENTIFY_DATASETS)

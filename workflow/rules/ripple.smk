@@ -1,16 +1,6 @@
-# Stage "ripple" (thesis Chapter 3): folded-sampling plan, C_e and R_e from the ripple channels.
-
-from selfsense.chapters.figure_names import CH3 as CH3_FIGURES, CH3_MODEL as CH3_MODEL_FIGURE
-
-#: the Chapter 3 runs by drive frequency (Figures 3.9–3.14, hysteresis, C_e recovery)
-CH3_SERIES = {"10 Hz": "ch3_sine_10hz", "1 Hz": "ch3_sine_1hz", "0.1 Hz": "ch3_sine_0p1hz"}
-
-#: datasets whose DAQ records the ripple channels (the others skip this stage)
-RIPPLE_DATASETS = [d for d in DATASETS
-                   if has_channels(d, "Ur", "Ir", "U", "I", "x_laser") and "ripple" in DATASETS[d]["daq"]]
-
-#: ripple datasets with the three Chapter 3 runs
-CH3_DATASETS = [d for d in RIPPLE_DATASETS if set(CH3_SERIES.values()) <= set(EXPERIMENTS[d])]
+# Stage "ripple" (thesis Chapter 3): folded-sampling plan, C_e and R_e from the ripple channels;
+# and stage "ch3": the loop widths, phases and figures of the three Chapter 3 runs. Which datasets
+# run each: the stage plan (RIPPLE_DATASETS, CH3_DATASETS in common.smk).
 
 
 rule extract_ripple:
@@ -28,8 +18,7 @@ rule extract_ripple:
         "benchmarks/out/{dataset}/extract_ripple/{experiment}.tsv"
     threads: 1
     resources:
-        mem_mb=config["resources"]["analysis_mem_mb"],
-        runtime=30,
+        **resources_for("stream"),
     script:
         "../scripts/extract_ripple.py"
 
@@ -54,8 +43,7 @@ rule ch3_tables:
         "benchmarks/out/{dataset}/ch3_tables.tsv"
     threads: 1
     resources:
-        mem_mb=200,
-        runtime=5,
+        **resources_for("small"),
     script:
         "../scripts/ch3_tables.py"
 
@@ -64,7 +52,7 @@ rule ch3_hysteresis:
     """Loop widths C–U, C–x, R–C, x–U at 100 V, 10 Hz beside the thesis's percentages; the drive
     and ripple U–I phases (Figs 3.3–3.4)."""
     input:
-        series="results/{dataset}/ripple/ch3_sine_10hz.nc",
+        series=f"results/{{dataset}}/ripple/{CH3_SERIES['10 Hz']}.nc",
         library=library_sources("ch3_hysteresis"),
     output:
         table=report("results/{dataset}/ch3/hysteresis.csv", caption="../report/hysteresis.rst",
@@ -72,16 +60,15 @@ rule ch3_hysteresis:
         phases=report("results/{dataset}/ch3/phases.csv", caption="../report/phases.rst",
                       category="{dataset}", subcategory="Chapter 3"),
     params:
-        skip_s=0.1,
-        frequency=10.0,  # the drive of ch3_sine_10hz
+        skip_s=config["ripple"]["skip_s"],
+        frequency=lambda w: float(drive_frequency(w.dataset, CH3_SERIES["10 Hz"])),
     log:
         "logs/{dataset}/ch3_hysteresis.log",
     benchmark:
         "benchmarks/out/{dataset}/ch3_hysteresis.tsv"
     threads: 1
     resources:
-        mem_mb=500,
-        runtime=5,
+        **resources_for("medium"),
     script:
         "../scripts/ch3_hysteresis.py"
 
@@ -89,7 +76,7 @@ rule ch3_hysteresis:
 rule ch3_figures:
     """Figures 3.2–3.14 of the ripple impedance measurement."""
     input:
-        unpack(lambda w: captures(w.dataset, capture="ch3_sine_10hz")),
+        unpack(lambda w: captures(w.dataset, capture=CH3_SERIES["10 Hz"])),
         series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("ch3_figures"),
@@ -97,15 +84,14 @@ rule ch3_figures:
         **{name: report_figure(name, "Chapter 3") for name in CH3_FIGURES},
     params:
         labels=list(CH3_SERIES),
-        skip_s=0.1,
+        skip_s=config["ripple"]["skip_s"],
     log:
         "logs/{dataset}/ch3_figures.log",
     benchmark:
         "benchmarks/out/{dataset}/ch3_figures.tsv"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=10,
+        **resources_for("large"),
     script:
         "../scripts/ch3_figures.py"
 
@@ -123,65 +109,14 @@ rule ch3_model_figure:
         "benchmarks/out/{dataset}/ch3_model_figure.tsv"
     threads: 1
     resources:
-        mem_mb=300,
-        runtime=5,
+        **resources_for("small"),
     script:
         "../scripts/ch3_model_figure.py"
 
 
-rule ce_recovery:
-    """C_e from the ripple against the twin's true clamped capacitance (parameter recovery)."""
-    input:
-        unpack(lambda w: captures(w.dataset, captures=list(CH3_SERIES.values()))),
-        series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
-        library=library_sources("ce_recovery"),
-    output:
-        table=report("results/{dataset}/twin/ce_recovery.csv", caption="../report/ce_recovery.rst",
-                     category="{dataset}", subcategory="Twin validation"),
-    params:
-        n_periods=config["ripple"]["n_periods"],
-    log:
-        "logs/{dataset}/ce_recovery.log",
-    benchmark:
-        "benchmarks/out/{dataset}/ce_recovery.tsv"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
-    script:
-        "../scripts/ce_recovery.py"
-
-
-rule ce_np_study:
-    """C_e error against np and ripple-frequency wander (why np = 4), on the twin."""
-    input:
-        manifest=RAW / "{dataset}" / "dataset.yaml",
-        library=library_sources("ce_np_study"),
-    output:
-        table=report("results/{dataset}/twin/ce_np_study.csv", caption="../report/ce_np_study.rst",
-                     category="{dataset}", subcategory="Twin validation"),
-        figure=report_figure("fig_3_np_study", "Twin validation"),
-    params:
-        nps=config["ripple"]["np_sweep"],
-        wanders=[0, 30, 100, 300],
-        drive_hz=100.0,
-    log:
-        "logs/{dataset}/ce_np_study.log",
-    benchmark:
-        "benchmarks/out/{dataset}/ce_np_study.tsv"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
-    script:
-        "../scripts/ce_np_study.py"
-
-
-#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
+#: what the stages make for rule all and the scorecard: their rules' outputs, for the datasets each runs for
 RIPPLE_OUTPUTS = (
     expand(rules.ch3_tables.output, dataset=RIPPLE_DATASETS)
     + expand([*rules.ch3_hysteresis.output, *rules.ch3_figures.output], dataset=CH3_DATASETS)
-    + expand([*rules.ch3_model_figure.output, *rules.ce_np_study.output],
-             dataset=[d for d in CH3_DATASETS if "twin" in DATASETS[d]])
-    + expand(rules.ce_recovery.output, dataset=[d for d in CH3_DATASETS if d in SIMULATED])  # reads /truth
+    + expand(rules.ch3_model_figure.output, dataset=with_twin(CH3_DATASETS))
 )

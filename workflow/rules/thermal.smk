@@ -1,27 +1,6 @@
 # Stage "thermal" (thesis Chapter 7): loss power, the thermal model (Table 7.1), Γ_T (Tables 7.2,
 # 7.3), the frequency effect on C_e–x, the coupled observer/thermal estimation, Figures 7.1–7.12.
-
-from selfsense.chapters.figure_names import (CH7_COUPLED as COUPLED_FIGURES, CH7_DIAGRAM as DIAGRAM_FIGURE,
-                                   CH7_FREQUENCY as FREQUENCY_FIGURE, CH7_GAMMA_T as GAMMA_T_FIGURE,
-                                   CH7_THERMAL as THERMAL_FIGURES)
-
-#: the runs the coupled observer/thermal estimation is evaluated on (Figures 7.10–7.12)
-CH7_COUPLED = list(COUPLED_FIGURES.values())
-
-#: the runs the thermal model's predictions are checked on (Figures 7.5, 7.6)
-CH7_CHECKS = ["ch7_heat_cool", "ch7_mixed_voltage"]
-
-THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
-
-GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
-                  "coefficients": "table_7_3_coefficients.csv", "order": "gamma_t_order.csv"}
-
-#: Γ_T is fitted on the 50 Hz run (Tables 7.2, 7.3) and its order validated on the hotter 100 Hz run
-GAMMA_T_RUNS = {"fit": "ch7_freq_50hz", "validation": "ch7_freq_100hz"}
-
-THERMAL_DATASETS = [d for d in OBSERVER_DATASETS if d in IDENTIFY_DATASETS and sines(d, "ch7_freq_")
-                    and {"ch7_volt_150hz", *CH7_CHECKS, *CH7_COUPLED} <= set(EXPERIMENTS[d])
-                    and set(GAMMA_T_RUNS.values()) <= set(EXPERIMENTS[d]) and has_channels(d, "T_mid")]
+# Which datasets run it: the stage plan (THERMAL_DATASETS in common.smk).
 
 
 rule thermal_extract:
@@ -35,16 +14,15 @@ rule thermal_extract:
         samples="results/{dataset}/thermal/{experiment}_gamma.nc",
     params:
         n_periods=config["ripple"]["n_periods"],
-        interval=0.1,
-        every=200,
+        interval=config["thermal"]["power_interval_s"],
+        every=config["thermal"]["gamma_t_every"],
     log:
         "logs/{dataset}/thermal_extract/{experiment}.log",
     benchmark:
         "benchmarks/out/{dataset}/thermal_extract/{experiment}.tsv"
     threads: 1
     resources:
-        mem_mb=config["resources"]["analysis_mem_mb"],
-        runtime=60,
+        **resources_for("stream_long"),
     script:
         "../scripts/thermal_extract.py"
 
@@ -53,7 +31,7 @@ rule thermal_identify:
     """τ, γ, k_T per heating run and Table 7.1; trends with frequency and V²; prediction errors."""
     input:
         freq_series=lambda w: [f"results/{w.dataset}/thermal/{e}.nc" for e in sines(w.dataset, "ch7_freq_").values()],
-        volt_series="results/{dataset}/thermal/ch7_volt_150hz.nc",
+        volt_series=f"results/{{dataset}}/thermal/{CH7_VOLTAGE_RUN}.nc",
         check_series=[f"results/{{dataset}}/thermal/{e}.nc" for e in CH7_CHECKS],
         manifest=RAW / "{dataset}" / "dataset.yaml",
         model="results/{dataset}/ch4/model.json",
@@ -66,15 +44,14 @@ rule thermal_identify:
     params:
         freqs=lambda w: list(sines(w.dataset, "ch7_freq_")),
         checks=CH7_CHECKS,
-        volt_segments=lambda w: EXPERIMENTS[w.dataset]["ch7_volt_150hz"].protocol["segments"],
+        volt_segments=lambda w: EXPERIMENTS[w.dataset][CH7_VOLTAGE_RUN].protocol["segments"],
     log:
         "logs/{dataset}/thermal_identify.log",
     benchmark:
         "benchmarks/out/{dataset}/thermal_identify.tsv"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=10,
+        **resources_for("large"),
     script:
         "../scripts/thermal_identify.py"
 
@@ -95,17 +72,16 @@ rule gamma_t_fit:
         gamma_t_n5="results/{dataset}/ch7/gamma_t_n5.json",
         figure=report_figure(GAMMA_T_FIGURE, "Chapter 7"),
     params:
-        orders=[4, 5, 6],
-        order=5,
-        candidates=[1, 2, 3, 4, 5, 6],
+        orders=config["thermal"]["gamma_t_orders"],
+        order=config["thermal"]["gamma_t_order"],
+        candidates=config["thermal"]["gamma_t_candidates"],
     log:
         "logs/{dataset}/gamma_t_fit.log",
     benchmark:
         "benchmarks/out/{dataset}/gamma_t_fit.tsv"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=10,
+        **resources_for("large"),
     script:
         "../scripts/gamma_t_fit.py"
 
@@ -126,16 +102,15 @@ rule frequency_effect:
         runs=lambda w: list(sines(w.dataset, "ch5_sine_").values()),
         frequencies=lambda w: [drive_frequency(w.dataset, e) for e in sines(w.dataset, "ch5_sine_").values()],
         reference=GAMMA_RUN,
-        bins=20,
-        min_windows=10,
+        bins=config["thermal"]["frequency_effect_bins"],
+        min_windows=config["thermal"]["frequency_effect_min_windows"],
     log:
         "logs/{dataset}/frequency_effect.log",
     benchmark:
         "benchmarks/out/{dataset}/frequency_effect.tsv"
     threads: 1
     resources:
-        mem_mb=1000,
-        runtime=10,
+        **resources_for("large"),
     script:
         "../scripts/frequency_effect.py"
 
@@ -161,8 +136,7 @@ rule estimator_diagram:
         "benchmarks/out/{dataset}/estimator_diagram.tsv"
     threads: 1
     resources:
-        mem_mb=500,
-        runtime=5,
+        **resources_for("medium"),
     script:
         "../scripts/estimator_diagram.py"
 
@@ -188,8 +162,7 @@ rule coupled:
         "benchmarks/out/{dataset}/coupled/{experiment}.tsv"
     threads: 1
     resources:
-        mem_mb=config["resources"]["analysis_mem_mb"],
-        runtime=60,
+        **resources_for("stream_long"),
     script:
         "../scripts/coupled.py"
 
@@ -212,62 +185,12 @@ rule ch7_summary:
         "benchmarks/out/{dataset}/ch7_summary.tsv"
     threads: 1
     resources:
-        mem_mb=500,
-        runtime=10,
+        **resources_for("medium"),
     script:
         "../scripts/ch7_summary.py"
 
 
-rule thermal_recovery:
-    """τ, γ, k_T of Table 7.1 and Γ_T's g against the twin's truth (simulated datasets: it reads /truth)."""
-    input:
-        unpack(lambda w: captures(w.dataset, truth_capture="ch7_freq_100hz")),
-        table_7_1="results/{dataset}/ch7/table_7_1.csv",
-        gamma_t=rules.gamma_t_fit.output.gamma_t,
-        library=library_sources("thermal_recovery"),
-    output:
-        recovery=report("results/{dataset}/twin/thermal_recovery.csv", caption="../report/thermal_recovery.rst",
-                        category="{dataset}", subcategory="Twin validation"),
-    log:
-        "logs/{dataset}/thermal_recovery.log",
-    benchmark:
-        "benchmarks/out/{dataset}/thermal_recovery.tsv"
-    threads: 1
-    resources:
-        mem_mb=300,
-        runtime=5,
-    script:
-        "../scripts/thermal_recovery.py"
 
-
-rule temperature_budget:
-    """The mixed run's coupled temperature errors (Fig 7.12) split into their sources with the twin's
-    truth: power estimate, thermal model, thermometer (verification; simulated datasets: it reads /truth)."""
-    input:
-        unpack(lambda w: captures(w.dataset, capture=COUPLED_FIGURES["fig_7_12"])),
-        traces=f"results/{{dataset}}/ch7/coupled/{COUPLED_FIGURES['fig_7_12']}.nc",
-        stats=f"results/{{dataset}}/ch7/coupled/{COUPLED_FIGURES['fig_7_12']}.json",
-        thermal_model="results/{dataset}/ch7/thermal_model.json",
-        library=library_sources("temperature_budget"),
-    output:
-        report("results/{dataset}/twin/temperature_budget.csv", caption="../report/temperature_budget.rst",
-               category="{dataset}", subcategory="Twin validation"),
-    log:
-        "logs/{dataset}/temperature_budget.log",
-    benchmark:
-        "benchmarks/out/{dataset}/temperature_budget.tsv"
-    threads: 1
-    resources:
-        mem_mb=1000,
-        runtime=10,
-    script:
-        "../scripts/temperature_budget.py"
-
-
-#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets each runs for
-#: (the twin's truth only for simulated datasets: a measured one has none)
-THERMAL_OUTPUTS = (
-    expand([*rules.thermal_identify.output, *rules.gamma_t_fit.output, *rules.frequency_effect.output,
-            *rules.estimator_diagram.output, *rules.ch7_summary.output], dataset=THERMAL_DATASETS)
-    + expand([*rules.thermal_recovery.output, *rules.temperature_budget.output], dataset=[d for d in THERMAL_DATASETS if d in SIMULATED])
-)
+#: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
+THERMAL_OUTPUTS = expand([*rules.thermal_identify.output, *rules.gamma_t_fit.output, *rules.frequency_effect.output,
+                          *rules.estimator_diagram.output, *rules.ch7_summary.output], dataset=THERMAL_DATASETS)

@@ -5,5 +5,6 @@
 - ``manifest``: dataset manifests, protocols and config, validated against ``schemas/``;
 - ``provenance``: atomic outputs with their provenance sidecars, script logging;
 - ``importer``: a lab's CSV/MAT recordings into captures (``selfsense import``);
-- ``figures``: the plotting helpers every figure is drawn with.
+- ``figures``: the plotting helpers every figure is drawn with;
+- ``config_docs``: docs/configuration.md, generated from the config schema.
 """
