@@ -1,31 +1,20 @@
 """Rule `error_budget`: the observer's Table 5.4 error (and Chapter 6's ε_OCL) split into its
-sources with the twin's truth.
+sources with the twin's truth (selfsense.verify.error_budget.budget_table).
 """
-
-from pathlib import Path
-
-import pandas as pd
 
 from selfsense.io import figures
 from selfsense.io.provenance import save_figure, script_logging, write_table
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
-from selfsense.verify.error_budget import SOURCES, capture_budget
+from selfsense.verify.error_budget import SOURCES, budget_table
 
 
 def main(runs, gamma, observer, table, figure, n_periods, log=None):
     """runs: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Chapter 6
     closed-loop run or None, the protocol of a P1 run or None, the creep run's transient [s] or
     None)}."""
-    logger, poly, gains = script_logging(log), load_gamma(gamma), load_gains(observer)
-    result = pd.DataFrame(
-        [
-            {"run": Path(c).stem, "segment": s or None, "frequency [Hz]": f} | row
-            for c, (f, w, p1, transient) in runs.items()
-            for s, row in capture_budget(c, n_periods, poly, gains, w, p1, transient).items()
-        ]
-    )
-    result = result.astype({"frequency [Hz]": float})
+    logger = script_logging(log)
+    result = budget_table(runs, n_periods, load_gamma(gamma), load_gains(observer))
     config = {
         "n_periods": n_periods,
         "omega_c": [r[1] for r in runs.values()],

@@ -1,6 +1,5 @@
 """Rule `frequency_effect`: Figure 7.8 — the C_e–x relationship at each Chapter 5 drive frequency
-against Γ, with each run's temperature, so the frequency's effect is seen apart from self-heating.
-"""
+against Γ, with each run's temperature, to see the frequency's effect apart from self-heating."""
 
 from selfsense.chapters import ch7
 from selfsense.io.provenance import save_figure, script_logging, write_table
@@ -20,8 +19,7 @@ def main(
     min_windows=10,
     log=None,
 ):
-    """series / captures / frequencies: {run: ripple series path / capture path / drive
-    frequency [Hz]}."""
+    """series / captures / frequencies: {run: ripple series / capture / drive frequency [Hz]}."""
     logger = script_logging(log)
     gamma_poly = load_gamma(gamma)
     runs = {run: ch7.frequency_run(series[run], captures[run], frequencies[run]) for run in series}

@@ -1,11 +1,11 @@
 """Rule `gamma_t_fit`: Γ_T with temperature (Eq 7.13) on the 50 Hz heating run — Tables 7.2, 7.3
-(at the thesis's n = 5) and Γ_T of the order validated on the hotter 100 Hz run.
+(at the thesis's n = 5) and Γ_T of the order validated on the hotter 100 Hz run
+(selfsense.chapters.ch7.gamma_t_fits).
 """
 
-from selfsense.chapters.ch7 import figure_7_7, gamma_t, gamma_t_data
+from selfsense.chapters.ch7 import figure_7_7, gamma_t_fits
 from selfsense.io.capture import read_series
 from selfsense.io.provenance import provenance, save_figure, script_logging, write_json, write_table
-from selfsense.methods.gamma import GammaPolynomial
 
 
 def main(
@@ -22,24 +22,13 @@ def main(
 ):
     logger = script_logging(log)
     s, p, vs, vp = (read_series(f) for f in (samples, power, val_samples, val_power))
-    tables, fits = gamma_t(
-        gamma_t_data(s, p["time"], p["T_mid"]),
-        gamma_t_data(vs, vp["time"], vp["T_mid"]),
-        orders,
-        order,
-        candidates,
-    )
-    inputs, cfg = (
-        [samples, power, val_samples, val_power],
-        {"orders": list(orders), "order": order, "candidates": list(candidates)},
-    )
+    tables, records = gamma_t_fits(s, p, vs, vp, orders, order, candidates)
+    inputs = [samples, power, val_samples, val_power]
+    cfg = {"orders": list(orders), "order": order, "candidates": list(candidates)}
     for name, table in tables.items():
         write_table(table, out[name], inputs=inputs, config=cfg)
-    for name, fit in fits.items():
-        write_json(
-            GammaPolynomial.from_fit(fit).record() | {"provenance": provenance(inputs, cfg)},
-            out[name],
-        )
+    for name, record in records.items():
+        write_json(record | {"provenance": provenance(inputs, cfg)}, out[name])
     save_figure(figure_7_7(s), figure, inputs=inputs)
     logger.info("\n%s\n%s", tables["table_7_2"].to_string(), tables["order"].to_string())
 

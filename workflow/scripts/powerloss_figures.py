@@ -1,8 +1,5 @@
 """Rule `powerloss_figures`: Figures 2–11 of Ronkanen 2002 from the captures and the identified
-constants.
-"""
-
-from pathlib import Path
+constants (selfsense.chapters.ronkanen.figures_paper)."""
 
 import pandas as pd
 
@@ -22,19 +19,12 @@ def main(
     velocity_window=2.0,
     log=None,
 ):
-    """ramps: the ±300 nA ramps compensated for too large, too small and ideal X (Figs 3, 4, 5–6);
-    captures: {"<decay|repeat|drift>_<current|voltage>": path}; out: {figure name: path}."""
     logger = script_logging(log)
     records = ronkanen.read_records([hold, *ramps, *captures.values()])
+    t1, t2 = pd.read_csv(table_1), pd.read_csv(table_2)
+    a_cmd = ronkanen.load_identified(identified, "a_cmd")
     built = ronkanen.figures_paper(
-        records[Path(hold).stem],
-        [records[Path(r).stem] for r in ramps],
-        ronkanen.by_kind(records, captures),
-        pd.read_csv(table_1),
-        pd.read_csv(table_2),
-        ronkanen.load_identified(identified, "a_cmd"),
-        drift_start,
-        velocity_window,
+        records, hold, ramps, captures, t1, t2, a_cmd, drift_start, velocity_window
     )
     inputs = [hold, *ramps, *captures.values(), table_1, table_2, identified]
     config = {"velocity_window": velocity_window, "drift_start": drift_start}

@@ -1,4 +1,5 @@
-"""Rule `scorecard`: every published number beside its reproduction for one dataset (CSV + page)."""
+"""Rule `scorecard`: every published number beside its reproduction for one dataset (CSV + page;
+selfsense.scorecard.reference_values.dataset_scorecard)."""
 
 from pathlib import Path
 
@@ -6,11 +7,10 @@ import pandas as pd
 
 from selfsense.io.manifest import load_dataset, load_yaml
 from selfsense.io.provenance import atomic_path, provenance, script_logging, write_json, write_table
-from selfsense.scorecard.reference_values import reference_rows
-from selfsense.scorecard.reference_values import tables_read as reference_tables
-from selfsense.scorecard.registry import applicable, parse_registry, tables_read
+from selfsense.scorecard.reference_values import dataset_scorecard, dataset_tables
+from selfsense.scorecard.registry import parse_registry
 from selfsense.scorecard.render import scorecard_html
-from selfsense.scorecard.scoring import counts, scorecard
+from selfsense.scorecard.scoring import counts
 
 REGISTRY = "workflow/scorecard.yaml"
 
@@ -20,17 +20,9 @@ def main(manifest, results_dir, table, page, tables=None, registry=REGISTRY, log
     meta = load_dataset(Path(manifest).parent.parent, Path(manifest).parent.name)
     entries = parse_registry(load_yaml(registry), registry)
     if tables is None:  # run alone: the registry's tables that exist
-        tables = [
-            p
-            for t in tables_read(applicable(entries, meta)) + reference_tables(meta)
-            if (p := Path(results_dir) / t).exists()
-        ]
+        tables = [p for t in dataset_tables(entries, meta) if (p := Path(results_dir) / t).exists()]
     read = {Path(t).relative_to(results_dir).as_posix(): pd.read_csv(t) for t in tables}
-    card, own = scorecard(entries, read, meta), reference_rows(meta, read)
-    if (
-        not own.empty
-    ):  # concatenating an empty frame would turn the float columns to object (no %.10g)
-        card = own if card.empty else pd.concat([card, own], ignore_index=True)
+    card = dataset_scorecard(entries, read, meta)
     inputs = [registry, manifest, *map(str, tables)]
     write_table(card, table, inputs=inputs)
     with atomic_path(page) as tmp:

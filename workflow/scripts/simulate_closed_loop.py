@@ -1,18 +1,11 @@
-"""Rule `simulate_closed_loop`: a closed-loop experiment on the twin, its real-time loop configured
-with the identified Γ (Ch 5), a0 (Ch 5) and k/α (Ch 4), as the bench's loop was; writes the capture
-and its QC report (validated as it is written).
-"""
+"""Rule `simulate_closed_loop`: a closed-loop experiment on the twin, its loop configured with the
+identified Γ, a0 and k/α (selfsense.twin.closed_loop.simulate_closed_loop), and its QC report."""
 
 from pathlib import Path
 
 from selfsense.io.capture import write_scan_report
 from selfsense.io.provenance import script_logging
-from selfsense.methods.control import IntegralController
-from selfsense.methods.electromech import load_k_over_alpha
-from selfsense.methods.gamma import load_gamma
-from selfsense.methods.observer import load_gains
-from selfsense.twin.closed_loop import controller_factory
-from selfsense.twin.experiment import simulate_experiment
+from selfsense.twin.closed_loop import simulate_closed_loop
 
 
 def main(
@@ -30,27 +23,10 @@ def main(
     report=None,
     log=None,
 ):
-    logger = script_logging(log)
-    g, gains, loop = (
-        load_gamma(gamma),
-        load_gains(observer),
-        IntegralController(omega_c, load_k_over_alpha(model)),
-    )
-    scan = simulate_experiment(
-        raw_dir,
-        dataset,
-        experiment,
-        {"campaign": campaign, "capture": capture},
-        output,
-        controller_for=controller_factory(n_periods, g, gains, loop),
-    )
+    script_logging(log)  # the twin logs the capture it wrote and the loop it ran with
+    cfg = {"campaign": campaign, "capture": capture, "omega_c": omega_c, "n_periods": n_periods}
+    scan = simulate_closed_loop(raw_dir, dataset, experiment, cfg, gamma, observer, model, output)
     write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
-    logger.info(
-        "wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m",
-        scan.path,
-        loop.k_over_alpha,
-        gains.a0,
-    )
 
 
 if "snakemake" in globals():

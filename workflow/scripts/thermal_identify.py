@@ -1,6 +1,5 @@
-"""Rule `thermal_identify`: τ, γ, k_T from the heating runs (Table 7.1);
-Figures 7.1–7.3, 7.5–7.6.
-"""
+"""Rule `thermal_identify`: τ, γ, k_T from the heating runs (Table 7.1); Figures 7.1–7.3, 7.5–7.6
+(selfsense.chapters.ch7.thermal_identification)."""
 
 from pathlib import Path
 
@@ -32,9 +31,7 @@ def main(freq_series, volt_series, check_series, manifest, model, volt_segments,
     write_json(record | {"provenance": provenance(inputs)}, out["thermal_model"])
     for name, fig in built.items():
         save_figure(fig, out[name], inputs=inputs)
-    if not record[
-        "identified"
-    ]:  # e.g. the smoke campaign's short runs: the later stages skip, and say why
+    if not record["identified"]:  # e.g. the smoke campaign's short runs: later stages skip
         logger.warning(record["reason"])
     logger.info("\n%s", tables["per_run"].to_string())
 

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from selfsense.chapters import figure_names
+from selfsense.io.capture import open_capture
 from selfsense.methods.electromech import fit_charge_position
 from selfsense.methods.gamma import (
     GammaPolynomial,
@@ -18,7 +19,7 @@ from selfsense.methods.gamma import (
     model_selection_table,
 )
 from selfsense.methods.observer import HPOGains, peak_offset_gain
-from selfsense.methods.ripple import SamplingPlan
+from selfsense.methods.ripple import SamplingPlan, plan_from_capture
 from selfsense.methods.selfsensing import SelfSensingChain
 
 OFFSET_ATTENUATION = "offset attenuation [dB re 1 m/A]"
@@ -238,6 +239,39 @@ def run_observer(
     if phases:
         stats["max error by phase [µm]"] = {label: e * 1e6 for label, e in phase_max.items()}
     return stats, traces
+
+
+#: the capture's channels :func:`observe_capture` streams
+OBSERVED = ("Ur", "Ir", "I", "x_laser")
+
+
+def observe_capture(
+    capture,
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+    n_periods: int,
+    transient_s: float | None = None,
+):
+    """:func:`run_observer` over one capture (its ripple windows of ``n_periods``), the error
+    counted from the end of its warm-up hold as Table 5.4 counts it and, given the creep run's
+    ``transient_s``, in its transient and steady state too (:func:`creep_phases`).
+
+    Returns (stats, traces): :func:`run_observer`'s with the capture's warm-up ("warmup [s]") and
+    the NaN samples of each channel it read ("NaN samples")."""
+    with open_capture(capture, require=OBSERVED) as cap:
+        settle = float(cap.attribute("warmup_s"))
+        phases = creep_phases(settle, transient_s) if transient_s is not None else ()
+        stats, traces = run_observer(
+            cap.iter_chunks(OBSERVED),
+            plan_from_capture(cap, n_periods),
+            gamma,
+            gains,
+            cap.fs,
+            settle,
+            phases=phases,
+        )
+        nan = dict(cap.stats.nan)
+    return stats | {"warmup [s]": settle, "NaN samples": nan}, traces
 
 
 def table_5_4(stats_by_f: Mapping[float, Mapping[str, float]]) -> pd.DataFrame:

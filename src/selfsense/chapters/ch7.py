@@ -20,7 +20,12 @@ from selfsense.methods.gamma import (
 )
 from selfsense.methods.metrics import branch_means, direction
 from selfsense.methods.observer import HPOGains
-from selfsense.methods.ripple import RippleExtractor, SamplingPlan, WindowMeans
+from selfsense.methods.ripple import (
+    RippleExtractor,
+    SamplingPlan,
+    WindowMeans,
+    plan_from_capture,
+)
 from selfsense.methods.selfsensing import SelfSensingChain
 from selfsense.methods.thermal import (
     PowerAverager,
@@ -118,6 +123,41 @@ def extract(
             },
             (float(np.max(d["U"], initial=-np.inf)), float(np.max(x, initial=-np.inf))),
         )
+
+
+#: the fast channels :func:`extract_capture` streams, and the IR thermometers it reads beside them
+EXTRACTED = ("U", "I", "x_laser", "Ur", "Ir")
+THERMOMETERS = ("T_top", "T_mid", "T_bot")
+#: the units of :func:`extract_capture`'s series
+SERIES_UNITS = {"time": "s", "P_PS": "W", "C_e": "F", "x_laser": "m"} | {
+    t: "degC" for t in THERMOMETERS
+}
+
+
+def extract_capture(
+    capture, k_over_alpha: float, n_periods: int, interval: float = 0.1, every: int = 200
+):
+    """Rule thermal_extract's series of one Chapter 7 capture, streamed (:func:`extract`):
+
+    - the loss power P_PS per ``interval`` [s] (Eq 7.4) beside the capture's IR thermometers, both
+      cut to their common length ({"time", "P_PS", "T_top"?, "T_mid", "T_bot"?});
+    - the run's peaks {"U_max" [V], "x_max" [m]} (Eq 7.11's k/α from them);
+    - Γ_T's samples, one ripple window of ``n_periods`` in ``every`` ({"time", "C_e",
+      "x_laser"}).
+    """
+    with open_capture(capture, require=EXTRACTED + ("T_mid",)) as cap:
+        plan = plan_from_capture(cap, n_periods)
+        parts = list(
+            extract(cap.iter_chunks(EXTRACTED), cap.fs, plan, k_over_alpha, interval, every)
+        )
+        slow = [c for c in THERMOMETERS if c in cap.channels]
+        temps = cap.read(slow, dim="time_slow")
+    P = {k: np.concatenate([p[0][k] for p in parts]) for k in ("time", "P_PS")}
+    n = min(len(P["time"]), len(temps["T_mid"]))
+    power = {k: v[:n] for k, v in P.items()} | {c: temps[c][:n] for c in slow}
+    peaks = {"U_max": max(p[2][0] for p in parts), "x_max": max(p[2][1] for p in parts)}
+    samples = {k: np.concatenate([p[1][k] for p in parts]) for k in ("time", "C_e", "x_laser")}
+    return power, peaks, samples
 
 
 def identify(
@@ -413,6 +453,32 @@ def gamma_t(data, validation, orders=(4, 5, 6), order: int = 5, candidates=(1, 2
     return tables, {"gamma_t": fit_gamma(C, x, chosen, temperature=T), "gamma_t_n5": fit}
 
 
+def gamma_t_fits(
+    samples: Mapping[str, np.ndarray],
+    thermometers: Mapping[str, np.ndarray],
+    validation_samples: Mapping[str, np.ndarray],
+    validation_thermometers: Mapping[str, np.ndarray],
+    orders=(4, 5, 6),
+    order: int = 5,
+    candidates=(1, 2, 3, 4, 5, 6),
+):
+    """Rule gamma_t_fit's results: :func:`gamma_t` on the 50 Hz heating run's C_e/x ``samples``
+    (rule thermal_extract's) with its middle thermometer (``thermometers``: its power series,
+    "time" and "T_mid"; Eq 7.13's data, :func:`gamma_t_data`), the order validated on the hotter
+    100 Hz run's. Returns ({table: DataFrame}: Tables 7.2, 7.3 at ``order``, the order's
+    validation; {"gamma_t", "gamma_t_n5": the fit's :class:`GammaPolynomial` record})."""
+    tables, fits = gamma_t(
+        gamma_t_data(samples, thermometers["time"], thermometers["T_mid"]),
+        gamma_t_data(
+            validation_samples, validation_thermometers["time"], validation_thermometers["T_mid"]
+        ),
+        orders,
+        order,
+        candidates,
+    )
+    return tables, {name: GammaPolynomial.from_fit(fit).record() for name, fit in fits.items()}
+
+
 def figure_7_7(samples: Mapping[str, np.ndarray]):
     """Fig 7.7: C_e against position on the 50 Hz run while the stack heats (:func:`gamma_t`'s
     samples)."""
@@ -494,6 +560,41 @@ def against_measured(
         for key in ("T_SH_HPO", "T_SH_PS")
     }
     return out, dict(result) | errors
+
+
+#: the capture's channels :func:`coupled_run` streams, and the units of its traces
+COUPLED_CHANNELS = ("U", "I", "x_laser", "Ur", "Ir")
+COUPLED_UNITS = {"time": "s", "T_SH_HPO": "degC", "T_SH_PS": "degC", "T_mid": "degC"}
+
+
+def coupled_run(
+    capture,
+    measured: Mapping[str, np.ndarray],
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+    thermal: Mapping[str, float],
+    k_over_alpha: float,
+    n_periods: int,
+):
+    """Fig 7.9 over one heating run: :func:`coupled_estimation` of the ``capture`` (its ripple
+    windows of ``n_periods``, the observer error counted from its warm-up on) with Γ_T (Eq 7.13)
+    ``gamma``, the observer ``gains`` and the thermal model rule thermal_identify identified
+    (``thermal``: its record's "tau" [s], "gamma" [K/W] and "T_amb" [°C], Table 7.1), then
+    :func:`against_measured` the middle thermometer's ``measured`` series ({"time", "T_mid"}).
+    Returns (traces, result)."""
+    with open_capture(capture, require=COUPLED_CHANNELS) as cap:
+        traces, result = coupled_estimation(
+            cap.iter_chunks(COUPLED_CHANNELS),
+            cap.fs,
+            plan_from_capture(cap, n_periods),
+            gamma,
+            gains,
+            ThermalModel(thermal["tau"], thermal["gamma"]),
+            k_over_alpha,
+            thermal["T_amb"],
+            float(cap.attribute("warmup_s")),
+        )
+    return against_measured(traces, result, measured)
 
 
 def coupled_table(stats: Mapping[str, Mapping]) -> pd.DataFrame:

@@ -110,16 +110,6 @@ def by_kind(
     return {k: {c: records[Path(captures[f"{k}_{c}"]).stem] for c in CONTROLS} for k in KINDS}
 
 
-def add_run_arguments(cli) -> None:
-    """The command-line arguments of a script run alone on Section 7's runs: ``--captures`` as
-    <kind>_<control>=path (:func:`by_kind`) and the drift hold's start and duration."""
-    cli.add_argument("--captures", nargs="+", required=True, help="<kind>_<control>=path")
-    cli.add_argument("--drift-start", dest="drift_start", type=float, required=True, help="[s]")
-    cli.add_argument(
-        "--drift-duration", dest="drift_duration", type=float, default=120.0, help="[s]"
-    )
-
-
 def load_identified(path: str | Path, key: str) -> float:
     """One of the identified constants :func:`identify` returns (e.g. R [Ω], a_cmd [m/C]), as
     written to CSV."""
@@ -405,19 +395,25 @@ def recovery(
 # Figures 2–11
 # ---------------------------------------------------------------------------------------------
 def figures_paper(
-    hold: Record,
-    ramps: Iterable[Record],
-    pairs: Mapping[str, Mapping[str, Record]],
+    records: Mapping[str, Record],
+    hold: str | Path,
+    ramps: Iterable[str | Path],
+    captures: Mapping[str, str | Path],
     table1: pd.DataFrame,
     table2: pd.DataFrame,
     a_cmd: float,
     drift_start: float,
     velocity_window: float,
 ) -> dict[str, object]:
-    """Figures 2–11 by file name (:data:`FIGURES`): ``ramps`` in the order of :data:`RAMP_FIGURES`,
-    ``pairs`` from :func:`by_kind`."""
-    velocity = dict(zip(RAMP_FIGURES, ramps))
-    built = {2: figure_2(hold)}
+    """Figures 2–11 by file name (:data:`FIGURES`) from the ``records`` of :func:`read_records`,
+    each named by its capture: the static ``hold``, the ±300 nA ``ramps`` compensated for too
+    large, too small and the ideal X (Figs 3, 4, 5–6, the order of :data:`RAMP_FIGURES`) and the
+    positioning runs ``captures`` ({"<decay|repeat|drift>_<current|voltage>": path},
+    :func:`by_kind`), with Tables 1 and 2, the identified a_cmd [m/C], the drift hold's start [s]
+    and the window [s] of the ramps' velocity."""
+    pairs = by_kind(records, captures)
+    velocity = dict(zip(RAMP_FIGURES, (records[Path(r).stem] for r in ramps)))
+    built = {2: figure_2(records[Path(hold).stem])}
     for n, rec in velocity.items():
         built[n] = velocity_figure(
             rec,

@@ -1,25 +1,33 @@
 """The bench's real-time loop (thesis Chapter 6): the self-sensing chain of
 :mod:`selfsense.methods.selfsensing` feeds the integral controller of
 :mod:`selfsense.methods.control`, stepped inside the twin block by block — the same objects the
-offline analysis runs over the captures.
+offline analysis runs over the captures. :func:`simulate_closed_loop` runs a closed-loop experiment
+of the catalogue with the loop configured from the identified values.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from selfsense.methods.control import IntegralController
-from selfsense.methods.gamma import GammaPolynomial
-from selfsense.methods.observer import HPOGains
+from selfsense.methods.electromech import load_k_over_alpha
+from selfsense.methods.gamma import GammaPolynomial, load_gamma
+from selfsense.methods.observer import HPOGains, load_gains
 from selfsense.methods.ripple import SamplingPlan
 from selfsense.methods.selfsensing import SelfSensingChain
+from selfsense.twin.experiment import simulate_experiment
 
 if TYPE_CHECKING:
+    from selfsense.io.capture import ScanReport
     from selfsense.methods.drive import Drive
     from selfsense.twin.bench import DaqPlan
+
+LOG = logging.getLogger("selfsense.twin")
 
 
 class HPOIntegralController:
@@ -115,3 +123,41 @@ def realtime_controller(
     return HPOIntegralController(
         chain, controller, drive, daq.fs, plan.ns, warmup, compiled=compiled
     )
+
+
+def simulate_closed_loop(
+    raw_dir: str | Path,
+    dataset: str,
+    experiment: str,
+    config: Mapping,
+    gamma: str | Path,
+    observer: str | Path,
+    model: str | Path,
+    output: str | Path | None = None,
+) -> ScanReport:
+    """A closed-loop experiment of the catalogue (Chapter 6) on the twin, its real-time loop
+    (:func:`realtime_controller`) configured as the bench's was: with the Γ (Eq 5.4, Table 5.2) and
+    observer gains (a0, ω_S, ζ_S; Table 5.3) the Chapter 5 stages wrote to ``gamma`` and
+    ``observer``, and K_I = ω_C·k/α (Eq 6.3) with k/α from the Chapter 4 identification's
+    ``model``. Writes the capture (:func:`selfsense.twin.experiment.simulate_experiment`) and
+    returns its QC scan; logs the K_I's k/α and the a0 it ran with.
+
+    ``config``: the experiment's "campaign" and "capture" settings (as ``simulate_experiment``
+    takes them), the loop's crossover "omega_c" [rad/s] and the ripple windows' "n_periods"."""
+    gains = load_gains(observer)
+    loop = IntegralController(config["omega_c"], load_k_over_alpha(model))
+    scan = simulate_experiment(
+        raw_dir,
+        dataset,
+        experiment,
+        {"campaign": config["campaign"], "capture": config["capture"]},
+        output,
+        controller_for=controller_factory(config["n_periods"], load_gamma(gamma), gains, loop),
+    )
+    LOG.info(
+        "wrote %s with K_I from k/α = %.4g V/m, a0 = %.4g C/m",
+        scan.path,
+        loop.k_over_alpha,
+        gains.a0,
+    )
+    return scan

@@ -42,8 +42,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from selfsense.chapters.ch5 import creep_phases, offset_compensated_charge
 from selfsense.chapters.ch6 import segment_windows, settled_after
@@ -325,6 +327,28 @@ def capture_budget(
             loop_rate=plan_from_capture(cap, 1),
             windows=windows,
         )
+
+
+def budget_table(
+    runs: Mapping[str, tuple],
+    n_periods: int,
+    gamma: GammaPolynomial,
+    gains: HPOGains,
+) -> pd.DataFrame:
+    """Rule error_budget's table: :func:`capture_budget` of each run, one row per run and
+    segment, the run named by its capture.
+
+    ``runs``: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Chapter 6
+    closed-loop run or None, the protocol of a P1 run or None, the creep run's transient [s] or
+    None)}: Table 5.4's runs are counted as that table counts them, Chapter 6's as ε_OCL
+    (Tables 6.1, 6.2)."""
+    return pd.DataFrame(
+        [
+            {"run": Path(c).stem, "segment": s or None, "frequency [Hz]": f} | row
+            for c, (f, w, p1, transient) in runs.items()
+            for s, row in capture_budget(c, n_periods, gamma, gains, w, p1, transient).items()
+        ]
+    ).astype({"frequency [Hz]": float})
 
 
 #: the sources of the charge–position error (Fig 5.2), in the order they telescope

@@ -22,8 +22,14 @@ import pandas as pd
 
 from selfsense.chapters.ch5 import gamma_data
 from selfsense.chapters.ch7 import gamma_t_data
-from selfsense.io.capture import open_capture
-from selfsense.methods.gamma import GammaPolynomial, coefficient_table, curve_difference, fit_gamma
+from selfsense.io.capture import open_capture, read_series
+from selfsense.methods.gamma import (
+    GammaPolynomial,
+    coefficient_table,
+    curve_difference,
+    fit_gamma,
+    load_gamma,
+)
 from selfsense.methods.ripple import plan_from_capture
 from selfsense.verify.truth import Truth
 
@@ -185,3 +191,29 @@ def capture_variants(
     if thermometer is None:
         return gamma_variants(series, truth, fs, block_len, n_periods, warmup)
     return gamma_t_variants(series, thermometer["time"], thermometer["T_mid"], truth, fs, block_len)
+
+
+def truth_refits(
+    capture,
+    series,
+    fits: Mapping[str, str],
+    printed: GammaPolynomial,
+    x_max_um: float,
+    n_periods: int,
+    temperatures: Sequence[float] = (0.0,),
+    power=None,
+) -> pd.DataFrame:
+    """Rule gamma_truth's table: :func:`curve_rows` of every fit the pipeline made of Γ (Eq 5.4,
+    Table 5.2) or, given the thermometers' ``power`` series, of Γ_T (Eq 7.13, Tables 7.2–7.3, with
+    the C·T row at the order of the fit named "thesis order"), refitted on :func:`capture_variants`
+    of the simulated ``capture`` and its ripple or Γ_T sample ``series``, against the ``printed``
+    curve over its stroke ``x_max_um`` [µm] at ``temperatures`` [°C] (Γ_T's).
+
+    ``fits``: {name: path of a fit's record (:func:`selfsense.methods.gamma.load_gamma`)}, each
+    refitted at its order; every path (the capture, the series, the fits, ``power``) is read
+    here."""
+    thermometer = read_series(power, ["time", "T_mid"]) if power else None
+    data = capture_variants(capture, read_series(series), n_periods, thermometer)
+    orders = {name: load_gamma(path).order for name, path in fits.items()}
+    interaction = orders["thesis order"] if thermometer is not None else None
+    return curve_rows(data, orders, printed, x_max_um, temperatures, interaction)

@@ -21,6 +21,7 @@ import pandas as pd
 
 from selfsense.chapters.ch4 import identify_sets
 from selfsense.io.capture import open_capture, read_series
+from selfsense.methods.electromech import geometry_from_actuator
 from selfsense.methods.ripple import plan_from_capture
 from selfsense.verify.gamma_truth import window_truth
 from selfsense.verify.truth import Truth
@@ -133,4 +134,45 @@ def hysteresis_share_recovery(identified, truth_states: Mapping[str, np.ndarray]
             }
             for _, r in rows.iterrows()
         ]
+    )
+
+
+def recovery_table(
+    per_set: pd.DataFrame,
+    hysteresis: pd.DataFrame,
+    capture: str | Path,
+    frequency: float,
+    sets: Sequence[str | Path],
+    series: Sequence[str | Path],
+    n_periods: int,
+    k_static: float,
+    actuator: Mapping,
+    where: str = "manifest",
+) -> pd.DataFrame:
+    """Rule model_recovery's table: the Case 1 / Case 2 parameters rule identify found (Table 4.2,
+    its per-set table ``per_set``) against the twin's built values and the model on truth
+    (:func:`model_recovery`), then Fig 4.8's U_H share (``hysteresis``, rule identify's
+    hysteresis_voltage table) against the twin's own (:func:`hysteresis_share_recovery`).
+
+    The built values and the U_H share are read from the /truth of ``capture``, a capture at
+    ``frequency`` [Hz]; the model on truth is :func:`identified_on_truth` of every Chapter 4 set
+    (its capture in ``sets``, its ripple series in ``series``, same order) with the static
+    stiffness ``k_static`` [N/m] (Eq 4.16) and the manifest's ``actuator`` (its moving mass and
+    geometry; ``where`` names the manifest in errors)."""
+    on_truth = identified_on_truth(
+        series,
+        sets,
+        n_periods,
+        k_static,
+        float(actuator["moving_mass_kg"]),
+        geometry_from_actuator(actuator, f"{where}: actuator"),
+    )
+    with open_capture(capture) as cap:
+        truth, states = cap.read_truth()
+    return pd.concat(
+        [
+            model_recovery(per_set, truth, on_truth),
+            hysteresis_share_recovery(hysteresis, states, frequency),
+        ],
+        ignore_index=True,
     )
