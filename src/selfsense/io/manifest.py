@@ -27,6 +27,8 @@ PROTOCOLS = Path("workflow") / "protocols"
 #: dataset names become paths: no separators, no dots at the start (matched whole: "$" alone
 #: would let a trailing newline through)
 DATASET_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
+#: protocol names too (workflow/protocols/<name>.yaml): the same rule
+PROTOCOL_NAME = DATASET_NAME
 #: experiment names become file names and Snakemake wildcards (no "-": the wildcard excludes it)
 EXPERIMENT_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_]*")
 #: YAML nested deeper than this is refused before it is built: libyaml's composer recurses in C,
@@ -34,6 +36,10 @@ EXPERIMENT_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_]*")
 MAX_YAML_DEPTH = 100
 #: and so is a manifest or config larger than this (they are a few kB)
 MAX_YAML_BYTES = 4 << 20
+#: and one whose nodes, aliases expanded, outnumber this: nine aliases of nine aliases of … make
+#: 9⁹ nodes of 750 bytes, which every walk of the document (the finite-value check, the schema)
+#: visits one by one. The largest shipped YAML, workflow/scorecard.yaml, has 7 579 (13× fewer)
+MAX_YAML_NODES = 100_000
 
 
 class ManifestError(ValueError):
@@ -44,8 +50,15 @@ class ManifestError(ValueError):
         self.key = key
 
 
+def _shown(key: Any) -> str:
+    """A key as an error line shows it: as written if a printable string (of a sane length),
+    else quoted and escaped (a key of a hostile document may hold a line break)."""
+    text = key if isinstance(key, str) and key.isprintable() else repr(key)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _where(error: jsonschema.ValidationError) -> str:
-    return ".".join(str(p) for p in error.absolute_path) or "(top level)"
+    return ".".join(_shown(p) for p in error.absolute_path) or "(top level)"
 
 
 def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
@@ -59,7 +72,7 @@ def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
         return
     if error.validator == "additionalProperties":
         allowed = set(error.schema.get("properties", {}))
-        extra = sorted(set(error.instance) - allowed)
+        extra = sorted(map(_shown, set(error.instance) - allowed))
         key = f"{_where(error)}.{extra[0]}" if error.absolute_path else extra[0]
         raise ManifestError(
             f"{source}: unknown key {key} (allowed: {', '.join(sorted(allowed))})", key
@@ -79,7 +92,15 @@ def _check_finite(doc: Any, source: str | Path, where: str = "") -> None:
         doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
     )
     for k, v in items:
-        _check_finite(v, source, f"{where}.{k}" if where else str(k))
+        _check_finite(v, source, f"{where}.{_shown(k)}" if where else _shown(k))
+
+
+class _DuplicateKey(Exception):
+    """A mapping's key given twice (raised while constructing; load_yaml names the file)."""
+
+    def __init__(self, key: Any, line: int):
+        super().__init__(key, line)
+        self.key, self.line = key, line
 
 
 class _Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
@@ -87,7 +108,34 @@ class _Loader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
 
     libyaml's parser where PyYAML has it: every job reads the manifests and protocols, and the
     pure-Python parser takes ≈ 0.3 s for them.
+
+    A key given twice in one mapping is refused (PyYAML keeps the last silently): each mapping is
+    checked once, before merge keys (``<<: *anchor``) bring in the keys its own may override.
     """
+
+    def __init__(self, stream: Any):
+        super().__init__(stream)
+        self._checked: set[int] = set()
+
+    def flatten_mapping(self, node: yaml.MappingNode) -> None:
+        # construct_mapping flattens every mapping first, and flattening recurses into the
+        # merged ones: so every mapping passes here before its merged keys are added
+        if id(node) not in self._checked:
+            self._checked.add(id(node))
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge" or not isinstance(
+                    key_node, yaml.ScalarNode
+                ):
+                    continue
+                key = self.construct_object(key_node)
+                try:
+                    if key in seen:
+                        raise _DuplicateKey(key, key_node.start_mark.line + 1)
+                    seen.add(key)
+                except TypeError:  # unhashable: the constructor refuses it itself
+                    continue
+        super().flatten_mapping(node)
 
 
 _Loader.add_implicit_resolver(
@@ -97,8 +145,67 @@ _Loader.add_implicit_resolver(
 )
 
 
+def _expanded_size(text: str, path: str | Path) -> None:
+    """Refuse, from the parser's events alone (nothing composed yet), a document nested deeper
+    than MAX_YAML_DEPTH or with more than MAX_YAML_NODES nodes, both counted with every alias
+    replaced by the node it names, as a walk of the loaded document sees them."""
+    nodes = 0  # nodes so far, aliases expanded
+    aliased = False
+    #: anchor → (nodes, height) of its node, once complete
+    anchors: dict[str, tuple[int, int]] = {}
+    #: the collections open: [nodes before it, its anchor, its tallest child's height]
+    open_: list[list[Any]] = []
+
+    def count(size: int) -> None:
+        nonlocal nodes
+        nodes += size
+        if nodes > MAX_YAML_NODES:
+            raise ManifestError(
+                f"{path}: expands to more than {MAX_YAML_NODES} nodes through YAML aliases"
+                if aliased
+                else f"{path}: more than {MAX_YAML_NODES} nodes, more than a manifest or "
+                "config can need"
+            )
+
+    def child(height: int) -> None:
+        if open_:
+            open_[-1][2] = max(open_[-1][2], height)
+
+    for event in yaml.parse(text, Loader=_Loader):
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            if len(open_) >= MAX_YAML_DEPTH:
+                raise ManifestError(f"{path}: nested deeper than {MAX_YAML_DEPTH} levels")
+            open_.append([nodes, event.anchor, 0])
+            count(1)
+        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            start, anchor, tallest = open_.pop()
+            if anchor is not None:
+                anchors[anchor] = (nodes - start, tallest + 1)
+            child(tallest + 1)
+        elif isinstance(event, yaml.ScalarEvent):
+            if event.anchor is not None:
+                anchors[event.anchor] = (1, 0)
+            count(1)
+            child(0)
+        elif isinstance(event, yaml.AliasEvent):
+            if any(frame[1] == event.anchor for frame in open_):
+                raise ManifestError(
+                    f"{path}: alias *{event.anchor} at line {event.start_mark.line + 1} is "
+                    "inside the node it names (a structure that contains itself)"
+                )
+            size, height = anchors.get(event.anchor, (1, 0))  # undefined: the composer says so
+            if len(open_) + height > MAX_YAML_DEPTH:
+                raise ManifestError(
+                    f"{path}: nested deeper than {MAX_YAML_DEPTH} levels through YAML aliases"
+                )
+            aliased = True
+            count(size)
+            child(height)
+
+
 def load_yaml(path: str | Path) -> Any:
-    """A YAML file (YAML 1.2 floats), its size and nesting bounded before it is built."""
+    """A YAML file (YAML 1.2 floats), its size, nesting and node count (aliases expanded)
+    bounded before it is built, a key given twice refused."""
     try:
         text = (
             path if hasattr(path, "read_text") else Path(path)
@@ -107,25 +214,27 @@ def load_yaml(path: str | Path) -> Any:
         raise ManifestError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as err:
         raise ManifestError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
+    if len(text) > MAX_YAML_BYTES:
+        raise ManifestError(
+            f"{path}: {len(text)} bytes, more than a manifest or config can need "
+            f"({MAX_YAML_BYTES} at most)"
+        )
     try:
-        if len(text) > MAX_YAML_BYTES:
-            raise ManifestError(
-                f"{path}: {len(text)} bytes, more than a manifest or config can need "
-                f"({MAX_YAML_BYTES} at most)"
-            )
-        depth = 0
-        for event in yaml.parse(text, Loader=_Loader):  # events only: nothing is composed yet
-            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
-                depth += 1
-                if depth > MAX_YAML_DEPTH:
-                    raise ManifestError(f"{path}: nested deeper than {MAX_YAML_DEPTH} levels")
-            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
-                depth -= 1
+        _expanded_size(text, path)  # events only: nothing is composed yet
         return yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = f" at line {mark.line + 1}" if mark else ""
         raise ManifestError(f"{path}: not valid YAML{line}") from None
+    except _DuplicateKey as err:
+        key = _shown(err.key)
+        raise ManifestError(f"{path}: key {key} given twice (line {err.line})", key) from None
+    except ManifestError:
+        raise
+    except Exception as err:  # PyYAML's constructors raise whatever they meet
+        # a scalar its tag cannot be built from (!!timestamp 2024-02-30, an empty !!int, an !!int
+        # of 5000 digits): ValueError, IndexError, …
+        raise ManifestError(f"{path}: not valid YAML ({type(err).__name__})") from None
 
 
 def check_dataset_name(name: str, source: str | Path) -> None:
@@ -134,6 +243,37 @@ def check_dataset_name(name: str, source: str | Path) -> None:
             f"{source}: dataset name {name!r} must be letters, digits, '_' or '-' "
             "(no path separators or '..')",
             "datasets",
+        )
+
+
+def protocol_catalogue(directory: str | Path = PROTOCOLS) -> list[str]:
+    """The protocols the catalogue folder has (its <name>.yaml files' names; none is read)."""
+    folder = Path(directory)
+    if not folder.is_dir():
+        return []
+    return sorted(
+        p.stem for p in folder.glob("*.yaml") if PROTOCOL_NAME.fullmatch(p.stem) and p.is_file()
+    )
+
+
+def check_protocol_name(
+    name: Any, source: str | Path, directory: str | Path | None = PROTOCOLS
+) -> None:
+    """A manifest's ``protocols:`` entry names workflow/protocols/<name>.yaml: a plain name (no
+    path separators or '..', so no file outside the catalogue is ever opened) that the catalogue
+    in ``directory`` has (not checked with ``directory=None``). Nothing of any file is quoted."""
+    catalogue = protocol_catalogue(directory) if directory is not None else []
+    has = f"the catalogue has {', '.join(catalogue)}" if catalogue else "no catalogue here"
+    if not (isinstance(name, str) and PROTOCOL_NAME.fullmatch(name)):
+        raise ManifestError(
+            f"{source}: protocols: {name!r} is not a protocol name "
+            f"(letters, digits, _ and -; {has})",
+            "protocols",
+        )
+    if directory is not None and name not in catalogue:
+        raise ManifestError(
+            f"{source}: protocols: {name!r} is not in the catalogue {directory} ({has})",
+            "protocols",
         )
 
 
@@ -207,6 +347,11 @@ def load_dataset(raw_dir: str | Path, name: str) -> dict:
                 f"with low < high (the ADC's full scale)",
                 f"daq.ranges.{channel}",
             )
+    # the names' form always; the catalogue where the workflow's folder has one (expand_protocols
+    # checks again against the catalogue it reads)
+    catalogue = PROTOCOLS if PROTOCOLS.is_dir() else None
+    for protocol in manifest["protocols"]:
+        check_protocol_name(protocol, path, catalogue)
     for experiment in manifest.get("experiments", ()):
         check_experiment_name(experiment, path)
     return manifest
@@ -256,10 +401,16 @@ def protocol_duration(protocol: Mapping[str, Any]) -> float:
 
 
 def expand_protocols(
-    protocol_names: list[str], campaign: str, directory: str | Path = PROTOCOLS
+    protocol_names: list[str],
+    campaign: str,
+    directory: str | Path = PROTOCOLS,
+    source: str | Path | None = None,
 ) -> dict[str, Experiment]:
     """The experiment catalogue for a campaign: sets expanded to <name>_s<k>, smoke overrides
-    applied."""
+    applied. Every name is checked (:func:`check_protocol_name`, blamed on ``source``, the
+    manifest, if given) before any file is opened."""
+    for chapter in protocol_names:
+        check_protocol_name(chapter, source or directory, directory)
     experiments: dict[str, Experiment] = {}
     for chapter in protocol_names:
         path = Path(directory) / f"{chapter}.yaml"
