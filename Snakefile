@@ -5,6 +5,8 @@
 # (docs/configuration.md).
 from snakemake.utils import min_version
 
+from selfsense.io.audit import check_inputs_unchanged
+
 min_version("9.0")
 
 
@@ -26,6 +28,11 @@ include: "workflow/rules/verify.smk"
 include: "workflow/rules/stages.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/twin.smk"
+
+# A measured capture or manifest replaced by other bytes with an older mtime (cp -p, rsync -t,
+# tar x) would give "Nothing to be done": stop with one line naming it. Here, not in onstart:
+# onstart runs neither in a dry run nor when there is nothing to do (docs/reliability.md).
+check_inputs_unchanged(MEASURED)
 
 
 rule all:

@@ -8,6 +8,7 @@ import logging
 import sys
 from pathlib import Path
 
+from selfsense.io.audit import report as audit_report
 from selfsense.io.capture import CaptureError
 from selfsense.io.importer import (
     ImportProblem,
@@ -33,6 +34,16 @@ a .mat file
 names its variables (U=rec.Y[0].Data:V, x_laser=data[1]:um). Units are converted to the
 contract's (V, A, m, N); channels: U, I, x_laser or x_disp, F, Ur, Ir, ... \
 (docs/capture-contract.md).
+
+Everything is checked before the capture appears, and a refusal is one line naming the file or
+the argument (exit 1) that leaves nothing behind: no capture, no temporary, no manifest change.
+A CSV is read in chunks, only the columns asked for, twice (check, then write): memory does not
+grow with its length; a .mat file is loaded whole. Data rows that end in the separator while the
+header does not keep their columns. Overload values (|v| >= 1e30, e.g. 9.9E+37, or +-inf) are
+stored as missing and counted (the capture's import_note), before a range is derived; a channel
+overloaded in more than 1 % of its samples, or without a single value, is refused. Imports into
+one dataset run one after another (its lock, raw/<dataset>/.import.lock); an existing capture is
+never overwritten.
 """
 
 
@@ -55,7 +66,8 @@ def parser() -> argparse.ArgumentParser:
     imp = commands.add_parser(
         "import",
         help="a CSV/TSV or .mat recording into raw/<dataset>/",
-        description="Import one recording as one capture of a measured dataset.",
+        description="Import one recording as one capture of a measured dataset (names: at "
+        "most 100 characters).",
         epilog=EXAMPLE,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -78,9 +90,12 @@ def parser() -> argparse.ArgumentParser:
         "--time",
         type=_arg(lambda t: parse_column(t, time=True)),
         metavar="COLUMN:UNIT",
-        help="the time column (s, ms, us); checked to be uniformly sampled",
+        help="the time column (s, ms, us): fs from the least-squares line through it, every "
+        "sample within a quarter sample of that line",
     )
-    timing.add_argument("--fs", type=float, help="sampling rate [Hz] when there is no time column")
+    timing.add_argument(
+        "--fs", type=float, help="sampling rate [Hz], finite and > 0, when there is no time column"
+    )
     imp.add_argument(
         "--range",
         action="append",
@@ -98,7 +113,11 @@ def parser() -> argparse.ArgumentParser:
         metavar="NAME=VALUE",
         help="a capture attribute, e.g. warmup_s=0.5 (docs/capture-contract.md)",
     )
-    imp.add_argument("--sep", help="column separator (default: tab for .tsv, else comma)")
+    imp.add_argument(
+        "--sep",
+        help="column separator, one character that is not part of a number ('\\t' for a tab; "
+        "default: tab for .tsv, else comma)",
+    )
     imp.add_argument(
         "--no-header", dest="header", action="store_false", help="the file has no header row"
     )
@@ -108,13 +127,47 @@ def parser() -> argparse.ArgumentParser:
     imp.add_argument(
         "--raw-dir", type=Path, default=Path("raw"), help="where datasets live (default: raw)"
     )
+    _add_audit(commands)
     return cli
+
+
+def _add_audit(commands) -> None:
+    audit = commands.add_parser(
+        "audit",
+        help="whether outputs still describe their inputs (sha256 in their provenance)",
+        description="Compare the sha256 each output's provenance recorded for its inputs with "
+        "the inputs now; one line per stale input with how to re-make it, or '<output>: up to "
+        "date (<n> inputs)'. Exit 1 if anything is stale or has no readable provenance, else 0 "
+        "(docs/auditing.md).",
+    )
+    audit.add_argument(
+        "outputs",
+        nargs="+",
+        type=Path,
+        metavar="OUTPUT",
+        help="a table, figure or JSON report, or a folder (results/<dataset>): every output in it",
+    )
+    audit.add_argument(
+        "--root",
+        type=Path,
+        default=Path("."),
+        help="the checkout the outputs were made in: recorded inputs are relative to it "
+        "(default: the current directory)",
+    )
+
+
+def _audit(args: argparse.Namespace) -> int:
+    lines, stale = audit_report(args.outputs, args.root)
+    print("\n".join(lines))
+    return 1 if stale else 0
 
 
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
     try:
         args = parser().parse_args(argv)
+        if args.command == "audit":
+            return _audit(args)
         capture, manifest = run_import(
             Request(
                 args.source,

@@ -1,5 +1,8 @@
 """Rule `check_capture`: a capture against its manifest (fs, channels, units, attributes), then
-validated and streamed once to count NaN / clipped samples → qc/<experiment>.json.
+validated (each channel one series along its time axis, packing within bounds, at least
+MIN_SAMPLES samples on a time axis that advances by 1/fs) and streamed once to count missing
+samples (FILL, each channel's _FillValue and missing_value: "nan") apart from clipped ones
+→ qc/<experiment>.json. What an analysis needs beyond that it checks where it opens the capture.
 """
 
 from selfsense.io.capture import read_header, scan_capture, write_scan_report
@@ -17,7 +20,7 @@ def main(capture, manifest, report, log=None):
     check_clipping(capture, scan.clipped, header, manifest)
     write_scan_report(scan, report, inputs=[capture, manifest])
     logger.info(
-        "%s: %d samples, NaN %s, clipped %s",
+        "%s: %d samples, missing (NaN) %s, clipped %s",
         capture,
         scan.n_samples,
         sum(scan.nan.values()),

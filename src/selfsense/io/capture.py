@@ -7,13 +7,35 @@ A simulated capture also carries a ``/truth`` group (true parameters and noisele
 analyses never read; only tests and the scorecard's parameter-recovery section do.
 
 Every failure raises :class:`CaptureError` whose message is one line that starts with the file.
+
+**Missing samples** (CF §2.5.1). A channel's sample is missing (NaN once unpacked, counted under
+``nan`` in the QC report, never as clipped) when its int16 code is the contract's
+:data:`FILL` (−32768, outside the ±INT16_FULL full scale), the channel's own ``_FillValue`` (or,
+when it declares none, netCDF's default int16 fill −32767, which netCDF4-python masks too), or one
+of its ``missing_value`` codes (a scalar or a vector, in the packed domain). The codes are read
+once per channel on open; a channel that declares no code besides FILL (every capture the
+:class:`CaptureWriter` makes, whose ``_FillValue`` is FILL) costs no extra comparison.
+
+**Minimum length**, stated here once. Every capture holds at least :data:`MIN_SAMPLES` samples on a
+time axis that advances by 1/fs per sample (:func:`open_capture` checks the length and both ends,
+streaming checks every sample in between: so check_capture and every analysis). An analysis that
+needs more says so where it opens the capture, ``open_capture(..., min_samples=, purpose=)``, or,
+when its minimum depends on the capture's attributes, :meth:`Capture.require_samples`:
+
+- ripple extraction (Eq 3.6–3.13): one Fourier window, ``ripple_window(np, ns)`` = np·ns samples
+  (48 at the thesis's np = 4, ns = 12);
+- characterise: one whole drive cycle at the least, :data:`CHARACTERISE_MIN_SAMPLES` (its loop
+  width needs 16 samples rising and 16 falling), and a drive U that varies
+  (:meth:`Capture.require_varying`, after the pass: a constant U has no stroke to divide by).
 """
 
 from __future__ import annotations
 
+import errno
 import logging
 import math
 import os
+import shutil
 import time
 import zlib
 from collections.abc import Iterator, Mapping, Sequence
@@ -47,6 +69,23 @@ COMPRESSIONS = ("zlib", "zstd", "blosc_lz4", "blosc_zstd")
 TWIN_COMPRESSION = ("blosc_zstd", 3)
 #: chunks smaller than this are never stored with blosc (see _filters)
 BLOSC_MIN_CHUNK_BYTES = 4096
+#: the fewest samples of any capture: a time axis with one step, so that fs can be checked
+MIN_SAMPLES = 2
+#: the fewest samples characterise takes: one drive cycle at the coarsest, 16 samples rising and
+#: 16 falling (the loop width's branches, selfsense.methods.characterise)
+CHARACTERISE_MIN_SAMPLES = 32
+#: bounds on a channel's packing: one ADC step at least MIN_SCALE and the full scale
+#: |add_offset| + INT16_FULL·scale_factor at most MAX_FULL_SCALE (in the channel's SI unit), so
+#: that squares and products of samples (powers, variances, fits) stay finite, normal float64
+MIN_SCALE = 1e-30
+MAX_FULL_SCALE = 1e30
+#: netCDF's default fill of int16, missing where a channel declares no _FillValue
+NC_DEFAULT_FILL_I2 = int(netCDF4.default_fillvals["i2"])
+
+
+def ripple_window(n_periods: int, ns: int) -> int:
+    """Samples of one ripple Fourier window: np folded periods of ns samples (Eq 3.6)."""
+    return int(n_periods) * int(ns)
 
 
 class CaptureError(ValueError):
@@ -56,6 +95,11 @@ class CaptureError(ValueError):
 class UnshrinkableChunk(CaptureError):
     """HDF5's blosc filter failed on a chunk it could not shrink (noise-like data): the capture
     was not written; zlib stores any data."""
+
+
+class CaptureWriteError(CaptureError):
+    """The capture's folder cannot take it (no space, read-only, a name too long): writing it again
+    with another compression would fail the same way."""
 
 
 @dataclass(frozen=True)
@@ -217,8 +261,42 @@ class CaptureWriter:
         }  # logged: benchmarks/run.py's shares
 
     def __enter__(self) -> CaptureWriter:
-        self.tmp = temporary_path(self.path)
-        nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        try:
+            self.tmp = temporary_path(self.path)
+            # created here first: the OS's errno names the cause, where netCDF-C reports any
+            # failed create (no space, read-only, a name too long) as "Permission denied"
+            os.close(os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        except OSError as err:
+            raise _cannot_write(self.path, err, self.tmp) from None
+        try:
+            nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        except OSError as err:
+            cause = _no_room(self.tmp, self._room())
+            _remove(self.tmp)
+            if cause is not None:
+                raise _cannot_write(self.path, cause, self.tmp) from None
+            # the folder took the file and has room: netCDF-C's errno says nothing here
+            raise CaptureWriteError(
+                f"{self.path}: cannot write the capture: HDF5 could not create it "
+                f"({err.strerror or err}) in a folder that is writable and has room "
+                f"(file locking on a network file system? HDF5_USE_FILE_LOCKING=FALSE)"
+            ) from None
+        try:
+            self._define(nc)
+        except BaseException:
+            nc.close()
+            _remove(self.tmp)
+            raise
+        self._nc = nc
+        return self
+
+    def _room(self) -> int:
+        """Bytes the file must be able to grow by for a failed write not to be a full disk: HDF5
+        writes chunk by chunk, so the largest chunk (the f8 time axis's), and 64 KiB of
+        metadata."""
+        return 8 * max(1, min(self._chunk_len, max(self.n_samples, self.n_slow))) + (1 << 16)
+
+    def _define(self, nc: netCDF4.Dataset) -> None:
         nc.setncatts({k: _attr(v) for k, v in self._attrs.items()})
         nc.Conventions = CONVENTIONS
         nc.createDimension("time", self.n_samples)
@@ -263,8 +341,6 @@ class CaptureWriter:
                     chunksizes=(chunk,),
                 )
         _limit_chunk_cache(nc)
-        self._nc = nc
-        return self
 
     def _time_var(self, nc: netCDF4.Dataset, dim: str, n: int) -> None:
         chunk = max(1, min(self._chunk_len, n))
@@ -306,15 +382,30 @@ class CaptureWriter:
         order: the writer appends sequentially)."""
         try:
             self._nc[name][start : start + len(values)] = values
-        except RuntimeError as err:  # a chunk the cache flushed failed its filters
+        except (RuntimeError, OSError) as err:  # a chunk the cache flushed failed
             raise self._unstorable(err) from None
         self._crc[name] = zlib.crc32(np.ascontiguousarray(values), self._crc.get(name, 0))
 
-    def _unstorable(self, err: RuntimeError) -> CaptureError:
-        return UnshrinkableChunk(
-            f"{self.path}: HDF5 could not store a chunk ({err}) with compression "
-            f"{self._compression[0]}, whose blosc filter fails on data it cannot shrink; "
-            f"zlib stores any data"
+    def _unstorable(self, err: Exception) -> CaptureError:
+        """Why HDF5 could not store a chunk. netCDF-C says only "HDF error", whether the disk is
+        full or blosc could not shrink the chunk, so the file system is asked first (the
+        temporary is about to be removed): a full disk, a quota or a read-only folder is a
+        :class:`CaptureWriteError`, which no other compression would cure; only then is it
+        blosc's :class:`UnshrinkableChunk`, which the twin writes again with zlib."""
+        cause = _no_room(self.tmp, self._room())
+        if cause is None and isinstance(err, OSError) and err.errno is not None:
+            cause = err
+        if cause is not None:
+            return _cannot_write(self.path, cause, self.tmp)
+        compression = self._compression[0]
+        if compression is not None and compression.startswith("blosc"):
+            return UnshrinkableChunk(
+                f"{self.path}: HDF5 could not store a chunk ({err}) with compression "
+                f"{compression}, whose blosc filter fails on data it cannot shrink; "
+                f"zlib stores any data"
+            )
+        return CaptureError(
+            f"{self.path}: HDF5 could not store a chunk ({err}) with compression {compression}"
         )
 
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
@@ -331,12 +422,13 @@ class CaptureWriter:
                 began = time.perf_counter()
                 nc.close()  # flushes the chunks still cached
                 self._seconds["packing and writing"] += time.perf_counter() - began
-        except RuntimeError as err:
-            self.tmp.unlink(missing_ok=True)
-            if exc_type is None:
-                raise self._unstorable(err) from None
+        except (RuntimeError, OSError) as err:
+            problem = self._unstorable(err) if exc_type is None else None
+            _remove(self.tmp)
+            if problem is not None:
+                raise problem from None
         if exc_type is not None:
-            self.tmp.unlink(missing_ok=True)
+            _remove(self.tmp)
             return
         expected = {
             "time": self.n_samples,
@@ -345,7 +437,7 @@ class CaptureWriter:
         }
         short = {d: p for d, p in self._pos.items() if p != expected[d]}
         if short:
-            self.tmp.unlink(missing_ok=True)
+            _remove(self.tmp)
             raise ValueError(f"{self.path}: writer stopped early at {short} samples")
         began = time.perf_counter()
         problem = _read_back(self.tmp, self._crc, self._chunk_len)
@@ -354,9 +446,13 @@ class CaptureWriter:
             "%s: %s", self.path, ", ".join(f"{what} {s:.2f} s" for what, s in self._seconds.items())
         )
         if problem:
-            self.tmp.unlink(missing_ok=True)
+            _remove(self.tmp)
             raise _fail(self.path, f"not renamed into place: {problem}")
-        os.replace(self.tmp, self.path)
+        try:
+            os.replace(self.tmp, self.path)
+        except OSError as err:  # the folder turned read-only while the capture was written
+            _remove(self.tmp)
+            raise _cannot_write(self.path, err, self.tmp) from None
 
     def scan_report(self) -> ScanReport:
         """What :func:`scan_capture` reports for the capture written, without reading it again: the
@@ -396,6 +492,78 @@ def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | Non
     except Exception as err:  # HDF5 checksum or structure errors surface as RuntimeError/OSError
         return f"read-back failed ({type(err).__name__}: {err})"
     return None
+
+
+#: what a failed write's errno means for the capture's folder
+_WRITE_ERRNO = {
+    errno.ENOSPC: "no space left on device",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "folder is read-only (read-only file system)",
+    errno.EACCES: "folder is read-only (permission denied)",
+    errno.EPERM: "folder is read-only (operation not permitted)",
+    errno.EFBIG: "file too large (the file system's or the process's file size limit)",
+}
+
+
+def _cannot_write(path: Path, err: OSError, tmp: Path | None = None) -> CaptureWriteError:
+    """``<file>: cannot write the capture: <the cause>``, from the OS's errno."""
+    if err.errno == errno.ENAMETOOLONG:
+        reason = _name_too_long(path, tmp)
+    else:
+        reason = _WRITE_ERRNO.get(err.errno, err.strerror or str(err))
+    return CaptureWriteError(f"{path}: cannot write the capture: {reason}")
+
+
+def _name_too_long(path: Path, tmp: Path | None) -> str:
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        name_max = os.pathconf(folder, "PC_NAME_MAX")
+        path_max = os.pathconf(folder, "PC_PATH_MAX")
+    except (OSError, ValueError):
+        name_max, path_max = 255, 4096
+    for what, name in (("its name", path.name), ("its temporary's name", tmp and tmp.name)):
+        if name and len(os.fsencode(name)) > name_max:
+            return (
+                f"file name too long ({what} has {len(os.fsencode(name))} bytes, "
+                f"the file system allows {name_max})"
+            )
+    size = len(os.fsencode(str((tmp or path).absolute())))
+    return f"file name too long (the path has {size} bytes, the file system allows {path_max})"
+
+
+def _no_room(tmp: Path | None, size: int) -> OSError | None:
+    """The OSError the temporary's file system raises when asked for ``size`` more bytes in it
+    (ENOSPC, EDQUOT, EFBIG, EROFS, …), or None when it has them. Only called when a write has
+    failed: the temporary is removed next."""
+    if tmp is None:
+        return None
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT)
+    except OSError as err:
+        return err
+    try:
+        if hasattr(os, "posix_fallocate"):
+            os.posix_fallocate(fd, os.fstat(fd).st_size, size)
+        elif shutil.disk_usage(tmp.parent).free < size:
+            return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    except OSError as err:
+        if err.errno in (errno.EINVAL, errno.EOPNOTSUPP, errno.ENODEV):
+            return None  # the file system cannot say; not a full disk as far as anyone knows
+        return err
+    finally:
+        os.close(fd)
+    return None
+
+
+def _remove(path: Path | None) -> None:
+    """Remove a temporary if the folder lets us (a read-only one does not: its error says so)."""
+    if path is not None:
+        try:
+            path.unlink(missing_ok=True)
+        except OSError:
+            pass
 
 
 def compression_settings(capture: Mapping[str, object]) -> dict[str, object]:
@@ -454,14 +622,24 @@ class ChunkStats:
     nan: dict[str, int] = field(default_factory=dict)
     clipped: dict[str, int] = field(default_factory=dict)
 
-    def add(self, name: str, codes: np.ndarray, missing: np.ndarray | None = None) -> int:
+    def add(
+        self,
+        name: str,
+        codes: np.ndarray,
+        missing: np.ndarray | None = None,
+        missing_at_full_scale: int = 0,
+        clipped: int | None = None,
+    ) -> int:
         """Count a chunk's missing and full-scale codes; returns the missing count. ``missing``:
-        ``codes == FILL`` when the caller has it already."""
+        the chunk's missing samples when the caller has them (else ``codes == FILL``);
+        ``missing_at_full_scale``: how many of them are ±INT16_FULL codes (a channel whose
+        missing code is −32767, netCDF's default fill), which are missing, not clipped;
+        ``clipped``: the clipped count when the caller has it."""
         n_missing = int(np.count_nonzero(codes == FILL if missing is None else missing))
         self.nan[name] = self.nan.get(name, 0) + n_missing
-        self.clipped[name] = self.clipped.get(name, 0) + int(
-            np.count_nonzero(np.abs(codes) == INT16_FULL)
-        )
+        if clipped is None:
+            clipped = int(np.count_nonzero(np.abs(codes) == INT16_FULL)) - missing_at_full_scale
+        self.clipped[name] = self.clipped.get(name, 0) + clipped
         return n_missing
 
 
@@ -479,6 +657,10 @@ class Capture:
         self.stats = ChunkStats()
         self.required = frozenset(require)  # channels whose being entirely NaN stops the analysis
         self._finite_seen: set[str] = set()
+        # per channel: its missing codes besides FILL (module docstring), checked on open
+        self._missing_codes = {c: missing_codes(self.path, nc[c]) for c in self.channels}
+        self._varied: set[str] = set()  # channels seen to take two different finite codes
+        self._first_code: dict[str, int] = {}
 
     # -- context management -------------------------------------------------------------
     def close(self) -> None:
@@ -513,12 +695,54 @@ class Capture:
     def has_truth(self) -> bool:
         return "truth" in self._nc.groups
 
+    def require_samples(self, minimum: int, purpose: str) -> None:
+        """Stop in one line when the capture holds fewer than ``minimum`` samples, the least
+        ``purpose`` (say "ripple extraction: one window of np·ns = 4·12 samples") can work with
+        (the module docstring's "Minimum length")."""
+        if self.n < minimum:
+            raise _too_short(self.path, self.n, minimum, purpose)
+
+    def require_varying(self, names: Sequence[str], purpose: str) -> None:
+        """After a whole pass over ``names``: stop in one line at the first channel that held one
+        value only (a constant drive has no stroke, no gain, no loop to measure)."""
+        for name in names:
+            if name not in self._varied and name in self._first_code:
+                code = self._first_code[name]
+                value = code * float(self._nc[name].scale_factor) + float(
+                    getattr(self._nc[name], "add_offset", 0.0)
+                )
+                raise _fail(
+                    self.path,
+                    f"channel {name} is constant ({value:g} {CHANNEL_UNITS[name][0]} in every "
+                    f"sample that is not missing): {purpose} needs it to vary",
+                )
+
+    def _note_variation(self, name: str, finite: np.ndarray) -> None:
+        lo, hi = int(finite.min()), int(finite.max())
+        first = self._first_code.setdefault(name, lo)
+        if lo != hi or lo != first:
+            self._varied.add(name)
+
     def _decode(self, name: str, codes: np.ndarray) -> np.ndarray:
         var = self._nc[name]
-        missing = codes == FILL
-        n_missing = self.stats.add(name, codes, missing)
+        extra = self._missing_codes[name]  # none in a CaptureWriter's capture: _FillValue is FILL
+        if extra == (NC_DEFAULT_FILL_I2,):  # no _FillValue: −32768 and −32767, adjacent codes
+            missing = codes <= NC_DEFAULT_FILL_I2
+            clipped = int(np.count_nonzero(codes == INT16_FULL))  # −32767 is missing
+            n_missing = self.stats.add(name, codes, missing, clipped=clipped)
+        else:
+            missing = codes == FILL
+            at_full_scale = 0
+            for code in extra:
+                hit = codes == code
+                missing |= hit
+                if abs(code) == INT16_FULL:
+                    at_full_scale += int(np.count_nonzero(hit))
+            n_missing = self.stats.add(name, codes, missing, at_full_scale)
         if n_missing < codes.size:
             self._finite_seen.add(name)
+            if name not in self._varied:  # settled by the first chunk of any channel that varies
+                self._note_variation(name, codes[~missing] if n_missing else codes)
         values = codes * float(var.scale_factor)  # float64, as codes.astype(float64) * scale
         values += float(var.add_offset)
         if n_missing:
@@ -605,14 +829,23 @@ class Capture:
             raise _fail(self.path, f"missing channel(s) {', '.join(missing)}")
 
 
-def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Capture:
+def open_capture(
+    path: os.PathLike | str,
+    require: Sequence[str] = (),
+    min_samples: int = MIN_SAMPLES,
+    purpose: str = "this analysis",
+) -> Capture:
     """Open and validate a capture's structure (Design: "Validation on open").
 
     Checks that it is a readable netCDF4 file with a non-empty ``time`` dimension, that the
     required channels exist with their contract units and int16 packing, that the time axis
     starts at 0 and ends at (n−1)/fs, and that fs agrees with the folding equation when the
-    ripple sampling attributes are present. Sample-level counts (NaN, clipping, gaps in the
-    middle of the time axis) are gathered while streaming; see :func:`scan_capture`.
+    ripple sampling attributes are present; that every channel is one series along its time
+    axis, its packing within bounds (:data:`MIN_SCALE`, :data:`MAX_FULL_SCALE`) and its missing
+    codes numbers; that it holds at least :data:`MIN_SAMPLES`, and ``min_samples`` for the
+    ``purpose`` of the analysis that opens it (the module docstring's "Minimum length").
+    Sample-level counts (missing, clipping, gaps in the middle of the time axis) are gathered
+    while streaming; see :func:`scan_capture`.
     """
     path = Path(path)
     if not path.exists():
@@ -623,7 +856,7 @@ def open_capture(path: os.PathLike | str, require: Sequence[str] = ()) -> Captur
         raise _fail(path, f"not a readable netCDF4 capture ({err.strerror or err})") from None
     try:
         _limit_chunk_cache(nc)
-        _check_structure(path, nc, require)
+        _check_structure(path, nc, require, min_samples, purpose)
     except CaptureError:
         nc.close()
         raise
@@ -657,15 +890,21 @@ def read_header(path: os.PathLike | str) -> Header:
             return Header(
                 {k: nc.getncattr(k) for k in nc.ncattrs()},
                 {v.name: getattr(v, "units", None) for v in channels},
-                {v.name: int(v.shape[0]) for v in channels},
+                {v.name: int(v.shape[0]) if v.ndim else 1 for v in channels},
                 {v.name: _full_scale(v) for v in channels},
             )
     except OSError as err:
         raise _fail(path, f"not a readable netCDF4 capture ({err.strerror or err})") from None
+    except (RuntimeError, ValueError, KeyError, IndexError) as err:  # a damaged header
+        raise _fail(path, f"unreadable capture ({type(err).__name__}: {err})") from None
 
 
 def _full_scale(var: netCDF4.Variable) -> tuple[float, float]:
-    scale, offset = float(getattr(var, "scale_factor", 1.0)), float(getattr(var, "add_offset", 0.0))
+    """The range the packing spans (NaN where scale_factor or add_offset is not one number)."""
+    scale = _number(getattr(var, "scale_factor", 1.0))
+    offset = _number(getattr(var, "add_offset", 0.0))
+    if scale is None or offset is None:
+        return math.nan, math.nan
     return offset - scale * INT16_FULL, offset + scale * INT16_FULL
 
 
@@ -677,7 +916,131 @@ def compression_of(var: netCDF4.Variable) -> str | None:
     return next((name for name in ("zlib", "zstd", "bzip2", "szip") if filters.get(name)), None)
 
 
-def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) -> None:
+def _number(value: object) -> float | None:
+    """An attribute's value as one float, or None when it is text, a vector or not a number."""
+    if isinstance(value, (str, bytes)):
+        return None
+    array = np.asarray(value)
+    if array.size != 1 or array.dtype.kind not in "iuf":
+        return None
+    return float(array.reshape(()))
+
+
+def sampling_rate(path: os.PathLike | str, value: object) -> float:
+    """The global attribute ``fs`` as a finite, positive number of Hz; one line naming the file
+    otherwise (text such as '48000' or '48 kHz', several values, NaN, ≤ 0)."""
+    if isinstance(value, (str, bytes)):
+        return _bad_fs(path, f"fs is stored as text ({value!r})")
+    fs = _number(value)
+    if fs is None:
+        return _bad_fs(path, f"fs = {np.asarray(value).tolist()!r} is not one number")
+    if not (math.isfinite(fs) and fs > 0):
+        raise _fail(path, f"fs = {fs} must be positive and finite")
+    return fs
+
+
+def _bad_fs(path: os.PathLike | str, problem: str) -> float:
+    raise _fail(path, f"{problem}: it must be one number, the sampling rate in Hz")
+
+
+def missing_codes(path: os.PathLike | str, var: netCDF4.Variable) -> tuple[int, ...]:
+    """The int16 codes of a channel that stand for a missing sample besides FILL, sorted: its
+    ``_FillValue`` (netCDF's default −32767 when it declares none: netCDF4-python masks that
+    too) and its ``missing_value`` codes (CF: a scalar or a vector, in the packed domain). A
+    numeric value no int16 sample can equal (−9999.5, 1e6, NaN) marks none, as in netCDF4-python;
+    text is refused in one line."""
+    attrs = var.ncattrs()
+    values = [var.getncattr("_FillValue") if "_FillValue" in attrs else NC_DEFAULT_FILL_I2]
+    if "missing_value" in attrs:
+        declared = var.getncattr("missing_value")
+        if isinstance(declared, (str, bytes)) or np.asarray(declared).dtype.kind not in "iuf":
+            raise _fail(
+                path,
+                f"channel {var.name} has missing_value {declared!r}: it must be a number or "
+                f"numbers, the packed int16 codes of missing samples (CF)",
+            )
+        values += list(np.atleast_1d(declared).ravel())
+    codes = set()
+    for value in values:
+        code = float(value)
+        if code.is_integer() and -32768 <= code <= 32767:
+            codes.add(int(code))
+    codes.discard(int(FILL))
+    return tuple(sorted(codes))
+
+
+def _too_short(path: os.PathLike | str, n: int, minimum: int, purpose: str) -> CaptureError:
+    return _fail(
+        path,
+        f"capture too short: {n} sample{'' if n == 1 else 's'}, {purpose} needs at least {minimum}",
+    )
+
+
+def _check_channel(path: Path, nc: netCDF4.Dataset, name: str, n: int) -> None:
+    """One channel: units, packing (int16, a scale and offset within bounds, missing codes that
+    are numbers), compression, and one sample per instant of its time axis."""
+    var = nc[name]
+    units = getattr(var, "units", None)
+    if units != CHANNEL_UNITS[name][0]:
+        raise _fail(
+            path,
+            f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}",
+        )
+    if var.dtype != np.int16 or "scale_factor" not in var.ncattrs():
+        raise _fail(path, f"channel {name} is not packed int16 with scale_factor/add_offset")
+    axis = "time_slow" if name in SLOW_CHANNELS else "time"
+    if var.ndim != 1:
+        shape = " × ".join(f"{d} {k}" for d, k in zip(var.dimensions, var.shape, strict=True))
+        raise _fail(
+            path,
+            f"channel {name} is {var.ndim}-D ({shape or 'a scalar'}): a channel is one series "
+            f"of samples along {axis}",
+        )
+    if var.dimensions[0] != axis:
+        raise _fail(
+            path,
+            f"channel {name} has {var.shape[0]} samples along {var.dimensions[0]!r}, "
+            f"not along {axis!r}"
+            + (f" ({n} samples)" if axis == "time" else "")
+            + f": each channel holds one sample per instant of {axis}",
+        )
+    compression = compression_of(var)
+    if compression not in (*COMPRESSIONS, None):
+        raise _fail(
+            path,
+            f"channel {name} is compressed with {compression}: the contract allows "
+            f"{', '.join(COMPRESSIONS)} or none",
+        )
+    raw_scale, raw_offset = var.getncattr("scale_factor"), getattr(var, "add_offset", 0.0)
+    scale, offset = _number(raw_scale), _number(raw_offset)
+    if scale is None or offset is None:
+        raise _fail(
+            path,
+            f"channel {name} has scale_factor {raw_scale!r} and add_offset {raw_offset!r}: "
+            f"the packing needs one number each",
+        )
+    if not (math.isfinite(scale) and scale > 0 and math.isfinite(offset)):
+        raise _fail(
+            path,
+            f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}: "
+            f"the packing needs a finite, positive scale and a finite offset",
+        )
+    full = abs(offset) + scale * INT16_FULL  # Python floats: inf on overflow
+    if scale < MIN_SCALE or not full <= MAX_FULL_SCALE:
+        unit = CHANNEL_UNITS[name][0]
+        span = f"a step of {scale:g} {unit}" if scale < MIN_SCALE else f"a full scale of {full:g}"
+        raise _fail(
+            path,
+            f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}, {span}: "
+            f"the analyses compute with steps ≥ {MIN_SCALE:g} and full scales "
+            f"(|add_offset| + 32767·scale_factor) ≤ {MAX_FULL_SCALE:g} {unit}",
+        )
+    missing_codes(path, var)
+
+
+def _check_structure(
+    path: Path, nc: netCDF4.Dataset, require: Sequence[str], min_samples: int, purpose: str
+) -> None:
     if "time" not in nc.dimensions:
         raise _fail(path, "no 'time' dimension")
     n = len(nc.dimensions["time"])
@@ -685,37 +1048,27 @@ def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) ->
         raise _fail(path, "empty capture (time has 0 samples)")
     if "fs" not in nc.ncattrs():
         raise _fail(path, "missing global attribute 'fs'")
-    fs = float(nc.getncattr("fs"))
-    if not (math.isfinite(fs) and fs > 0):
-        raise _fail(path, f"fs = {fs} must be positive and finite")
+    fs = sampling_rate(path, nc.getncattr("fs"))
+    if n < MIN_SAMPLES:
+        raise _too_short(path, n, MIN_SAMPLES, "any capture (a time axis with a step)")
+    if n < min_samples:
+        raise _too_short(path, n, min_samples, purpose)
     missing = [c for c in require if c not in nc.variables]
     if missing:
         raise _fail(path, f"missing channel(s) {', '.join(missing)} needed by this analysis")
-    for name in nc.variables:
-        if name not in CHANNEL_UNITS:
-            continue
-        var = nc[name]
-        units = getattr(var, "units", None)
-        if units != CHANNEL_UNITS[name][0]:
+    if "time" not in nc.variables or nc["time"].dimensions != ("time",):
+        raise _fail(path, "no time axis: a variable 'time' [s] along the dimension 'time'")
+    channels = [c for c in nc.variables if c in CHANNEL_UNITS]
+    for name in channels:
+        _check_channel(path, nc, name, n)
+    if any(c in SLOW_CHANNELS for c in channels):
+        slow = nc.variables.get("time_slow")
+        rate = _number(getattr(slow, "sampling_rate", None))
+        if slow is None or slow.dimensions != ("time_slow",) or not (rate and rate > 0):
             raise _fail(
                 path,
-                f"channel {name} has units {units!r}, the contract says {CHANNEL_UNITS[name][0]!r}",
-            )
-        if var.dtype != np.int16 or "scale_factor" not in var.ncattrs():
-            raise _fail(path, f"channel {name} is not packed int16 with scale_factor/add_offset")
-        compression = compression_of(var)
-        if compression not in (*COMPRESSIONS, None):
-            raise _fail(
-                path,
-                f"channel {name} is compressed with {compression}: the contract allows "
-                f"{', '.join(COMPRESSIONS)} or none",
-            )
-        scale, offset = float(var.scale_factor), float(getattr(var, "add_offset", 0.0))
-        if not (math.isfinite(scale) and scale > 0 and math.isfinite(offset)):
-            raise _fail(
-                path,
-                f"channel {name} has scale_factor {scale:g} and add_offset {offset:g}: "
-                f"the packing needs a finite, positive scale and a finite offset",
+                "the thermometers' time axis 'time_slow' is missing or has no positive "
+                "sampling_rate [Hz]",
             )
     t = nc["time"]
     t0, t1 = float(t[0]), float(t[n - 1])
@@ -727,8 +1080,15 @@ def _check_structure(path: Path, nc: netCDF4.Dataset, require: Sequence[str]) ->
         )
     attrs = set(nc.ncattrs())
     if {"fr_nominal", "ns", "nf"} <= attrs:
-        fr, ns, nf = float(nc.fr_nominal), int(nc.ns), int(nc.nf)
-        expected = folded_fs(fr, ns, nf)
+        plan = {k: _number(nc.getncattr(k)) for k in ("fr_nominal", "ns", "nf")}
+        bad = next((k for k, v in plan.items() if v is None or not math.isfinite(v)), None)
+        if bad is not None:
+            raise _fail(path, f"global attribute {bad} = {nc.getncattr(bad)!r} is not a number")
+        fr, ns, nf = plan["fr_nominal"], int(plan["ns"]), int(plan["nf"])
+        try:
+            expected = folded_fs(fr, ns, nf)
+        except ZeroDivisionError:
+            expected = math.nan
         if not math.isclose(fs, expected, rel_tol=FS_RTOL):
             raise _fail(
                 path,

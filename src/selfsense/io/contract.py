@@ -16,7 +16,7 @@ import os
 from collections.abc import Mapping
 from typing import Any
 
-from selfsense.io.capture import CHANNEL_UNITS, FS_RTOL, CaptureError, Header
+from selfsense.io.capture import CHANNEL_UNITS, FS_RTOL, CaptureError, Header, sampling_rate
 
 #: the largest fraction of a channel's samples that may sit at the ADC's full scale
 CLIP_LIMIT = 0.01
@@ -61,8 +61,10 @@ def check_agreement(
 
     fs = header.attrs.get("fs")
     declared_fs = float(manifest["daq"]["fs"])
-    if fs is not None and not math.isclose(float(fs), declared_fs, rel_tol=FS_RTOL):
-        raise fail(f"fs = {float(fs):g} Hz, the manifest declares daq.fs = {declared_fs:g} Hz")
+    if fs is not None:  # text, several values or NaN: one line on the capture alone
+        fs = sampling_rate(path, fs)
+    if fs is not None and not math.isclose(fs, declared_fs, rel_tol=FS_RTOL):
+        raise fail(f"fs = {fs:g} Hz, the manifest declares daq.fs = {declared_fs:g} Hz")
     extra = sorted(set(header.units) - declared_channels(manifest))
     if extra:
         raise fail(
@@ -120,7 +122,9 @@ def check_clipping(
     header: Header,
     manifest_path: os.PathLike | str,
 ) -> None:
-    """CaptureError naming the first channel clipped beyond CLIP_LIMIT (counts from a scan)."""
+    """CaptureError naming the first channel clipped beyond CLIP_LIMIT (counts from a scan, in
+    which a missing sample, a code of the channel's _FillValue or missing_value, is never a
+    clipped one)."""
     for channel, count in clipped.items():
         problem = clipping_problem(
             channel, count, header.samples[channel], *header.ranges[channel], manifest_path

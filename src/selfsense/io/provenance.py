@@ -9,13 +9,16 @@ the same captures gives byte-identical tables.
 
 from __future__ import annotations
 
+import glob
 import hashlib
 import json
 import logging
 import os
 import re
+import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from functools import lru_cache
@@ -41,37 +44,68 @@ PACKAGES = (
 )
 
 
+#: a temporary is removed by another writer only when it was last modified this long ago [s].
+#: Nothing else tells a live writer's temporary from a dead one's: writers on other hosts or in
+#: other PID namespaces (containers, cluster nodes sharing the filesystem) have PIDs that mean
+#: nothing here, so a PID test would remove files still being written. The longest job's time
+#: limit is 2 h (config.yaml's resources: simulate_closed_loop), so a day is twelve times the
+#: longest a live writer can have had its temporary, even one it has not modified since opening.
+#: The price: a killed writer's temporary stays up to a day (no rule reads a ``.part`` name).
+REAP_AGE_S = 24 * 3600
+#: how a temporary's tag reads: ``<host>.<16 hex>`` (``<pid>-<8 hex>`` from earlier versions)
+_TAG = re.compile(r"[A-Za-z0-9-]{1,32}\.[0-9a-f]{16}|\d+-[0-9a-f]{8}")
+
+
 def temporary_path(path: str | os.PathLike, hidden: bool = False) -> Path:
-    """A temporary name beside ``path`` that no other writer uses: ``<name>.<pid>-<random>.part``
-    (hidden: ``.<stem>.<pid>-<random>.part<suffix>``, keeping the suffix that format-sniffing
-    writers such as matplotlib need).
+    """A temporary name beside ``path`` that no other writer uses: ``<name>.<host>.<random>.part``
+    (hidden: ``.<stem>.<host>.<random>.part<suffix>``, keeping the suffix that format-sniffing
+    writers such as matplotlib need); ``<random>`` is 64 random bits, so names are unique across
+    hosts, containers and processes, and ``<host>`` says where a leftover came from.
 
     Two runs that write the same output at once (a second Snakemake started with ``--nolock``,
-    or after the lock was removed) each write their own file and rename it whole, so neither can
-    damage the other's. Temporaries of writers that no longer run (killed) are removed here, so
-    reruns after kills do not pile them up.
+    or after the lock was removed, or on another node) each write their own file and rename it
+    whole, so neither can damage the other's. Temporaries not modified for :data:`REAP_AGE_S`
+    (left by killed writers) are removed here, so reruns after kills do not pile them up.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    pattern = f".{path.stem}.*.part{path.suffix}" if hidden else f"{path.name}.*.part"
-    for stale in path.parent.glob(pattern):
-        tag = re.search(r"\.(\d+)-[0-9a-f]{8}\.part", stale.name)
-        if tag and not _running(int(tag.group(1))):
-            stale.unlink(missing_ok=True)
-    tag = f"{os.getpid()}-{os.urandom(4).hex()}"
+    reap_stale_temporaries(path, hidden)
+    tag = f"{_host()}.{os.urandom(8).hex()}"
     return path.with_name(
         f".{path.stem}.{tag}.part{path.suffix}" if hidden else f"{path.name}.{tag}.part"
     )
 
 
-def _running(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    return True
+def reap_stale_temporaries(
+    path: str | os.PathLike, hidden: bool = False, now: float | None = None
+) -> list[Path]:
+    """Remove the temporaries of ``path`` (named by :func:`temporary_path`) that were last
+    modified more than :data:`REAP_AGE_S` ago; the ones removed. Only age decides, never the
+    PID or host in a name: a writer elsewhere is alive whatever this host's process table says."""
+    path = Path(path)
+    now = time.time() if now is None else now
+    if hidden:
+        prefix, suffix = f".{path.stem}.", f".part{path.suffix}"
+    else:
+        prefix, suffix = f"{path.name}.", ".part"
+    removed = []
+    for stale in path.parent.glob(glob.escape(prefix) + "*" + glob.escape(suffix)):
+        if not _TAG.fullmatch(stale.name[len(prefix) : len(stale.name) - len(suffix)]):
+            continue  # another output's temporary, or a file that is not a temporary
+        try:
+            if now - stale.stat().st_mtime <= REAP_AGE_S:
+                continue
+            stale.unlink()
+        except FileNotFoundError:  # renamed by its writer, or removed by another reaper
+            continue
+        removed.append(stale)
+    return removed
+
+
+def _host() -> str:
+    """This host's name as a temporary's tag: its first label, letters, digits and '-' only."""
+    label = re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname().split(".")[0])[:32]
+    return label or "host"
 
 
 @contextmanager
@@ -138,8 +172,14 @@ def provenance(
     **extra: Any,
 ) -> dict[str, Any]:
     config = dict(config or {})
+    stats = {str(p): os.stat(p) for p in inputs}
     return {
-        "inputs": {str(p): sha256(p) for p in inputs},
+        "inputs": {p: _sha256(p, st.st_size, st.st_mtime_ns) for p, st in stats.items()},
+        # what the inputs' sha256 were taken of: a start-of-run check compares these and hashes
+        # only a file whose size or mtime differ (selfsense.io.audit.check_inputs_unchanged)
+        "input_files": {
+            p: {"size": st.st_size, "mtime_ns": st.st_mtime_ns} for p, st in stats.items()
+        },
         "config": config,
         "config_sha256": hashlib.sha256(
             json.dumps(config, sort_keys=True, default=str).encode()
@@ -178,10 +218,54 @@ def write_table(
     seed: int | None = None,
     **extra: Any,
 ) -> None:
-    """CSV (tidy, units in headers, fixed float format) plus its JSON provenance sidecar."""
+    """CSV (tidy, units in headers, fixed float format) plus its JSON provenance sidecar. Text a
+    spreadsheet would run as a formula is written inert (:func:`spreadsheet_safe`)."""
     with atomic_path(path) as tmp:
-        table.to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
+        spreadsheet_safe(table).to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
     write_json(provenance(inputs, config, seed, **extra), f"{path}.json")
+
+
+#: a text cell that starts with one of these is a formula to a spreadsheet (OWASP, "CSV Injection")
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+#: text after a leading + or - that stays as it is: nothing (a lone sign, as a table's "-"), a
+#: number, or a number, a space and words without a character a formula acts with (a function's
+#: parenthesis, DDE's | and !, an operator, a string's quote): "+2 %, same factor below", "-1.5e-3"
+_SIGNED_TEXT = re.compile(
+    r"[+-](?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?(?: [^()|!=+\-*/^&@;\"]*)?|inf|nan)?",
+    re.IGNORECASE,
+)
+
+
+def spreadsheet_cell(value: Any) -> Any:
+    """``value`` with a ``'`` in front if it is text a spreadsheet would evaluate as a formula
+    (starts with ``=``, ``@``, a tab or a carriage return, or with ``+``/``-`` followed by more
+    than a number and plain words: :data:`_SIGNED_TEXT`); any other value as it is (numbers are
+    never touched)."""
+    if (
+        isinstance(value, str)
+        and value.startswith(FORMULA_START)
+        and not _SIGNED_TEXT.fullmatch(value)
+    ):
+        return "'" + value
+    return value
+
+
+def spreadsheet_safe(table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` with every text cell :func:`spreadsheet_cell` would change changed (a copy; the
+    table itself when none is): a manifest's text such as ``=HYPERLINK(…)`` reaches a result table
+    as data, and a spreadsheet shows it instead of running it. Numeric, boolean and time columns
+    are not read."""
+    from pandas.api.types import is_bool_dtype, is_datetime64_any_dtype, is_numeric_dtype
+
+    out = table
+    for i, kind in enumerate(table.dtypes):
+        if is_numeric_dtype(kind) or is_bool_dtype(kind) or is_datetime64_any_dtype(kind):
+            continue
+        cells = table.iloc[:, i].map(spreadsheet_cell)
+        if not cells.equals(table.iloc[:, i]):
+            out = table.copy() if out is table else out
+            out.isetitem(i, cells)
+    return out
 
 
 def save_figure(

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from selfsense.io.capture import DISPLACEMENT, open_capture
+from selfsense.io.capture import CHARACTERISE_MIN_SAMPLES, DISPLACEMENT, open_capture
 from selfsense.io.figures import (  # plt: after figures has chosen the Agg backend
     UF,
     UM,
@@ -290,9 +290,11 @@ def characterise_capture(
             return row(
                 name, {}, x, None, "no drive voltage U and displacement in this capture"
             ), None
+        cap.require_samples(CHARACTERISE_MIN_SAMPLES, "characterise (one drive cycle)")
         names = ["U", x] + (["I"] if "I" in cap.channels else [])
         factor = reduction_factor(cap.n)
         reduced = block_means(cap.iter_chunks(names, factor * (1 << 14)), cap.fs, factor)
+        cap.require_varying(["U"], "characterise (stroke and gain per volt)")
     return row(name, characterise(reduced, x, settle_s, min_hold_s), x, reduced.fs), loop_panels(
         reduced, x, name
     )

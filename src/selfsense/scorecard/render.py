@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import html
 import math
+import re
+import unicodedata
 from collections.abc import Mapping
 from typing import Any
 
@@ -116,20 +118,59 @@ def pending_rst(cards: Mapping[str, pd.DataFrame]) -> str:
 
 def rst_html(text: str) -> str:
     """A self-contained HTML page of reStructuredText; a docutils warning or error raises (so a
-    page never shows a "problematic" marker)."""
-    from docutils.core import publish_string
+    page never shows a "problematic" marker). Rendered as untrusted text: the ``raw`` directive
+    and every file insertion (``include``, ``raw``/``csv-table`` with ``:file:`` or ``:url:``) are
+    off (:data:`DOCUTILS_SAFE`), and a link or image whose URL has a scheme other than
+    :data:`SAFE_SCHEMES` is reduced to its text."""
+    from docutils.core import publish_doctree, publish_from_doctree
 
-    return publish_string(
-        text,
-        writer="html5",
-        settings_overrides={
-            "halt_level": 2,
-            "report_level": 2,
-            "output_encoding": "unicode",
-            "embed_stylesheet": True,
-            "_disable_config": True,
-        },
-    )
+    settings = {
+        "halt_level": 2,
+        "report_level": 2,
+        "output_encoding": "unicode",
+        "embed_stylesheet": True,
+        "_disable_config": True,
+        **DOCUTILS_SAFE,
+    }
+    doctree = publish_doctree(text, settings_overrides=settings)
+    _drop_unsafe_links(doctree)
+    return publish_from_doctree(doctree, writer="html5", settings_overrides=settings)
+
+
+#: docutils settings that keep a page's text from reaching the HTML as markup or pulling a file in
+#: (docutils' "Deploying Docutils Securely": raw_enabled, file_insertion_enabled)
+DOCUTILS_SAFE = {"raw_enabled": False, "file_insertion_enabled": False}
+#: the URL schemes a link of a page may have (a URL without a scheme is relative: kept)
+SAFE_SCHEMES = frozenset({"http", "https", "mailto"})
+
+
+def safe_url(url: str) -> bool:
+    """Whether a link may point at ``url``: no scheme (relative, or a fragment), or one of
+    :data:`SAFE_SCHEMES`. Browsers ignore whitespace and control characters inside a scheme
+    (``java\tscript:``), so they are taken out before it is read."""
+    bare = re.sub(r"[\x00-\x20\x7f]+", "", url)
+    scheme = re.match(r"([^/?#]*?):", bare)
+    return scheme is None or scheme.group(1).lower() in SAFE_SCHEMES
+
+
+def _drop_unsafe_links(doctree) -> None:
+    """Every link and image of ``doctree`` whose URL :func:`safe_url` refuses becomes its text (a
+    link target loses the URL)."""
+    from docutils import nodes
+
+    for node in list(doctree.findall(nodes.Element)):
+        if all(safe_url(node.get(a, "")) for a in ("refuri", "uri")):
+            continue
+        if isinstance(node, nodes.reference):
+            node.replace_self(nodes.inline("", "", *node.children))
+        elif isinstance(node, nodes.image):
+            inline = isinstance(node.parent, nodes.TextElement)
+            node.replace_self(
+                (nodes.inline if inline else nodes.paragraph)("", node.get("alt", ""))
+            )
+        else:
+            for attr in ("refuri", "uri"):
+                node.attributes.pop(attr, None)
 
 
 def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
@@ -211,7 +252,7 @@ def _lists_page(cards: Mapping[str, pd.DataFrame], title: str, lists, empty: str
     lines = [title, "=" * len(title), ""]
     for dataset, card in _filled(cards).items():
         head = _rst(dataset)
-        lines += [head, "-" * len(head), "", _tally(dataset, card), ""]
+        lines += [head, _underline(head, "-"), "", _tally(dataset, card), ""]
         lines += lists(card) or [empty, ""]
     return "\n".join(lines) + "\n"
 
@@ -231,22 +272,45 @@ def _chapter(chapter: Any) -> str:
 
 
 def _describe(row: pd.Series) -> str:
-    unit = _rst(f" {row['unit']}" if row["unit"] else "")
+    unit = f" {_rst(row['unit'])}" if row["unit"] else ""
     lo, hi = row["band low"], row["band high"]
     band_text = (
         f"≤ {hi:.6g}" if pd.isna(lo) else f"≥ {lo:.6g}" if pd.isna(hi) else f"{lo:.6g} … {hi:.6g}"
     )
     change = "" if pd.isna(row["deviation [%]"]) else f" ({row['deviation [%]']:+.1f} %)"
-    kind = "" if row.get("kind", EMERGENT) == EMERGENT else f" ({row['kind']})"
+    kind = "" if row.get("kind", EMERGENT) == EMERGENT else f" ({_rst(row['kind'])})"
     return (
         f"{_rst(row['quantity'])}{kind}: published {row['published']:.6g}{unit}, "
         f"reproduced {row['reproduced']:.6g}{unit}{change}, band {band_text}{unit}"
     )
 
 
+#: characters :func:`_rst` turns into spaces besides whitespace: control and format characters
+#: (bidirectional overrides, zero-width spaces) and lone surrogates
+_FOLDED = frozenset({"Cc", "Cf", "Cs"})
+
+
 def _rst(text: Any) -> str:
-    """Plain text safe inside reStructuredText inline markup."""
-    return "".join("\\" + c if c in "\\*`|_[]" else c for c in str(text))
+    """Any text as inert reStructuredText: data, never markup, wherever a line of inline text may
+    stand (a paragraph, a list item or table cell, strong emphasis, a section title). Whitespace,
+    line breaks, control and format characters fold to single spaces, so the text cannot start a
+    line of its own (a directive such as ``.. raw::`` or ``.. include::``, a list, a section); every
+    character but letters, digits and the space is backslash-escaped, so no inline markup, role,
+    reference, substitution or standalone link (``javascript:…``, ``a@b.c``) is recognised in it.
+    The page shows the text as given, its whitespace folded."""
+    folded = " ".join(
+        "".join(" " if unicodedata.category(c) in _FOLDED else c for c in str(text)).split()
+    )
+    escaped = "".join(c if c.isalnum() or c == " " else "\\" + c for c in folded)
+    if set(escaped) == {"\\"}:  # backslashes alone would be a line of section adornment
+        return "\\ ".join(["\\\\"] * (len(escaped) // 2))  # docutils drops an escaped space
+    return escaped
+
+
+def _underline(title: str, char: str) -> str:
+    """A section title's underline, as long as the title is wide (East Asian wide characters take
+    two columns)."""
+    return char * sum(2 if unicodedata.east_asian_width(c) in "WF" else 1 for c in title)
 
 
 def scorecard_html(card: pd.DataFrame, title: str) -> str:

@@ -93,9 +93,12 @@ def simulate_experiment(
         return _simulate(
             path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak
         )
-    except (
-        UnshrinkableChunk
-    ) as err:  # blosc fails on a chunk it cannot shrink; the twin is deterministic
+    except UnshrinkableChunk as err:
+        # blosc fails on a chunk it cannot shrink; the twin is deterministic, so the same capture
+        # is written again with zlib. A full disk, a quota, a read-only folder or a name too long
+        # is a CaptureWriteError instead (CaptureWriter asks the file system why HDF5 failed):
+        # no compression cures it, so it is never retried and stops here in its one line,
+        # "<capture>: cannot write the capture: no space left on device"
         LOG.warning("%s; writing it again with zlib level 1", err)
         return _simulate(
             path,
