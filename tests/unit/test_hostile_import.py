@@ -1,4 +1,5 @@
-"""`selfsense import` against hostile recordings and arguments (docs/reliability.md, "Import").
+"""`selfsense import` against hostile recordings and arguments (the Import rows of the fault
+matrix in docs/reliability.md).
 
 Every fault ends in one line naming the file or the argument, exit 1, and nothing behind: no
 capture, no temporary, no manifest change, no new folder; what can be imported honestly is
