@@ -30,9 +30,10 @@ def stack_daq(stack_manifest):
     return daq_plan(stack_manifest)
 
 
-#: module-scoped fixtures that run a DAG of their own: a worker builds its own instance of a
-#: module's fixture, so the tests sharing one go to one worker (split over two, the DAG ran twice)
-OWN_DAGS = ("bench", "lab_csv")
+#: module-scoped fixtures that run a DAG of their own (or copy the smoke tree): a worker builds its
+#: own instance of a module's fixture, so the tests sharing one go to one worker (split over two,
+#: the DAG ran twice)
+OWN_DAGS = ("bench", "lab_csv", "config_tree")
 
 
 @pytest.hookimpl(tryfirst=True)  # before xdist reads the groups off the markers

@@ -1,9 +1,11 @@
 """Config reaches the rules only through their params: changing one config key reruns the rules
 that declare it (Snakemake's params trigger, or their inputs being remade when one of them is
 downstream of another), no rule that does not declare it for its params, and everything else only
-because its inputs are remade. Dry runs on the session's up-to-date smoke tree (`smoke_run`)."""
+because its inputs are remade. Dry runs on a copy of the session's up-to-date smoke tree
+(`config_tree`), so that they run beside the tests that use the tree itself, not after them."""
 
 import re
+import shutil
 
 import pytest
 import yaml
@@ -102,6 +104,19 @@ def reasons(output):
     }
 
 
+@pytest.fixture(scope="module")
+def config_tree(smoke_run, tmp_path_factory):
+    """A copy of the smoke tree, Snakemake's records included. A test of the smoke_tree group may
+    be editing the tree while it is copied; a copy that is not up to date is taken again."""
+    for attempt in range(3):
+        copy = tmp_path_factory.mktemp("config_tree") / "repo"
+        shutil.copytree(smoke_run, copy, symlinks=True)
+        dry = run_snakemake(copy, "-n", "--quiet", "rules")
+        if dry.returncode == 0 and "Nothing to be done" in dry.stdout + dry.stderr:
+            return copy
+    raise AssertionError(f"the copy of the smoke tree is not up to date:\n{dry.stdout[-2000:]}")
+
+
 def test_every_config_key_is_covered():
     # every leaf the workflow sees (smoke.yaml, config.yaml and the schema's defaults) is listed
     # here
@@ -109,24 +124,24 @@ def test_every_config_key_is_covered():
     assert {k for k in seen if not k.startswith(RESOURCES)} == set(USES) | STRUCTURAL
 
 
-def test_changing_the_job_sizes_reruns_nothing(smoke_tree, tmp_path):
+def test_changing_the_job_sizes_reruns_nothing(config_tree, tmp_path):
     config = yaml.safe_load(SMOKE.read_text())
     config["resources"] = {
         size: {"mem_mb": 1234, "runtime": 77} for size in load_config(SMOKE)["resources"]
     }
     changed = tmp_path / "changed.yaml"
     changed.write_text(yaml.safe_dump(config, sort_keys=False))
-    dry = run_snakemake(smoke_tree, "-n", "--quiet", "rules", config=str(changed))
+    dry = run_snakemake(config_tree, "-n", "--quiet", "rules", config=str(changed))
     assert dry.returncode == 0, dry.stderr[-2000:]
     assert "Nothing to be done" in dry.stdout + dry.stderr, (dry.stdout + dry.stderr)[-2000:]
 
 
 @pytest.mark.parametrize("key", USES)
-def test_a_config_change_reruns_exactly_the_rules_that_declare_it(smoke_tree, tmp_path, key):
+def test_a_config_change_reruns_exactly_the_rules_that_declare_it(config_tree, tmp_path, key):
     value, rules = USES[key]
     changed = tmp_path / "changed.yaml"
     changed.write_text(yaml.safe_dump(with_change(key, value), sort_keys=False))
-    dry = run_snakemake(smoke_tree, "-n", "--quiet", "rules", config=str(changed))
+    dry = run_snakemake(config_tree, "-n", "--quiet", "rules", config=str(changed))
     assert dry.returncode == 0, dry.stderr[-2000:]
     out = dry.stdout + dry.stderr
     if not rules:
