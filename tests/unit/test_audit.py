@@ -7,7 +7,7 @@ import os
 import pandas as pd
 import pytest
 
-from selfsense.io import audit as audit_module
+from selfsense.io import provenance as provenance_module
 from selfsense.io.audit import Hashes, StaleInput, audit, check_inputs_unchanged
 from selfsense.io.provenance import provenance, write_json, write_table
 
@@ -139,8 +139,9 @@ def test_a_folder_is_audited_whole_and_each_input_is_read_once(made, capsys, mon
     )
     replace_keeping_mtime(capture, b"another")
     opened = []
+    # the audit reads an input's bytes only through provenance.file_sha256
     monkeypatch.setattr(
-        audit_module, "open", lambda p, *a: opened.append(p) or open(p, *a), raising=False
+        provenance_module, "open", lambda p, *a: opened.append(p) or open(p, *a), raising=False
     )
     code, lines = run(capsys, "results/bench", f"{table}.json")  # a sidecar stands for its output
     assert code == 1

@@ -28,7 +28,6 @@ from selfsense.io.capture import (
     channel_spec,
     missing_codes,
     open_capture,
-    ripple_window,
     scan_capture,
 )
 from selfsense.io.manifest import load_config
@@ -260,7 +259,7 @@ def test_two_samples_pass_qc_but_not_an_analysis_that_needs_more(tmp_path):
         open_capture(capture, min_samples=CHARACTERISE_MIN_SAMPLES, purpose="characterise")
     one_line(str(e.value), capture, "capture too short: 2 samples, characterise needs at least 32")
     with open_capture(capture) as cap, pytest.raises(CaptureError) as e:
-        cap.require_samples(ripple_window(4, 12), "ripple extraction (one window, np·ns = 4·12)")
+        cap.require_samples(4 * 12, "ripple extraction (one window, np·ns = 4·12)")
     one_line(
         str(e.value), capture, "ripple extraction (one window, np·ns = 4·12) needs at least 48"
     )

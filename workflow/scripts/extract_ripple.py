@@ -1,6 +1,6 @@
 """Rule `extract_ripple`: C_e, R_e (Eq 3.6–3.13) and window means of U, x, I, q for one capture."""
 
-from selfsense.io.capture import CaptureError, SeriesWriter, open_capture, ripple_window
+from selfsense.io.capture import CaptureError, SeriesWriter, open_capture
 from selfsense.io.provenance import script_logging
 from selfsense.methods.ripple import SERIES_UNITS, impedance_series, plan_from_capture
 
@@ -15,7 +15,7 @@ def main(capture, series, n_periods, chunk_len=1 << 18, log=None):
         except ValueError as err:
             raise CaptureError(f"{capture}: {err}") from None
         window = f"one window of np·ns = {plan.n_periods}·{plan.ns} samples"
-        cap.require_samples(ripple_window(plan.n_periods, plan.ns), f"ripple extraction ({window})")
+        cap.require_samples(plan.block_len, f"ripple extraction ({window})")
         chunks = cap.iter_chunks(("Ur", "Ir") + COMPANIONS, chunk_len)
         attrs = {"capture": str(capture), "np": plan.n_periods, "fr_nominal": plan.fr, "fs": cap.fs}
         with SeriesWriter(series, SERIES_UNITS, attrs) as out:

@@ -11,13 +11,14 @@ the Snakefile makes at every start for the captures of measured datasets.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from selfsense.io.provenance import file_sha256
 
 #: how a re-make is spelled in a hint: the checkout's own Snakemake (README.md)
 SNAKEMAKE = ".venv/bin/snakemake --cores 2"
@@ -102,11 +103,7 @@ class Hashes:
         st = st or path.stat()
         key = (os.fspath(path.resolve()), st.st_size, st.st_mtime_ns)
         if key not in self._seen:
-            h = hashlib.sha256()
-            with open(path, "rb") as fh:
-                while chunk := fh.read(self.block):
-                    h.update(chunk)
-            self._seen[key] = h.hexdigest()
+            self._seen[key] = file_sha256(path, self.block)
         return self._seen[key]
 
 

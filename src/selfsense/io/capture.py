@@ -22,7 +22,7 @@ streaming checks every sample in between: so check_capture and every analysis). 
 needs more says so where it opens the capture, ``open_capture(..., min_samples=, purpose=)``, or,
 when its minimum depends on the capture's attributes, :meth:`Capture.require_samples`:
 
-- ripple extraction (Eq 3.6–3.13): one Fourier window, ``ripple_window(np, ns)`` = np·ns samples
+- ripple extraction (Eq 3.6–3.13): one Fourier window, ``SamplingPlan.block_len`` = np·ns samples
   (48 at the thesis's np = 4, ns = 12);
 - characterise: one whole drive cycle at the least, :data:`CHARACTERISE_MIN_SAMPLES` (its loop
   width needs 16 samples rising and 16 falling), and a drive U that varies
@@ -81,11 +81,6 @@ MIN_SCALE = 1e-30
 MAX_FULL_SCALE = 1e30
 #: netCDF's default fill of int16, missing where a channel declares no _FillValue
 NC_DEFAULT_FILL_I2 = int(netCDF4.default_fillvals["i2"])
-
-
-def ripple_window(n_periods: int, ns: int) -> int:
-    """Samples of one ripple Fourier window: np folded periods of ns samples (Eq 3.6)."""
-    return int(n_periods) * int(ns)
 
 
 class CaptureError(ValueError):

@@ -45,6 +45,7 @@ import yaml
 from selfsense import __version__
 from selfsense.io.capture import (
     CHANNEL_UNITS,
+    MIN_SAMPLES,
     SLOW_CHANNELS,
     CaptureError,
     CaptureWriter,
@@ -92,8 +93,6 @@ LOCK_NAME = ".import.lock"
 #: the ones not read), and at most this many rows
 CSV_CHUNK_CELLS = 1 << 22
 CSV_CHUNK_ROWS = 1 << 18
-#: the fewest samples a capture holds (a time axis with one step: selfsense.io.capture)
-MIN_ROWS = 2
 #: data rows whose field count is compared with the header's, besides the last
 CHECKED_ROWS = 10
 PROGRESS_STEP = 0.1
@@ -798,9 +797,9 @@ def _run_import(req: Request) -> tuple[Path, Path]:
         if manifest is not None and req.fs is not None:
             _check_fs(manifest, manifest_path, req, req.fs)
         summary = _first_pass(source, req, known)
-        if summary.rows < MIN_ROWS:
+        if summary.rows < MIN_SAMPLES:
             raise ImportProblem(
-                f"{req.source}: {summary.rows} data row: a capture needs at least {MIN_ROWS} "
+                f"{req.source}: {summary.rows} data row: a capture needs at least {MIN_SAMPLES} "
                 "samples"
             )
         notes = _judge_channels(source, summary)

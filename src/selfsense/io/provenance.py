@@ -129,7 +129,14 @@ def sha256(path: str | os.PathLike) -> str:
 
 
 @lru_cache(maxsize=4096)
-def _sha256(path: str, size: int, mtime_ns: int, block: int = 1 << 20) -> str:
+def _sha256(path: str, size: int, mtime_ns: int) -> str:
+    return file_sha256(path)
+
+
+def file_sha256(path: str | os.PathLike, block: int = 1 << 20) -> str:
+    """The file's SHA-256, read now (streamed, ``block`` bytes at a time), whatever was read
+    before: :func:`sha256` caches it for the process, :class:`selfsense.io.audit.Hashes` for one
+    audit."""
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         while chunk := fh.read(block):
