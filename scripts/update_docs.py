@@ -48,44 +48,47 @@ def _unit(unit) -> str:
     return "" if not isinstance(unit, str) else unit
 
 
-def calibration_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
-    """docs/twin.md's table: every scorecard row of kind calibration, the thesis's (or the
-    paper's) value beside the twin's, with the band the calibration holds it to."""
+def _rows_markdown(cards, intro: str, columns: tuple[str, str], chosen) -> str:
+    """A table of the scorecards' rows ``chosen(card)`` picks: dataset, source, quantity, the
+    published (or reference) value and the reproduced one under ``columns``, band, unit, verdict."""
     lines = [
-        f"The signatures on the `{campaign}` campaign (the scorecards' rows of kind calibration):",
+        intro,
         "",
-        "| dataset | source | quantity | published | twin | band | unit | verdict |",
+        f"| dataset | source | quantity | {columns[0]} | {columns[1]} | band | unit | verdict |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for dataset, card in cards.items():
-        for _, row in card[card["kind"] == "calibration"].iterrows():
+        for _, row in card[chosen(card)].iterrows():
             lines.append(
                 f"| {dataset} | {row['source']} | {row['quantity']} | {_number(row['published'])}"
                 f" | {_number(row['reproduced'])} | {_band(row['band low'], row['band high'])}"
                 f" | {_unit(row['unit'])} | {row['verdict']} |"
             )
     return "\n".join(lines)
+
+
+def calibration_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
+    """docs/twin.md's table: every scorecard row of kind calibration, the thesis's (or the
+    paper's) value beside the twin's, with the band the calibration holds it to."""
+    intro = (
+        f"The signatures on the `{campaign}` campaign (the scorecards' rows of kind calibration):"
+    )
+    return _rows_markdown(
+        cards, intro, ("published", "twin"), lambda card: card["kind"] == "calibration"
+    )
 
 
 def recovery_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
     """docs/twin.md's table: the scorecards' twin-recovery rows, each beside its reference (the
     twin's built value; the source's model read on the twin's noiseless states where that model
     does not fit the twin; or the analysis's own bound, such as C_e within 1 %)."""
-    lines = [
+    intro = (
         f"The twin recovery rows on the `{campaign}` campaign (the scorecards' section twin"
-        " recovery):",
-        "",
-        "| dataset | source | quantity | reference | identified | band | unit | verdict |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for dataset, card in cards.items():
-        for _, row in card[card["section"] == "twin recovery"].iterrows():
-            lines.append(
-                f"| {dataset} | {row['source']} | {row['quantity']} | {_number(row['published'])}"
-                f" | {_number(row['reproduced'])} | {_band(row['band low'], row['band high'])}"
-                f" | {_unit(row['unit'])} | {row['verdict']} |"
-            )
-    return "\n".join(lines)
+        " recovery):"
+    )
+    return _rows_markdown(
+        cards, intro, ("reference", "identified"), lambda card: card["section"] == "twin recovery"
+    )
 
 
 def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
