@@ -6,6 +6,7 @@ with. Everything here reads a simulated capture's ``/truth``; the analyses never
 - ``recovery``: identified parameters against the built ones and the model on truth;
 - ``gamma_truth``, ``powerloss_truth``: Γ and the power-loss performance refitted on truth;
 - ``loop_leak``: the closed loop's drive in the ripple channels;
+- ``hysteresis_truth``: the twin's own rate-independent feedforward, for the Maxwell model fit;
 - ``studies``: the ripple estimator's error against np and the ripple's wander;
 - ``signatures``: the calibration signatures measured on short twin runs.
 """
