@@ -10,15 +10,16 @@ from pathlib import Path
 
 from selfsense.io.audit import report as audit_report
 from selfsense.io.capture import CaptureError
-from selfsense.io.importer import (
+from selfsense.io.importer import Request, run_import
+from selfsense.io.manifest import ManifestError
+from selfsense.io.sources import (
     ImportProblem,
-    Request,
     parse_attr,
     parse_column,
+    parse_factor,
     parse_range,
-    run_import,
+    scalings,
 )
-from selfsense.io.manifest import ManifestError
 
 EXAMPLE = """\
 worked example (a 1 Hz, ±150 V sine at 5 kHz: columns t [s], U [V], x [µm]):
@@ -29,21 +30,40 @@ worked example (a 1 Hz, ±150 V sine at 5 kHz: columns t [s], U [V], x [µm]):
 
 writes raw/my_stack/sine_1hz.nc and raw/my_stack/dataset.yaml (scaffolded, or updated when the
 dataset exists); then results/my_stack/characterise/summary.csv and
-figures/my_stack/characterise/loops_01.png. Columns go by name or by index (x_laser=2:um); \
-a .mat file
-names its variables (U=rec.Y[0].Data:V, x_laser=data[1]:um). Units are converted to the
-contract's (V, A, m, N); channels: U, I, x_laser or x_disp, F, Ur, Ir, ... \
-(docs/capture-contract.md).
+figures/my_stack/characterise/loops_01.png.
+
+a DAQ's file without header or time (tab-separated, 200 Hz; column 2 the amplifier's 1/20
+monitor of U, column 6 a displacement sensor's volts at 10 µm/V):
+
+  selfsense import run3.txt --dataset my_stack --experiment sine_1hz --no-header --fs 200 \\
+      --channel U=2:V --gain U=20 --channel x_disp=6:um --scale x_disp=10
+
+Columns go by header name or by position counted from 1 (x_laser=3:um is the third column):
+digits are always a position; a header name made of digits is written with '#' (U=#2:V, the
+column named 2). A .mat file names its variables, v4 to v7.3 (U=rec.Y[1].Data:V,
+x_laser=data[2]:um: [k] counted from 1, data[2] is MATLAB's data(:,2)); a .tdms file its
+channels as Group/Channel (U='Untitled/Dev1/ai0':V), by the channel's name alone where no other
+group has it, or by position counted from 1; a TDMS channel's wf_increment gives fs when neither
+--time nor --fs does (given, they must agree with it). Units are converted to the contract's (V,
+A, m, N), then multiplied by --scale or --gain; channels: U, I, x_laser or x_disp, F, Ur, Ir, ...
+(docs/capture-contract.md). Without --sep, a file other than .tsv is split at whichever of tab,
+';' and ',' splits its first lines alike (logged).
 
 Everything is checked before the capture appears, and a refusal is one line naming the file or
-the argument (exit 1) that leaves nothing behind: no capture, no temporary, no manifest change.
-A CSV is read in chunks, only the columns asked for, twice (check, then write): memory does not
-grow with its length; a .mat file is loaded whole. Data rows that end in the separator while the
-header does not keep their columns. Overload values (|v| >= 1e30, e.g. 9.9E+37, or +-inf) are
-stored as missing and counted (the capture's import_note), before a range is derived; a channel
-overloaded in more than 1 % of its samples, or without a single value, is refused. Imports into
-one dataset run one after another (its lock, raw/<dataset>/.import.lock); an existing capture is
-never overwritten.
+the argument (exit 1), and what to type instead where it can, that leaves nothing behind: no
+capture, no temporary, no manifest change. A column that holds one value throughout (a position
+counted from 0?) is refused, naming the columns that vary. On a first import (no --range, no
+range in the manifest) a channel's range must be one a piezo bench records: a voltage within
++-10 kV, a current within +-100 A, a force within +-1 MN, a displacement spanning 0.1 nm to 1 cm;
+else the refusal names the unit that fits (x_disp spans 49.4 m: ... type x_disp=6:um) or --range
+to keep it. A CSV, TDMS or v7.3
+file is read in chunks, only the columns asked for, twice (check, then write): memory does not
+grow with its length; a v4-v7 .mat file is loaded whole. Data rows that end in the separator
+while the header does not keep their columns. Overload values (|v| >= 1e30, e.g. 9.9E+37, or
++-inf) are stored as missing and counted (the capture's import_note), before a range is derived;
+a channel overloaded in more than 1 % of its samples, or without a single value, is refused.
+Imports into one dataset run one after another (its lock, raw/<dataset>/.import.lock); an
+existing capture is never overwritten.
 """
 
 
@@ -65,14 +85,17 @@ def parser() -> argparse.ArgumentParser:
     commands = cli.add_subparsers(dest="command", required=True)
     imp = commands.add_parser(
         "import",
-        help="a CSV/TSV or .mat recording into raw/<dataset>/",
+        help="a CSV/TSV, .mat or .tdms recording into raw/<dataset>/",
         description="Import one recording as one capture of a measured dataset (names: at "
         "most 100 characters).",
         epilog=EXAMPLE,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     imp.add_argument(
-        "source", type=Path, help="the recording: .csv, .tsv (or --sep) or .mat (v4–v7)"
+        "source",
+        type=Path,
+        help="the recording: .csv, .tsv, .txt (any text: the separator detected, or --sep), .mat "
+        "(v4–v7.3) or .tdms",
     )
     imp.add_argument("--dataset", required=True, help="dataset name: letters, digits, '_' or '-'")
     imp.add_argument("--experiment", required=True, help="capture name: letters, digits or '_'")
@@ -83,18 +106,46 @@ def parser() -> argparse.ArgumentParser:
         type=_arg(parse_column),
         dest="channels",
         metavar="CHANNEL=COLUMN:UNIT",
-        help="a contract channel, where it is, its unit there",
+        help="a contract channel, where it is, its unit there. COLUMN: a header name, or a "
+        "position counted from 1 (digits are always a position; '#7' is the header's column "
+        "named 7); a .mat variable (rec.Y, data[1] = MATLAB's data(:,1)); a .tdms channel "
+        "(Group/Channel, its name alone, or a position counted from 1)",
     )
     timing = imp.add_mutually_exclusive_group()
     timing.add_argument(
         "--time",
         type=_arg(lambda t: parse_column(t, time=True)),
         metavar="COLUMN:UNIT",
-        help="the time column (s, ms, us): fs from the least-squares line through it, every "
-        "sample within a quarter sample of that line",
+        help="the time column (s, ms, us), as --channel's COLUMN: fs from the least-squares line "
+        "through it, every sample within a quarter sample of that line",
     )
     timing.add_argument(
-        "--fs", type=float, help="sampling rate [Hz], finite and > 0, when there is no time column"
+        "--fs",
+        type=float,
+        help="sampling rate [Hz], finite and > 0, when there is no time column (a .tdms file: "
+        "default 1/wf_increment of its channels, which --fs or --time must agree with to 1e-6)",
+    )
+    imp.add_argument(
+        "--scale",
+        action="append",
+        type=_arg(parse_factor),
+        dest="scales",
+        metavar="CHANNEL=FACTOR",
+        help="a sensor's sensitivity: the recorded column times FACTOR is the channel in "
+        "--channel's unit (x_disp=10: a sensor logged in V at 10 µm/V, with x_disp=6:um); "
+        "finite, nonzero; recorded as the capture's scale_<channel> and the manifest's "
+        "sensors.<channel>.scale (scale_kind: sensitivity)",
+    )
+    imp.add_argument(
+        "--gain",
+        action="append",
+        type=_arg(lambda t: parse_factor(t, "--gain")),
+        dest="gains",
+        metavar="CHANNEL=FACTOR",
+        help="an amplifier's gain or a monitor output's ratio: the recorded column times FACTOR "
+        "is the channel (U=20: the DAQ logged the amplifier's 1/20 monitor); negative for an "
+        "inverting amplifier; recorded as --scale is (scale_kind: gain). A dataset's captures "
+        "share one factor per channel",
     )
     imp.add_argument(
         "--range",
@@ -102,8 +153,8 @@ def parser() -> argparse.ArgumentParser:
         type=_arg(parse_range),
         dest="ranges",
         metavar="CHANNEL=LOW,HIGH",
-        help="the ADC's full scale in the contract's unit (default: the manifest's, else "
-        "derived from the data)",
+        help="the ADC's full scale in the contract's unit, after --scale/--gain (default: the "
+        "manifest's, else derived from the data and checked against what a piezo bench records)",
     )
     imp.add_argument(
         "--attr",
@@ -115,8 +166,9 @@ def parser() -> argparse.ArgumentParser:
     )
     imp.add_argument(
         "--sep",
-        help="column separator, one character that is not part of a number ('\\t' for a tab; "
-        "default: tab for .tsv, else comma)",
+        help="column separator, one character that is not part of a number (tab or '\\t' for a "
+        "tab; default: tab for .tsv, else whichever of tab, ';' and ',' splits the first lines "
+        "alike)",
     )
     imp.add_argument(
         "--no-header", dest="header", action="store_false", help="the file has no header row"
@@ -182,6 +234,7 @@ def main(argv: list[str] | None = None) -> int:
                 args.header,
                 args.model,
                 args.raw_dir,
+                scales=scalings(args.scales or (), args.gains or ()),
             )
         )
     except (ImportProblem, CaptureError, ManifestError) as err:

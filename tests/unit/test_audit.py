@@ -332,3 +332,14 @@ def test_a_manifest_every_report_names_is_named_once(checked):
     replace_keeping_mtime(manifest, b"source: measure\n")
     message = stops("raw/lab/dataset.yaml: not the file results/lab/qc/c.json checked")
     assert "more" not in message and message.count("raw/lab/dataset.yaml") == 2  # and its touch
+
+
+def test_the_start_check_finds_a_replaced_manifest_through_the_stage_plan(checked):
+    """The QC reports hold the capture only (a new batch in the manifest re-checks nothing); the
+    stage plan's sidecar holds the manifest, and the start check reads it too."""
+    capture, manifest, qc = checked
+    write_json({"provenance": provenance(["raw/lab/c.nc"])}, qc)
+    plan = qc.parents[1] / "stages.csv"
+    write_table(pd.DataFrame({"stage": ["characterise"]}), plan, inputs=["raw/lab/dataset.yaml"])
+    replace_keeping_mtime(manifest, b"source: measured, other\n")
+    stops("raw/lab/dataset.yaml: not the file results/lab/stages.csv.json checked (size")

@@ -98,16 +98,16 @@ def test_a_mat_file_with_the_same_content_gives_the_same_table(tmp_path):
     from_mat = imported(
         tmp_path,
         tmp_path / "sine.mat",
-        "U=rec.data[0]:V",
-        "x_laser=rec.data[1]:um",
+        "U=rec.data[1]:V",
+        "x_laser=rec.data[2]:um",
         dataset="lab_mat",
         extra=["--fs", str(LAB_FS)],
     )
     from_csv = imported(
         tmp_path,
         write_csv(tmp_path / "sine.csv", t0=0.0),
-        "U=1:V",
-        "x_laser=2:um",
+        "U=2:V",
+        "x_laser=3:um",
         dataset="lab_csv",
         extra=["--time", "t [s]:s"],
     )

@@ -23,16 +23,11 @@ from hypothesis import strategies as st
 from scipy.io import savemat
 
 from selfsense.cli import main as cli
-from selfsense.io.capture import open_capture
-from selfsense.io.importer import (
-    MAX_NAME,
-    ImportProblem,
-    Request,
-    dataset_lock,
-    parse_column,
-    run_import,
-)
+from selfsense.io.capture import CHANNEL_UNITS, open_capture
+from selfsense.io.dataset_lock import dataset_lock
+from selfsense.io.importer import MAX_NAME, PLAUSIBLE, Request, run_import
 from selfsense.io.manifest import load_dataset
+from selfsense.io.sources import ImportProblem, parse_column
 
 from ..helpers import LAB_FS, ellipse, leftovers, write_csv
 
@@ -204,10 +199,16 @@ def test_data_rows_ending_in_the_separator_keep_their_columns(tmp_path):
             "t,U,x\n0,1,2\n", ["U=V:V"], ["no column 'V' for U (columns: t, U, x)"], id="name"
         ),
         pytest.param(
-            "t,U,x\n0,1,2\n", ["U=5:V"], ["column 5 for U does not exist (3 columns"], id="index"
+            "t,U,x\n0,1,2\n",
+            ["U=4:V"],
+            ["column 4 for U does not exist (the file has 3 columns, counted from 1)"],
+            id="index",
         ),
         pytest.param(
-            "t;U;x\n0;1;2\n", ["U=U:V"], ["no column 'U'", "--sep if it is another"], id="separator"
+            "t|U|x\n0|1|2\n",
+            ["U=U:V"],
+            ["no comma, semicolon or tab splits its rows alike: give --sep, e.g. --sep '|'"],
+            id="separator",
         ),
         pytest.param(
             "t,U,U\n0,1,2\n", ["U=U:V"], ["column 'U' for U is in the header 2 times"], id="twice"
@@ -504,9 +505,11 @@ def test_two_imports_at_once_run_one_after_the_other_and_never_overwrite(tmp_pat
 
 SEPARATORS = [",", ";", "\t", "|", " "]
 SENTINELS = ["9.9E+37", "1e308", "inf", "-inf"]
+#: magnitudes around the plausibility limits (a first import refuses |U| > 10 kV and a
+#: displacement spanning more than 1 cm or less than 0.1 nm: x is written in µm)
 FINITE = st.one_of(
-    st.floats(-1e12, 1e12, allow_nan=False, allow_infinity=False),
-    st.integers(-(10**6), 10**6),
+    st.floats(-2e4, 2e4, allow_nan=False, allow_infinity=False),
+    st.integers(-(2 * 10**4), 2 * 10**4),
 )
 
 
@@ -524,6 +527,15 @@ def recordings(draw):
         "trailing": draw(st.booleans()),
         "time": draw(st.booleans()),
     }
+
+
+def _plausible(channel, lo, hi):
+    """Whether a first import takes a channel spanning [lo, hi] (contract unit): it varies, and
+    within PLAUSIBLE's limits."""
+    rule = PLAUSIBLE[CHANNEL_UNITS[channel][0]]
+    return (
+        lo < hi and max(abs(lo), abs(hi)) <= rule.peak and rule.span[0] <= hi - lo <= rule.span[1]
+    )
 
 
 def _text(value):
@@ -547,7 +559,8 @@ def test_any_numeric_columns_give_a_correct_capture_or_one_line_naming_the_file(
         wanted = {"U": (columns[0], "V", 1.0)}
         if len(columns) > 1:
             wanted["x_laser"] = (columns[1], "um", 1e-6)
-        where = (lambda j: header[j]) if rec["header"] else str
+        # a column by its header name, or by its position counted from 1
+        where = (lambda j: header[j]) if rec["header"] else (lambda j: str(j + 1))
         args = args_for(
             source,
             tmp / "raw",
@@ -568,6 +581,9 @@ def test_any_numeric_columns_give_a_correct_capture_or_one_line_naming_the_file(
             if np.isnan(values).all() or overloads > 0.01 * n:
                 importable = False
             expected[channel] = values * factor
+            valid = expected[channel][~np.isnan(values)]
+            if valid.size and not _plausible(channel, valid.min(), valid.max()):
+                importable = False  # one value throughout, or not what a piezo bench records
         if n < 2:  # a capture holds two samples at the least
             importable = False
         status, err = run(args)

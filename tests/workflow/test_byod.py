@@ -160,7 +160,8 @@ def test_an_imported_csv_gets_its_table_figure_and_a_scorecard_of_its_own(lab_cs
     table = pd.read_csv(res / "characterise" / "summary.csv")
     assert list(table["experiment"]) == ["sine_1hz"]
     assert abs(table.loc[0, "x–U loop width [% of stroke]"] - 100 * np.sin(LAB_PHI)) < 0.5
-    assert (repo / "figures" / "lab_stack" / "characterise" / "loops_01.png").exists()
+    # a measured dataset's loop figure: a page per capture, named after it
+    assert (repo / "figures" / "lab_stack" / "characterise" / "loops_sine_1hz.png").exists()
     sensors = pd.read_csv(res / "characterise" / "instruments.csv").set_index(["item", "property"])[
         "value"
     ]

@@ -73,8 +73,14 @@ USES = {
 RESOURCES = "resources."
 
 #: keys that choose which jobs and files exist rather than what a job computes (a change makes a
-#: different DAG, not a rerun of this one)
-STRUCTURAL = {"datasets", "campaign", "raw_dir"}
+#: different DAG, not a rerun of this one): captures_per_job makes the loop figure's pages
+STRUCTURAL = {
+    "datasets",
+    "campaign",
+    "raw_dir",
+    "characterise.captures_per_job.simulated",
+    "characterise.captures_per_job.measured",
+}
 
 
 def leaves(doc, prefix=""):

@@ -38,13 +38,18 @@ if MEASURED:
 
     rule check_capture:
         """Check one measured capture against its manifest, validate it and count its NaN and
-        clipped samples (streamed once)."""
+        clipped samples (streamed once). The manifest is an ancient() input: `selfsense import`
+        appends each new recording to its experiments, and that must not check every earlier
+        capture again; the parts of the manifest a capture is held to are a param, so a change
+        to them (and only to them) re-checks every capture."""
         input:
             capture=RAW / "{dataset}" / "{experiment}.nc",
-            manifest=RAW / "{dataset}" / "dataset.yaml",
+            manifest=ancient(RAW / "{dataset}" / "dataset.yaml"),
             library=library_sources("check_capture"),
         output:
             report="results/{dataset}/qc/{experiment}.json",
+        params:
+            contract=lambda w: capture_contract(w.dataset),
         wildcard_constraints:
             dataset="|".join(MEASURED),
         log:

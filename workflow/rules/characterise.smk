@@ -1,16 +1,19 @@
 # Stage "characterise": what the channels allow, whatever the protocol. Every capture with a drive
 # voltage U and a displacement (x_laser or x_disp) of a dataset whose DAQ records both: stroke,
 # gains, the x–U loop's width and nonlinearity, creep after a held step, and with the current the
-# charge–position slope and the q–U loop; a loop figure six captures a page and a table per dataset.
+# charge–position slope and the q–U loop; a loop figure (a page per characterise_page job:
+# config characterise.captures_per_job) and a table per dataset.
 # Which datasets run it: the stage plan (CHARACTERISE_DATASETS in common.smk).
 
 
 rule characterise_page:
-    """Up to six captures of the dataset, each streamed once: their rows of the characterisation
-    table and their page of the loop figure (x–U, and q–U with the current). A job per page, not
-    per capture (a capture's own work is a fraction of a job's start-up) nor per dataset (its
-    pages, one after another, kept a core busy alone at the end of the run): a page runs as soon
-    as its captures are there."""
+    """The captures of one page of the dataset's loop figure, each streamed once: their rows of
+    the characterisation table and their page (x–U, and q–U with the current). A job per page,
+    not per dataset (its pages, one after another, kept a core busy alone at the end of the run):
+    a page runs as soon as its captures are there. Six captures a page for a simulated dataset (a
+    capture's own work is a fraction of a job's start-up), one for a measured one, named after
+    it, so that a new batch of recordings runs only its own pages (captures_per_job in
+    common.smk)."""
     input:
         unpack(lambda w: captures(w.dataset, capture=LOOP_PAGES[w.dataset][w.page])),
         library=library_sources("characterise_page"),
@@ -20,11 +23,12 @@ rule characterise_page:
                       caption="../report/characterise_loops.rst", category="{dataset}",
                       subcategory="Characterisation"),
     params:
-        title=lambda w: f"{w.dataset} ({int(w.page)} of {len(LOOP_PAGES[w.dataset])})",
+        title=lambda w: loop_page_title(w.dataset, w.page),
+        scalings=lambda w: channel_scalings(DATASETS[w.dataset]),
         settle_s=config["characterise"]["settle_s"],
         min_hold_s=config["characterise"]["min_hold_s"],
     wildcard_constraints:
-        page=r"\d+",
+        page=r"[A-Za-z0-9_]+",  # a number, or the capture of a page of one
     log:
         "logs/{dataset}/characterise_page/{page}.log",
     benchmark:

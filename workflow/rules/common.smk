@@ -2,6 +2,8 @@
 # files use: the rule files (workflow/rules/*.smk) hold rules and the *_OUTPUTS lists of what they
 # make, nothing else, so no rule file depends on another's module-level names.
 import ast
+import json
+import re
 import threading
 from functools import cache
 from pathlib import Path
@@ -10,7 +12,8 @@ from snakemake.utils import validate
 
 from selfsense.chapters import figure_names
 from selfsense.chapters.figure_names import loop_pages
-from selfsense.io.manifest import PROTOCOLS, SCHEMAS, expand_protocols, load_dataset, load_yaml, protocol_duration, validate_config
+from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, channel_scalings, expand_protocols, load_dataset, load_yaml,
+                                    protocol_duration, validate_config)
 from selfsense.scorecard.calibration import load_targets
 from selfsense.scorecard.reference_values import tables_read as reference_tables
 from selfsense.scorecard.registry import applicable, parse_registry, tables_read
@@ -126,9 +129,29 @@ def _experiments(name):
 EXPERIMENTS = {name: _experiments(name) for name in DATASETS}
 
 
+#: what a dataset's name may be (the manifest's name, a folder under raw_dir)
+DATASET_NAME = r"[A-Za-z0-9][A-Za-z0-9_-]*"
+
+
 wildcard_constraints:
-    dataset=r"[A-Za-z0-9][A-Za-z0-9_-]*",
+    dataset=DATASET_NAME,
     experiment=r"[A-Za-z0-9_]+",
+
+
+def capture_contract(dataset):
+    """What rule check_capture holds a measured capture to (selfsense.io.contract reads these
+    parts of the manifest, and nothing else): the DAQ (fs, channels, ranges, the ripple's
+    folding plan), each sensor's units and the factor its channel was logged through (scale,
+    scale_kind: every capture of the dataset was imported with it), the protocols (the
+    attributes the Ronkanen runs need). As JSON with sorted keys, a param of the rule: the check
+    re-runs when these change, not when the list of experiments grows (the manifest is an
+    ancient() input). Not the sensors' descriptions (type, range, resolution): the report's."""
+    manifest = DATASETS[dataset]
+    sensors = {channel: {k: v for k, v in sensor.items() if k in ("units", "scale", "scale_kind")}
+               for channel, sensor in manifest.get("sensors", {}).items()}
+    checked = {"daq": manifest["daq"], "sensors": {c: s for c, s in sensors.items() if s},
+               "protocols": manifest["protocols"]}
+    return json.dumps(checked, sort_keys=True)
 
 
 def captures(dataset, **runs):
@@ -220,8 +243,24 @@ CAPTURES = {d: stages.captures_made(DATASETS[d], EXPERIMENTS[d], STAGE_PLANS[d])
 
 # ---- Characterise: the loop figures' pages
 
-#: {dataset: {page: its experiments}} of the loop figures
-LOOP_PAGES = {d: loop_pages(CAPTURES[d]) for d in CHARACTERISE_DATASETS}
+def captures_per_job(dataset):
+    """How many captures one characterise_page job takes (config characterise.captures_per_job):
+    a simulated dataset's catalogue is fixed, a measured one grows by batches."""
+    return config["characterise"]["captures_per_job"][DATASETS[dataset]["source"]]
+
+
+#: {dataset: {page: its experiments}} of the loop figures: a page is a characterise_page job
+LOOP_PAGES = {d: loop_pages(CAPTURES[d], captures_per_job(d)) for d in CHARACTERISE_DATASETS}
+
+
+def loop_page_title(dataset, page):
+    """A loop figure page's title. A param of its job, so it never holds what a new batch changes
+    (the number of pages of a measured dataset); a page of one capture has its name on its panel."""
+    if captures_per_job(dataset) == 1:
+        return dataset
+    if dataset in SIMULATED:
+        return f"{dataset} ({int(page)} of {len(LOOP_PAGES[dataset])})"
+    return f"{dataset}, page {int(page)}"
 
 
 # ---- Chapter 3
@@ -385,6 +424,22 @@ def scorecard_tables(dataset):
     return [t for t in (f"results/{dataset}/{t}" for t in tables_read(applicable(SCORECARD, DATASETS[dataset]))
                         + reference_tables(DATASETS[dataset]))
             if t in stage_outputs()]
+
+
+def earlier_scorecards():
+    """{dataset: its scorecard} of every other dataset under raw_dir whose scorecard an earlier
+    run left in results/ (found now, when the workflow is parsed): the project-wide summary
+    covers them beside this run's, as they are (this run makes none of them again)."""
+    found = {}
+    for folder in sorted(RAW.iterdir()) if RAW.is_dir() else ():
+        card = Path("results") / folder.name / "scorecard.csv"
+        if (folder.name not in DATASETS and re.fullmatch(DATASET_NAME, folder.name)
+                and (folder / "dataset.yaml").is_file() and card.is_file()):
+            found[folder.name] = str(card)
+    return found
+
+
+EARLIER_SCORECARDS = earlier_scorecards()
 
 
 TWIN_CALIBRATION_TARGETS = "workflow/twin_calibration.yaml"

@@ -50,6 +50,10 @@ rule scorecard:
                     category="{dataset}", subcategory="Scorecard"),
     params:
         results_dir=lambda w: f"results/{w.dataset}",
+    wildcard_constraints:
+        # this run's datasets only: another dataset's scorecard, read by the summary as an earlier
+        # run left it, is never made again by this run
+        dataset="|".join(DATASETS),
     log:
         "logs/{dataset}/scorecard.log",
     benchmark:
@@ -64,9 +68,13 @@ rule scorecard:
 rule scorecard_summary:
     """The summary that opens the report (counts per dataset), and pages of its long lists: what is
     out of band and why, what is not reproduced yet. The lists are report items of their own, not
-    part of the opening: Snakemake centres its landing text, so a long one starts out of reach."""
+    part of the opening: Snakemake centres its landing text, so a long one starts out of reach.
+    Project-wide: this run's datasets, made fresh, and every other dataset under raw_dir with a
+    scorecard from an earlier run, as it is (ancient: never made again here), each said to be so
+    with its date; running one dataset never drops another's numbers."""
     input:
         cards=[f"results/{d}/scorecard.csv" for d in DATASETS],
+        earlier=[ancient(card) for card in EARLIER_SCORECARDS.values()],
         library=library_sources("scorecard_summary"),
     output:
         summary=report("results/scorecard_summary.rst", caption="../report/scorecard_summary.rst",

@@ -56,15 +56,19 @@ CH7_COUPLED = {
 #: {figure of Ronkanen 2002: file name} of ``ronkanen.figures_paper``
 RONKANEN = {n: f"fig_ronkanen_{n}" for n in range(2, 12)}
 
-#: captures a page of a dataset's loop figure (``characterise.loop_page``)
+#: captures a page of a dataset's loop figure (``characterise.loop_page``) unless the config says
+#: otherwise (``characterise.captures_per_job``)
 LOOPS_PER_PAGE = 6
 
 
-def loop_pages(experiments) -> dict[str, list[str]]:
-    """The pages of a dataset's loop figure, figures/<dataset>/characterise/loops_<page>.png:
-    {page ("01", "02", …): its experiments}, :data:`LOOPS_PER_PAGE` a page in catalogue order."""
+def loop_pages(experiments, per_page: int = LOOPS_PER_PAGE) -> dict[str, list[str]]:
+    """The pages of a dataset's loop figure, figures/<dataset>/characterise/loops_<page>.png, in
+    catalogue order: {page: its experiments}. Pages of one capture are named after it (a
+    measured dataset grows by batches: a new capture never renames, nor moves a capture to,
+    another page); pages of several are numbered ("01", "02", …), ``per_page`` a page."""
     names = list(experiments)
+    if per_page == 1:
+        return {name: [name] for name in names}
     return {
-        f"{k // LOOPS_PER_PAGE + 1:02d}": names[k : k + LOOPS_PER_PAGE]
-        for k in range(0, len(names), LOOPS_PER_PAGE)
+        f"{k // per_page + 1:02d}": names[k : k + per_page] for k in range(0, len(names), per_page)
     }

@@ -6,7 +6,14 @@
 - ``provenance``: atomic outputs with their provenance sidecars, script logging;
 - ``audit``: outputs against their inputs by content (``selfsense audit``, the start-of-run
   check);
-- ``importer``: a lab's CSV/MAT recordings into captures (``selfsense import``);
+- ``importer``: a lab's recordings into captures and a manifest (``selfsense import``);
+- ``sources``: what the import and its readers share (ImportProblem, Column, argument parsing);
+- ``csv_source``: the import's CSV/TSV reader (separator detection, chunks);
+- ``mat_source``: the import's MATLAB readers, v4–v7 (scipy) and v7.3 (h5py);
+- ``tdms_source``: the import's NI TDMS reader (nptdms);
+- ``dataset_lock``: one import into a dataset at a time (``raw/<dataset>/.import.lock``);
+- ``unknowns``: the declared unknowns of the twin and the protocols (workflow/unknowns.yaml),
+  their loader and hash;
 - ``figures``: the plotting helpers every figure is drawn with;
 - ``config_docs``: docs/configuration.md, generated from the config schema.
 """

@@ -265,7 +265,9 @@ def check_inputs_unchanged(
     datasets: Iterable[str], results_dir: str | os.PathLike = "results"
 ) -> None:
     """Stop (:class:`StaleInput`, one line) if an input of a measured dataset's QC report
-    (``results/<dataset>/qc/<experiment>.json``: the capture and its manifest) no longer has the
+    (``results/<dataset>/qc/<experiment>.json``: the capture) or of its stage plan
+    (``results/<dataset>/stages.csv.json``: the manifest, which the QC reports hold only as an
+    ancient input, so that a new batch does not re-check the earlier captures) no longer has the
     content the report checked, yet is not newer than the report, so that Snakemake would
     re-make nothing from it. Run at every start of the workflow, so it must cost nothing
     measurable: an input whose size and mtime are those recorded is taken as unchanged without
@@ -276,9 +278,11 @@ def check_inputs_unchanged(
     found: dict[str, tuple[Path, str]] = {}  # the manifest is an input of every report
     hashes = Hashes()
     for dataset in datasets:
-        for qc in sorted((Path(results_dir) / dataset / "qc").glob("*.json")):
+        folder = Path(results_dir) / dataset
+        for qc in [*sorted((folder / "qc").glob("*.json")), folder / "stages.csv.json"]:
             doc = _read(qc)
-            prov = doc.get("provenance") if isinstance(doc, dict) else None
+            # a QC report holds its provenance under a key; a table's sidecar is one
+            prov = doc.get("provenance", doc) if isinstance(doc, dict) else None
             if not isinstance(prov, dict) or not isinstance(prov.get("input_files"), dict):
                 continue  # not a QC report (captures.csv.json), or an old one: audit checks it
             made = qc.stat().st_mtime_ns

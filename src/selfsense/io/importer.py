@@ -1,40 +1,38 @@
-"""A lab's own recording into the capture contract (docs/bring-your-own-data.md).
+"""A lab's own recording into the capture contract (docs/bring-your-own-data.md): the import
+behind ``selfsense import``.
 
-Reads CSV/TSV (columns by name or index) or MATLAB ``.mat`` files up to v7 (``scipy.io.loadmat``;
-variables by name, struct fields by ``.``, a column of a matrix or an element of a struct array by
-``[k]``), converts each channel to its contract unit, checks the time axis, packs int16 with the
-manifest's ranges (or ranges derived from the data) and writes ``raw/<dataset>/<experiment>.nc``,
-then scaffolds or updates ``raw/<dataset>/dataset.yaml``.
+The file's reader is chosen by its suffix (:func:`open_source`; a ``.mat`` file by its content):
+CSV/TSV (:mod:`selfsense.io.csv_source`), MATLAB v4–v7.3 (:mod:`selfsense.io.mat_source`), NI
+TDMS (:mod:`selfsense.io.tdms_source`), each locating the columns asked for and checking their
+types. The import converts each channel to its contract unit (times its ``--scale`` or
+``--gain``), checks the time axis, packs int16 with the manifest's ranges (or ranges derived from
+the data) and writes ``raw/<dataset>/<experiment>.nc``, then scaffolds or updates
+``raw/<dataset>/dataset.yaml``.
 
-Everything is judged before anything is published: the arguments (fs, names, ranges), the file's
-layout (the header's columns against the data rows'), every cell of the columns asked for
-(numeric, not complex, a column not all empty), overload sentinels (``9.9E+37``, ``1e308``, ±inf:
-stored as missing and counted, refused beyond :data:`~selfsense.io.contract.CLIP_LIMIT` of a
-channel) before a range is derived from the data, the time axis against a least-squares line
-through it, the clipping against the ranges. A CSV is read twice in chunks, only its requested
-columns: a first pass checks and sums up, the second streams into the capture, so memory does not
-grow with the file's length (a ``.mat`` file is loaded whole by scipy). Imports into one dataset
-take its lock (``raw/<dataset>/.import.lock``, ``fcntl.flock``) and run one after another. The
-capture is written to a hidden temporary, read back, and linked to its name only if no file has
-it (an existing capture is never overwritten); the manifest follows by an atomic rename. A failure
-leaves nothing behind: no capture, no temporary, no manifest change, no new folder. Every refusal
-is an :class:`ImportProblem`, one line naming the file or the argument.
+Everything is judged before anything is published: the arguments (fs, names, ranges, factors),
+the columns asked for (not all empty, not one value throughout), overload sentinels (``9.9E+37``,
+``1e308``, ±inf: stored as missing and counted, refused beyond
+:data:`~selfsense.io.contract.CLIP_LIMIT` of a channel) before a range is derived from the data, a
+derived range against what a piezo bench can record (:data:`PLAUSIBLE`: a unit slip shows as
+metres of stroke), the time axis against a least-squares line through it, the clipping against the
+ranges. The source is read twice, in its reader's chunks: a first pass checks and sums up, the
+second streams into the capture, so memory does not grow with the file's length (a v4–v7 ``.mat``
+file is loaded whole by scipy). Imports into one dataset take its lock
+(:mod:`selfsense.io.dataset_lock`) and run one after another. The capture is written to a hidden
+temporary, read back, and linked to its name only if no file has it (an existing capture is never
+overwritten); the manifest follows by an atomic rename. A failure leaves nothing behind: no
+capture, no temporary, no manifest change, no new folder. Every refusal is an
+:class:`~selfsense.io.sources.ImportProblem`, one line naming the file or the argument and, where
+it can, what to type instead.
 """
 
 from __future__ import annotations
 
-import codecs
-import csv
 import errno
-import fcntl
 import logging
 import math
 import os
-import re
-import time
-import warnings
-from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,7 +42,6 @@ import yaml
 
 from selfsense import __version__
 from selfsense.io.capture import (
-    CHANNEL_UNITS,
     MIN_SAMPLES,
     SLOW_CHANNELS,
     CaptureError,
@@ -53,6 +50,8 @@ from selfsense.io.capture import (
     open_capture,
 )
 from selfsense.io.contract import CLIP_LIMIT, clipping_problem
+from selfsense.io.csv_source import CsvSource
+from selfsense.io.dataset_lock import LOCK_TIMEOUT_S, dataset_lock
 from selfsense.io.manifest import (
     ManifestError,
     check_dataset_name,
@@ -60,43 +59,62 @@ from selfsense.io.manifest import (
     load_dataset,
     validate_document,
 )
+from selfsense.io.mat_source import Mat73Source, MatSource, is_hdf5
 from selfsense.io.provenance import atomic_path, temporary_path
+from selfsense.io.sources import (
+    DECLARED_FS_RTOL,
+    OVERLOAD,
+    SCALE_KINDS,
+    UNITS,
+    Column,
+    ImportProblem,
+    Source,
+)
+from selfsense.io.tdms_source import TdmsSource
 
 LOG = logging.getLogger("selfsense.io.importer")
 
-#: factor from each accepted unit to the contract's unit of its quantity
-UNITS: dict[str, dict[str, float]] = {
-    "V": {"V": 1.0, "mV": 1e-3, "kV": 1e3},
-    "A": {"A": 1.0, "mA": 1e-3, "uA": 1e-6, "µA": 1e-6, "nA": 1e-9, "pA": 1e-12},
-    "m": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "nm": 1e-9},
-    "N": {"N": 1.0, "kN": 1e3, "mN": 1e-3},
-    "degC": {"degC": 1.0, "°C": 1.0, "C": 1.0},
-    "s": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6},
+
+@dataclass(frozen=True)
+class Plausible:
+    """What a piezo bench can record of one contract quantity, judged on a range derived from
+    the data (a first import: no --range, no manifest range). ``peak``: the largest |value|;
+    ``span``: the largest and smallest max − min; ``what``: what the channel would not be;
+    ``typical``: the magnitude a unit suggestion aims at (the one nearest it, in decades)."""
+
+    what: str
+    typical: float
+    peak: float = math.inf
+    span: tuple[float, float] = (0.0, math.inf)
+
+
+#: the plausibility of a derived range, per contract quantity, and why each limit
+PLAUSIBLE: dict[str, Plausible] = {
+    # piezo stacks run at up to ≈ 1 kV (Islam's at −30…150 V), high-voltage shear and tube
+    # actuators at a few kV; no bench amplifier gives 10 kV (a kV column read as V: 150 kV)
+    "V": Plausible("a piezo drive's voltage", typical=100.0, peak=1e4),
+    # linear piezo amplifiers give at most ≈ 10–20 A peak, switching ones for large stacks tens of
+    # amperes; 100 A none (µA or mA read as A, or a shunt's volts read as amperes beyond it)
+    "A": Plausible("a piezo drive's current", typical=0.1, peak=100.0),
+    # a stack strokes ≤ 0.3 mm, an amplified actuator or bender a few mm: 1 cm none (µm read as m:
+    # metres); below 0.1 nm no displacement sensor tells motion from noise (m read as nm)
+    "m": Plausible("a piezo actuator's displacement", typical=3e-5, span=(1e-10, 1e-2)),
+    # the largest stacks block at ≈ 100 kN; 1 MN no bench's load cell measures (mN read as N is
+    # within it: only a kN slip beyond)
+    "N": Plausible("a force on a piezo actuator", typical=1e3, peak=1e6),
 }
 #: a derived ADC range leaves this fraction of the data's span free on each side
 RANGE_MARGIN = 0.1
 #: a derived range spans at least this fraction of the data's magnitude (a constant channel)
 MIN_RELATIVE_SPAN = 1e-6
-#: a value this large in the source's unit (or ±inf) is a DAQ's overload sentinel (Keysight's
-#: 9.9E+37, 1e308), not a measurement: stored as missing and counted
-OVERLOAD = 1e30
 #: the time axis may stray this many samples from the least-squares line through it (as the
 #: capture contract's time axis may)
 TIME_TOLERANCE = 0.25
 #: dataset and experiment names are at most this long: they become file names, to which the
 #: capture's two temporaries add up to 114 characters, and a file name has at most 255 bytes
 MAX_NAME = 100
-#: how long an import waits for another import into the same dataset to finish [s]
-LOCK_TIMEOUT_S = 600.0
-LOCK_NAME = ".import.lock"
-#: cells a CSV chunk holds (rows × fields: the tokenizer keeps every field of a chunk's rows, also
-#: the ones not read), and at most this many rows
-CSV_CHUNK_CELLS = 1 << 22
-CSV_CHUNK_ROWS = 1 << 18
-#: data rows whose field count is compared with the header's, besides the last
-CHECKED_ROWS = 10
-PROGRESS_STEP = 0.1
-#: capture attributes the import sets itself (an --attr may not)
+#: capture attributes the import sets itself (an --attr may not), and the prefix of the ones
+#: recording a channel's --scale or --gain (scale_<channel>, scale_kind_<channel>)
 OWN_ATTRS = frozenset(
     {
         "dataset",
@@ -110,398 +128,7 @@ OWN_ATTRS = frozenset(
         "clipped_samples",
     }
 )
-
-
-class ImportProblem(ValueError):
-    """An input the import cannot turn into a capture; one line naming the file and the problem."""
-
-
-@dataclass(frozen=True)
-class Column:
-    """Where a channel (or the time) is in the source file, and its unit there."""
-
-    name: str  # contract channel, or "time"
-    source: str | int  # column name or index (CSV), variable path (MAT)
-    unit: str
-
-    @property
-    def factor(self) -> float:
-        """From the source's unit to the contract's."""
-        return UNITS["s" if self.name == "time" else CHANNEL_UNITS[self.name][0]][self.unit]
-
-
-def parse_column(text: str, time: bool = False) -> Column:
-    """``U=Voltage:V``, ``x_laser=2:um`` (column index 2) or, for the time, ``t:ms``."""
-    name, _, rest = ("time=" + text if time else text).partition("=")
-    source, _, unit = rest.rpartition(":")
-    if not (name and source and unit):
-        raise ImportProblem(
-            f"{text!r}: expected {'COLUMN:UNIT' if time else 'CHANNEL=COLUMN:UNIT'}"
-        )
-    if not time and name not in CHANNEL_UNITS:
-        raise ImportProblem(
-            f"{text!r}: unknown channel {name!r} (the contract's: {', '.join(CHANNEL_UNITS)})"
-        )
-    quantity = "s" if time else CHANNEL_UNITS[name][0]
-    if unit not in UNITS[quantity]:
-        raise ImportProblem(
-            f"{text!r}: unit {unit!r} is not one of {quantity}'s ({', '.join(UNITS[quantity])})"
-        )
-    return Column(name, int(source) if source.isdigit() else source, unit)
-
-
-def parse_range(text: str) -> tuple[str, tuple[float, float]]:
-    """``x_laser=-1e-4,1e-4`` (contract units) → ("x_laser", (-1e-4, 1e-4))."""
-    channel, _, rest = text.partition("=")
-    try:
-        lo, hi = (float(v) for v in rest.split(","))
-    except ValueError:
-        raise ImportProblem(
-            f"--range {text!r}: expected CHANNEL=LOW,HIGH in the contract's unit"
-        ) from None
-    if channel not in CHANNEL_UNITS or not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise ImportProblem(f"--range {text!r}: a contract channel and finite LOW < HIGH")
-    return channel, (lo, hi)
-
-
-def parse_attr(text: str) -> tuple[str, Any]:
-    """``warmup_s=0.5`` → ("warmup_s", 0.5): numbers as numbers, the rest as text."""
-    key, sep, value = text.partition("=")
-    if not (sep and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key)):
-        raise ImportProblem(f"--attr {text!r}: expected NAME=VALUE")
-    for kind in (int, float):
-        try:
-            return key, kind(value)
-        except ValueError:
-            continue
-    return key, value
-
-
-def parse_separator(text: str) -> str:
-    """One character that cannot be part of a number; ``\\t`` as typed in a shell is a tab."""
-    sep = "\t" if text in ("\\t", "tab") else text
-    if not (
-        len(sep) == 1
-        and (sep == "\t" or sep.isprintable())
-        and not sep.isalnum()
-        and sep not in '.+-"'
-    ):
-        raise ImportProblem(
-            f"--sep {text!r}: one character that cannot be part of a number "
-            "(',', ';', '|', ' ' or '\\t')"
-        )
-    return sep
-
-
-# -- the sources: a CSV streamed in chunks, a .mat file whole --------------------------------------
-
-
-class _CsvSource:
-    """The requested columns of a CSV/TSV file, located by its header and read in chunks.
-
-    The header's field count is compared with the first CHECKED_ROWS data rows' and the last
-    one's: data rows that end in one more, empty field (a separator at the end of every data row,
-    the header without it) keep their columns; any other difference is refused. Columns are read
-    by position, so nothing shifts."""
-
-    def __init__(self, path: Path, columns: Sequence[Column], sep: str | None, header: bool):
-        self.path, self.header = path, header
-        self.sep = parse_separator(sep) if sep else self._default_separator(path)
-        self.kind = "TSV" if self.sep == "\t" else "CSV"
-        self.encoding = self._encoding(path)
-        names, self.width, self.skip = self._layout()
-        self.positions = {c.name: self._position(c, names) for c in columns}
-        self.labels = {
-            c.name: f"column {c.source!r}" + ("" if c.name == "time" else f" ({c.name})")
-            for c in columns
-        }
-        self.chunk_rows = int(min(CSV_CHUNK_ROWS, max(64, CSV_CHUNK_CELLS // self.width)))
-
-    @staticmethod
-    def _default_separator(path: Path) -> str:
-        return "\t" if path.suffix.lower() in (".tsv", ".tab") else ","
-
-    @staticmethod
-    def _encoding(path: Path) -> str:
-        """UTF-8 (a byte-order mark skipped) if the file's first MiB is, else Latin-1 (a header
-        written on Windows: 'x [µm]' in cp1252 or Latin-1 reads the same)."""
-        with open(path, "rb") as raw:
-            head = raw.read(1 << 20)
-        try:
-            codecs.getincrementaldecoder("utf-8-sig")().decode(head, final=False)
-        except UnicodeDecodeError:
-            return "latin-1"
-        return "utf-8-sig"
-
-    def _unreadable(self, err: BaseException) -> ImportProblem:
-        return ImportProblem(
-            f"{self.path}: not a readable {self.kind} file ({' '.join(str(err).split())[:200]})"
-        )
-
-    def _reader(self, lines) -> Iterator[list[str]]:
-        return csv.reader(lines, delimiter=self.sep, skipinitialspace=self.sep != " ")
-
-    def _layout(self) -> tuple[list[str] | None, int, int]:
-        """The header's names (None without one), the number of fields a data row has, and the
-        lines before the first data row."""
-        try:
-            with open(self.path, newline="", encoding=self.encoding, errors="replace") as text:
-                reader = self._reader(text)
-                rows: list[tuple[int, list[str]]] = []
-                names, skip = None, 0
-                for row in reader:
-                    if not row:  # a blank line
-                        continue
-                    if self.header and names is None:
-                        names, skip = row, reader.line_num
-                        continue
-                    rows.append((len(rows) + 1, row))
-                    if len(rows) >= CHECKED_ROWS:
-                        break
-                last = self._last_row()
-        except csv.Error as err:
-            raise self._unreadable(err) from None
-        if self.header and names is None:
-            raise ImportProblem(f"{self.path}: empty file (no header, no data)")
-        if not rows:
-            raise ImportProblem(f"{self.path}: no data rows")
-        if names is not None:
-            if len(names) > 1 and names[-1].strip() == "":
-                names = names[:-1]  # the header ends in the separator
-            width, against = len(names), f"the header has {len(names)}"
-        else:
-            width, against = len(rows[0][1]), f"data row 1 has {len(rows[0][1])}"
-        if last is not None and len(rows) == CHECKED_ROWS:
-            rows.append(("the last", last))
-        trailing = False
-        for k, row in rows:
-            if len(row) == width + 1 and row[-1].strip() == "":
-                trailing = True  # one more, empty field: the row ends in the separator
-            elif len(row) != width:
-                where = f"data row {k}" if isinstance(k, int) else "the last data row"
-                hint = (
-                    f"; the header may lack a column (data rows have {len(row) - width} more)"
-                    if names is not None and len(row) > width
-                    else ""
-                )
-                raise ImportProblem(
-                    f"{self.path}: {where} has {len(row)} fields, {against} (separator "
-                    f"{self.sep!r}: --sep if it is another){hint}"
-                )
-        if trailing:
-            LOG.info(
-                "%s: data rows end in the separator: their empty last field is ignored", self.path
-            )
-        return names, width, skip
-
-    def _last_row(self) -> list[str] | None:
-        """The file's last non-blank line as fields (None if it is longer than 1 MiB)."""
-        with open(self.path, "rb") as raw:
-            size = raw.seek(0, os.SEEK_END)
-            block = min(size, 1 << 20)
-            raw.seek(size - block)
-            tail = raw.read(block).decode(self.encoding, errors="replace").splitlines()
-        lines = [line for line in tail if line.strip()]
-        if not lines or (block < size and len(lines) < 2):
-            return None
-        return next(self._reader([lines[-1]]), None)
-
-    def _position(self, c: Column, names: list[str] | None) -> int:
-        if isinstance(c.source, int):
-            if c.source >= self.width:
-                raise ImportProblem(
-                    f"{self.path}: column {c.source} for {c.name} does not exist "
-                    f"({self.width} columns, counted from 0)"
-                )
-            return c.source
-        if names is None:
-            raise ImportProblem(
-                f"{self.path}: column {c.source!r} for {c.name}: the file has no header "
-                "(--no-header): give the column's index"
-            )
-        found = [j for j, n in enumerate(names) if n == c.source] or [
-            j for j, n in enumerate(names) if n.strip() == c.source.strip()
-        ]
-        if len(found) > 1:
-            raise ImportProblem(
-                f"{self.path}: column {c.source!r} for {c.name} is in the header {len(found)} "
-                f"times (columns {', '.join(map(str, found[:5]))}): give its index"
-            )
-        if not found:
-            shown = ", ".join(names[:12]) + (
-                f", … ({len(names)} columns)" if len(names) > 12 else ""
-            )
-            hint = f" (separator {self.sep!r}: --sep if it is another)" if len(names) == 1 else ""
-            raise ImportProblem(
-                f"{self.path}: no column {c.source!r} for {c.name} (columns: {shown}){hint}"
-            )
-        return found[0]
-
-    def chunks(self, progress: bool = False) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-        """(first data row, {name: the column's values as float64, NaN where empty}), in chunks
-        of the requested columns only."""
-        import pandas as pd
-
-        wanted = sorted(set(self.positions.values()))
-        size, start, next_log = max(self.path.stat().st_size, 1), 0, PROGRESS_STEP
-        with open(self.path, "rb") as handle:
-            try:
-                reader = pd.read_csv(
-                    handle,
-                    sep=self.sep,
-                    header=None,
-                    names=list(range(self.width)),
-                    usecols=wanted,
-                    index_col=False,
-                    skiprows=self.skip,
-                    chunksize=self.chunk_rows,
-                    skipinitialspace=self.sep != " ",
-                    encoding=self.encoding,
-                    engine="c",
-                )
-                for chunk in reader:
-                    yield (
-                        start,
-                        {
-                            name: self._numbers(chunk[j], name, start)
-                            for name, j in self.positions.items()
-                        },
-                    )
-                    start += len(chunk)
-                    if progress and handle.tell() / size >= next_log:
-                        LOG.info("%s: %3.0f %% checked", self.path, 100 * handle.tell() / size)
-                        next_log = (
-                            math.floor(handle.tell() / size / PROGRESS_STEP + 1) * PROGRESS_STEP
-                        )
-            except ImportProblem:
-                raise
-            except (ValueError, UnicodeDecodeError, OverflowError, csv.Error) as err:
-                # pandas' ParserError and EmptyDataError are ValueErrors
-                raise self._unreadable(err) from None
-
-    def _numbers(self, series, name: str, start: int) -> np.ndarray:
-        import pandas as pd
-        from pandas.api.types import is_bool_dtype, is_numeric_dtype
-
-        if is_numeric_dtype(series.dtype) and not is_bool_dtype(series.dtype):
-            return series.to_numpy(dtype=np.float64)
-        if is_bool_dtype(series.dtype):
-            bad = series.notna()
-            values = None
-        else:
-            values = pd.to_numeric(series, errors="coerce")
-            text = series.astype(str).str.strip()
-            bad = values.isna() & series.notna() & (text != "")
-            if is_bool_dtype(values.dtype):
-                bad = series.notna()
-        if bad.any():
-            k = int(np.argmax(bad.to_numpy()))
-            cell = str(series.iloc[k])
-            comma = re.fullmatch(r"\s*[-+]?\d*,\d+\s*", cell)
-            raise ImportProblem(
-                f"{self.path}: {self.labels[name]} holds {cell!r} at data row "
-                f"{start + k + 1}, not a number"
-                + (" (a decimal comma: export with '.')" if comma else "")
-            )
-        return values.to_numpy(dtype=np.float64)
-
-
-class _MatSource:
-    """The requested variables of a MATLAB file (v4–v7), loaded whole by scipy, as float64."""
-
-    kind = "MATLAB"
-
-    def __init__(self, path: Path, columns: Sequence[Column]):
-        self.path = path
-        self.labels = {
-            c.name: f"variable {c.source!r}" + ("" if c.name == "time" else f" ({c.name})")
-            for c in columns
-        }
-        self.data = read_mat(path, columns)
-        lengths = {name: len(v) for name, v in self.data.items()}
-        if len(set(lengths.values())) != 1:
-            raise ImportProblem(
-                f"{path}: the variables differ in length ("
-                + ", ".join(f"{self.labels[k]}: {n}" for k, n in lengths.items())
-                + ")"
-            )
-        if 0 in lengths.values():
-            raise ImportProblem(f"{path}: no data (the variables are empty)")
-
-    def chunks(self, progress: bool = False) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-        n = len(next(iter(self.data.values())))
-        for start in range(0, n, CSV_CHUNK_ROWS):
-            yield start, {k: v[start : start + CSV_CHUNK_ROWS] for k, v in self.data.items()}
-
-
-def read_mat(path: Path, columns: Sequence[Column]) -> dict[str, np.ndarray]:
-    """The variables of a MATLAB file (v4–v7) as float64 vectors."""
-    from scipy.io import loadmat
-
-    try:
-        doc = loadmat(path, squeeze_me=True, struct_as_record=False)
-    except NotImplementedError:
-        raise ImportProblem(
-            f"{path}: a MATLAB v7.3 (HDF5) file: save it with save(..., '-v7') or export "
-            "CSV (v7.3 would need h5py, not a dependency)"
-        ) from None
-    except Exception as err:  # noqa: BLE001 - scipy's readers raise whatever a damaged file gives
-        raise ImportProblem(
-            f"{path}: not a readable MATLAB file ({type(err).__name__}: "
-            f"{' '.join(str(err).split())[:200]})"
-        ) from None
-    return {c.name: _mat_variable(path, doc, str(c.source)) for c in columns}
-
-
-def _mat_variable(path: Path, doc: Mapping[str, Any], where: str) -> np.ndarray:
-    node: Any = doc
-    for token in where.split("."):
-        match = re.fullmatch(r"([^\[\]]+)(?:\[(\d+)\])?", token)
-        name, index = match.groups() if match else (None, None)
-        value = (
-            (node.get(name) if isinstance(node, Mapping) else getattr(node, name, None))
-            if name
-            else None
-        )
-        if value is None:
-            raise ImportProblem(f"{path}: no variable {where!r} (at {token!r})")
-        if index is not None:
-            value = np.asarray(value)
-            k = int(index)
-            if value.ndim == 2 and k < value.shape[1]:
-                value = value[:, k]
-            elif value.ndim == 1 and k < value.shape[0] and value.dtype == object:
-                value = value[k]
-            else:
-                raise ImportProblem(
-                    f"{path}: {where!r}: index {k} is out of range (shape {value.shape})"
-                )
-        node = value
-    raw = np.asarray(node)
-    if np.iscomplexobj(raw):
-        raise ImportProblem(
-            f"{path}: variable {where} is complex: save its real part, abs() or angle() instead"
-        )
-    if raw.dtype == bool:
-        raise ImportProblem(f"{path}: variable {where} is logical (true/false), not numbers")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")  # numpy's ComplexWarning: an object array of complex
-            values = np.asarray(node, dtype=np.float64)
-    except (TypeError, ValueError, Warning):
-        kind = "complex" if any(isinstance(v, complex) for v in raw.ravel()[:1000]) else "numeric"
-        if kind == "complex":
-            raise ImportProblem(
-                f"{path}: variable {where} is complex: save its real part, abs() or angle() instead"
-            ) from None
-        raise ImportProblem(f"{path}: {where!r} is not numeric") from None
-    if values.ndim != 1:
-        raise ImportProblem(
-            f"{path}: {where!r} has shape {values.shape}: name one column, e.g. {where}[0]"
-            if values.ndim
-            else f"{path}: {where!r} is a single value, not a series"
-        )
-    return values
+SCALE_ATTR_PREFIX = "scale_"
 
 
 # -- the first pass: what the columns hold -------------------------------------------------------
@@ -591,7 +218,9 @@ class _Summary:
     fit: _LineFit = field(default_factory=_LineFit)
 
 
-def _time_values(source, label: str, start: int, raw: np.ndarray, factor: float) -> np.ndarray:
+def _time_values(
+    source: Source, label: str, start: int, raw: np.ndarray, factor: float
+) -> np.ndarray:
     """The time column's values in s; every one finite, or one line naming the first that is
     not."""
     bad = ~(np.abs(raw) < OVERLOAD)
@@ -605,10 +234,13 @@ def _time_values(source, label: str, start: int, raw: np.ndarray, factor: float)
     return raw * factor
 
 
-def _first_pass(source, req: Request, known: Mapping[str, tuple[float, float] | None]) -> _Summary:
+def _first_pass(
+    source: Source, req: Request, known: Mapping[str, tuple[float, float] | None]
+) -> _Summary:
+    factors = channel_factors(req)
     summary = _Summary(
         channels={
-            c.name: _ChannelSummary(source.labels[c.name], c.factor, known.get(c.name))
+            c.name: _ChannelSummary(source.labels[c.name], factors[c.name], known.get(c.name))
             for c in req.channels
         }
     )
@@ -624,9 +256,18 @@ def _first_pass(source, req: Request, known: Mapping[str, tuple[float, float] | 
     return summary
 
 
-def _judge_channels(source, summary: _Summary) -> list[str]:
-    """Refuse a channel without a single value, or overloaded beyond CLIP_LIMIT; notes for the
-    overloads stored as missing."""
+def channel_factors(req: Request) -> dict[str, float]:
+    """Per channel, from the recorded column to the contract's unit: the unit's factor times
+    the channel's --scale or --gain."""
+    scales = req.scales or {}
+    return {c.name: c.factor * scales.get(c.name, (1.0, ""))[0] for c in req.channels}
+
+
+def _judge_channels(source: Source, summary: _Summary) -> list[str]:
+    """Refuse a channel without a single value, overloaded beyond CLIP_LIMIT, or holding one
+    value throughout (a column counted from 0 where 1 was meant, a DAQ's idle input: never a
+    measurement, and an analysis would divide by its zero span); notes for the overloads stored
+    as missing."""
     notes = []
     for name, s in summary.channels.items():
         if s.valid == 0:
@@ -643,6 +284,15 @@ def _judge_channels(source, summary: _Summary) -> list[str]:
                 f"±inf, first {value:g} at data row {row}): the DAQ's sentinel for a saturated "
                 "input, too many to store as missing"
             )
+        if s.lo == s.hi:
+            where = f"all {s.n} {source.rows}" + (
+                f" ({s.n - s.valid} empty or overloaded)" if s.valid < s.n else ""
+            )
+            hint = source.varying(name)
+            raise ImportProblem(
+                f"{source.path}: {s.label} holds one value ({s.lo / s.factor:.10g}) in {where}: "
+                f"not a measurement" + (f"; {hint}" if hint else "")
+            )
         if s.overload:
             row, value = s.first_overload
             notes.append(
@@ -652,12 +302,89 @@ def _judge_channels(source, summary: _Summary) -> list[str]:
     return notes
 
 
-def _judge_time(source, req: Request, summary: _Summary) -> tuple[float, str]:
-    """fs [Hz] from the slope of the least-squares line through the time column (or as given),
+_PREFIXES = (
+    (1e9, "G"),
+    (1e6, "M"),
+    (1e3, "k"),
+    (1.0, ""),
+    (1e-3, "m"),
+    (1e-6, "µ"),
+    (1e-9, "n"),
+    (1e-12, "p"),
+)
+
+
+def _quantity(value: float, unit: str) -> str:
+    """A magnitude with an SI prefix, three digits: 49.4 m, 150 kV, 0.02 nm."""
+    for factor, prefix in _PREFIXES:
+        if abs(value) >= factor or factor == _PREFIXES[-1][0]:
+            return f"{value / factor:.3g} {prefix}{unit}"
+    return f"{value:.3g} {unit}"  # pragma: no cover - the loop always returns
+
+
+def _implausible(quantity: str, lo: float, hi: float) -> str | None:
+    """What is wrong with data spanning [lo, hi] (contract unit) for a channel of the
+    quantity, by PLAUSIBLE; None if nothing."""
+    rule = PLAUSIBLE.get(quantity)
+    if rule is None:
+        return None
+    peak, span = max(abs(lo), abs(hi)), hi - lo
+    if peak > rule.peak:
+        return (
+            f"reaches {_quantity(peak, quantity)}: not {rule.what} "
+            f"(at most {_quantity(rule.peak, quantity)})"
+        )
+    if span > rule.span[1]:
+        return (
+            f"spans {_quantity(span, quantity)}: not {rule.what} "
+            f"(at most {_quantity(rule.span[1], quantity)})"
+        )
+    if span < rule.span[0]:
+        return (
+            f"spans {_quantity(span, quantity)}: less than any sensor tells from noise for "
+            f"{rule.what} (at least {_quantity(rule.span[0], quantity)})"
+        )
+    return None
+
+
+def _plausibility(source: Source, c: Column, s: _ChannelSummary) -> None:
+    """Refuse a derived range no piezo bench records, naming the unit that would bring it in
+    (the one of the quantity's family nearest PLAUSIBLE's typical magnitude) and --range."""
+    problem = _implausible(c.quantity, s.lo, s.hi)
+    if problem is None:
+        return
+    rule = PLAUSIBLE[c.quantity]
+    units = UNITS[c.quantity]
+    fits = []
+    for unit, factor in units.items():
+        if not unit.isascii() and any(units[u] == factor for u in units if u.isascii()):
+            continue  # µm: typed as um
+        k = factor / units[c.unit]
+        lo, hi = sorted((s.lo * k, s.hi * k))
+        if unit != c.unit and _implausible(c.quantity, lo, hi) is None:
+            size = max(abs(lo), abs(hi)) if math.isinf(rule.span[1]) else hi - lo
+            fits.append((abs(math.log10(size / rule.typical)), unit))
+    suggestion = (
+        f"if the column is in {min(fits)[1]} type {c.typed(min(fits)[1])}, or "
+        if fits
+        else "check the column and its unit, or "
+    )
+    raise ImportProblem(
+        f"{source.path}: {c.name} {problem}; {suggestion}give --range {c.name}=LOW,HIGH to keep it"
+    )
+
+
+def _judge_time(source: Source, req: Request, summary: _Summary) -> tuple[float, str]:
+    """fs [Hz] from the slope of the least-squares line through the time column, or as given, or
+    as the file declares it (a TDMS channel's wf_increment), which must agree with a given one;
     and a note when the time axis did not start at 0. The residuals are checked in the second
     pass, before each chunk is written."""
+    declared = source.declared_fs
     if req.time is None:
-        return float(req.fs), ""
+        fs = float(req.fs) if req.fs is not None else declared[0]
+        if req.fs is not None and declared is not None:
+            _agree(source, req.fs, f"--fs says {req.fs:.9g} Hz", declared)
+        return fs, ""
     if summary.rows < 2:
         raise ImportProblem(f"{source.path}: the time column needs at least two values")
     slope = summary.fit.slope
@@ -668,6 +395,8 @@ def _judge_time(source, req: Request, summary: _Summary) -> tuple[float, str]:
         raise ImportProblem(
             f"{source.path}: the time column gives fs = {fitted:g} Hz, --fs says {req.fs:g} Hz"
         )
+    if declared is not None:
+        _agree(source, fitted, f"the time column gives fs = {fitted:.9g} Hz", declared)
     note = (
         f"time axis started at {summary.t0:.9g} s in the source; shifted to 0"
         if summary.t0 != 0
@@ -676,7 +405,17 @@ def _judge_time(source, req: Request, summary: _Summary) -> tuple[float, str]:
     return (float(req.fs) if req.fs is not None else fitted), note
 
 
-def _check_time_residuals(source, summary: _Summary, start: int, t: np.ndarray) -> None:
+def _agree(source: Source, value: float, given: str, declared: tuple[float, str]) -> None:
+    """fs given (``value``, as ``given`` says it) and fs the file declares are one clock."""
+    fs, where = declared
+    if not math.isclose(value, fs, rel_tol=DECLARED_FS_RTOL):
+        raise ImportProblem(
+            f"{source.path}: {given}, {where} gives fs = {fs:.9g} Hz: one clock; leave out or "
+            "correct the one that is wrong"
+        )
+
+
+def _check_time_residuals(source: Source, summary: _Summary, start: int, t: np.ndarray) -> None:
     fit = summary.fit
     k = np.arange(start, start + len(t), dtype=np.float64)
     off = np.abs(t - summary.t0 - (fit.intercept + fit.slope * k))
@@ -723,6 +462,9 @@ class Request:
     model: str | None = None
     raw_dir: Path = Path("raw")
     lock_timeout: float = LOCK_TIMEOUT_S
+    #: {channel: (factor, "gain" or "sensitivity")}: the recorded column times factor is the
+    #: channel in its --channel unit (:func:`scalings`)
+    scales: Mapping[str, tuple[float, str]] | None = None
 
 
 def _check_request(req: Request) -> None:
@@ -737,7 +479,7 @@ def _check_request(req: Request) -> None:
             )
     if req.fs is not None and not (isinstance(req.fs, (int, float)) and 0 < req.fs < math.inf):
         raise ImportProblem(f"--fs {req.fs}: the sampling rate must be a finite number > 0 Hz")
-    if req.time is None and req.fs is None:
+    if req.time is None and req.fs is None and req.source.suffix.lower() != ".tdms":
         raise ImportProblem(
             f"{req.source}: give the time column (--time) or the sampling rate (--fs)"
         )
@@ -753,9 +495,26 @@ def _check_request(req: Request) -> None:
         lo, hi = (float(v) for v in given)
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise ImportProblem(f"--range {channel}={lo:g},{hi:g}: finite LOW < HIGH")
+    channels = {c.name for c in req.channels}
+    for channel, (factor, kind) in (req.scales or {}).items():
+        options = [o for o, k in SCALE_KINDS.items() if k == kind]
+        if not options:
+            raise ImportProblem(
+                f"{channel}: scale kind {kind!r}: one of {', '.join(SCALE_KINDS.values())}"
+            )
+        option = options[0]
+        if channel not in channels:
+            raise ImportProblem(
+                f"{option} {channel}={factor:g}: no --channel {channel} to apply it to"
+            )
+        if not (math.isfinite(factor) and factor != 0):
+            raise ImportProblem(f"{option} {channel}={factor:g}: a finite, nonzero factor")
     for key, value in (req.attrs or {}).items():
-        if key in OWN_ATTRS:
-            raise ImportProblem(f"--attr {key}: set by the import itself")
+        if key in OWN_ATTRS or key.startswith(SCALE_ATTR_PREFIX):
+            raise ImportProblem(
+                f"--attr {key}: set by the import itself"
+                + (" (--scale or --gain)" if key.startswith(SCALE_ATTR_PREFIX) else "")
+            )
         if isinstance(value, float) and not math.isfinite(value):
             raise ImportProblem(f"--attr {key}={value}: not a finite number")
 
@@ -782,18 +541,14 @@ def _run_import(req: Request) -> tuple[Path, Path]:
         raise ImportProblem(
             f"{req.source}: {'not a file' if req.source.exists() else 'no such file'}"
         )
-    columns = [*req.channels, *([req.time] if req.time else [])]
-    source = (
-        _MatSource(req.source, columns)
-        if req.source.suffix.lower() == ".mat"
-        else _CsvSource(req.source, columns, req.sep, req.header)
-    )
+    source = open_source(req)
     before = req.source.stat()
     with dataset_lock(folder, req.lock_timeout):
         if capture_path.exists():  # made by an import that held the lock before us
             raise _exists(capture_path)
         manifest = _existing_manifest(manifest_path, req)
         known = _known_ranges(manifest, manifest_path, req)
+        _check_scales(manifest, manifest_path, req)
         if manifest is not None and req.fs is not None:
             _check_fs(manifest, manifest_path, req, req.fs)
         summary = _first_pass(source, req, known)
@@ -806,6 +561,9 @@ def _run_import(req: Request) -> tuple[Path, Path]:
         fs, time_note = _judge_time(source, req, summary)
         if manifest is not None:
             _check_fs(manifest, manifest_path, req, fs)
+        for c in req.channels:
+            if known[c.name] is None:  # declared by neither --range nor the manifest
+                _plausibility(source, c, summary.channels[c.name])
         ranges = {
             c: known[c] or derived_range(summary.channels[c].lo, summary.channels[c].hi)
             for c in summary.channels
@@ -824,6 +582,11 @@ def _run_import(req: Request) -> tuple[Path, Path]:
             "software_version": __version__,
             "imported_from": req.source.name,
             **({"import_note": note} if note else {}),
+            **{
+                f"{SCALE_ATTR_PREFIX}{attr}{channel}": value
+                for channel, (factor, kind) in (req.scales or {}).items()
+                for attr, value in (("", float(factor)), ("kind_", kind))
+            },
             **dict(req.attrs or {}),
         }
         _write_capture(source, req, summary, capture_path, attrs, ranges, before)
@@ -839,6 +602,26 @@ def _run_import(req: Request) -> tuple[Path, Path]:
     return capture_path, manifest_path
 
 
+def open_source(req: Request) -> Source:
+    """The reader of the request's file, by its suffix (a .mat file by its content: v7.3 is
+    HDF5): every column located and its type checked, nothing read yet (but a v4–v7 .mat)."""
+    columns = [*req.channels, *([req.time] if req.time else [])]
+    suffix = req.source.suffix.lower()
+    if suffix == ".tdms":
+        source = TdmsSource(req.source, columns)
+        if req.time is None and req.fs is None and source.declared_fs is None:
+            raise ImportProblem(
+                f"{req.source}: give the time column (--time) or the sampling rate (--fs): "
+                "its channels declare no wf_increment"
+            )
+        return source
+    if suffix == ".mat":
+        if is_hdf5(req.source):
+            return Mat73Source(req.source, columns)
+        return MatSource(req.source, columns)
+    return CsvSource(req.source, columns, req.sep, req.header)
+
+
 def _exists(capture_path: Path) -> ImportProblem:
     return ImportProblem(
         f"{capture_path} exists: measured captures are never overwritten "
@@ -847,7 +630,7 @@ def _exists(capture_path: Path) -> ImportProblem:
 
 
 def _write_capture(
-    source,
+    source: Source,
     req: Request,
     summary: _Summary,
     capture_path: Path,
@@ -859,7 +642,7 @@ def _write_capture(
     converted) into a hidden temporary, read back by CaptureWriter, then linked to its name if no
     file has it."""
     specs = [channel_spec(c, *ranges[c]) for c in summary.channels]
-    factors = {c.name: c.factor for c in req.channels}
+    factors = channel_factors(req)
     tmp = temporary_path(capture_path, hidden=True)
     try:
         rows = 0
@@ -957,6 +740,48 @@ def _known_ranges(
     return known
 
 
+def declared_scale(manifest: Mapping[str, Any] | None, channel: str) -> tuple[float, str] | None:
+    """A channel's (scale, scale_kind) as the manifest's sensors.<channel> declares it."""
+    sensor = ((manifest or {}).get("sensors") or {}).get(channel) or {}
+    return (float(sensor["scale"]), sensor["scale_kind"]) if "scale" in sensor else None
+
+
+def _check_scales(manifest: Mapping[str, Any] | None, path: Path, req: Request) -> None:
+    """A channel the dataset declares already keeps its scaling: the dataset's captures share
+    one declaration (as they share a range); what to type to match it."""
+    if manifest is None:
+        return
+    given = req.scales or {}
+    for c in req.channels:
+        declared = declared_scale(manifest, c.name)
+        if c.name not in manifest["daq"]["channels"] and declared is None:
+            continue  # new to the dataset: this import declares it
+        mine = given.get(c.name)
+        if (
+            mine is not None
+            and declared is not None
+            and math.isclose(mine[0], declared[0], rel_tol=1e-12)
+            and mine[1] == declared[1]
+        ):
+            continue
+        if mine is None and declared is None:
+            continue
+        option = {k: o for o, k in SCALE_KINDS.items()}
+        if declared is None:
+            raise ImportProblem(
+                f"{option[mine[1]]} {c.name}={mine[0]:g}: {path} declares {c.name} unscaled (no "
+                f"sensors.{c.name}.scale), and the dataset's captures share one declaration: "
+                "leave it out, or import into a new dataset"
+            )
+        typed = f"{option[declared[1]]} {c.name}={declared[0]:g}"
+        what = f"{option[mine[1]]} {c.name}={mine[0]:g}" if mine else f"{c.name} unscaled"
+        raise ImportProblem(
+            f"{path}: sensors.{c.name} declares scale {declared[0]:g} ({declared[1]}), this "
+            f"import {what}: the dataset's captures share one declaration: type {typed}, or "
+            "import into a new dataset"
+        )
+
+
 def _check_fs(manifest: Mapping[str, Any], path: Path, req: Request, fs: float) -> None:
     if not math.isclose(manifest["daq"]["fs"], fs, rel_tol=1e-6):
         raise ImportProblem(
@@ -972,7 +797,8 @@ def _manifest_document(
     ranges: Mapping[str, tuple[float, float]],
 ) -> dict:
     """The dataset's manifest with this import in it (scaffolded, or the existing one updated: a
-    channel it already has keeps its range), validated: nothing invalid is written."""
+    channel it already has keeps its range; a scaled channel's factor and kind in
+    sensors.<channel>), validated: nothing invalid is written."""
     if manifest is None:
         manifest = {
             "name": req.dataset,
@@ -990,6 +816,9 @@ def _manifest_document(
         daq["ranges"].setdefault(channel, [lo, hi])
         if channel not in daq["channels"]:
             daq["channels"].append(channel)
+    for channel, (factor, kind) in (req.scales or {}).items():  # equal to any declared already
+        sensors = manifest.setdefault("sensors", {})
+        sensors[channel] = {**sensors.get(channel, {}), "scale": float(factor), "scale_kind": kind}
     manifest["experiments"] = [*manifest.get("experiments", []), req.experiment]
     doc = yaml.safe_load(yaml.safe_dump(manifest, sort_keys=False))  # as a reader will see it
     try:
@@ -997,77 +826,3 @@ def _manifest_document(
     except ManifestError as err:
         raise ImportProblem(str(err)) from None
     return doc
-
-
-# -- one import into a dataset at a time -----------------------------------------------------------
-
-
-@contextmanager
-def dataset_lock(folder: Path, timeout: float = LOCK_TIMEOUT_S) -> Iterator[None]:
-    """Hold ``folder/.import.lock`` (``fcntl.flock``, exclusive), waiting up to ``timeout`` s.
-
-    The folder is made if need be, and removed again on leaving if this import made it and left
-    it empty (a failed import into a new dataset). The lock file is removed while it is held:
-    an import waiting on it then finds, once it has the lock, that the name no longer leads to
-    the file it holds, and takes the lock again on the new file (so two never hold it at once).
-    A killed import's lock is released by the kernel with its process.
-    """
-    path = folder / LOCK_NAME
-    made: list[Path] = []
-    deadline = time.monotonic() + timeout
-    while True:
-        made += _make_folders(folder)
-        try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
-        except FileNotFoundError:  # another import removed the folder it had made: again
-            continue
-        try:
-            while True:
-                try:
-                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                    break
-                except BlockingIOError:
-                    if time.monotonic() > deadline:
-                        raise ImportProblem(
-                            f"{path}: another import into dataset {folder.name} still runs "
-                            f"after {timeout:g} s: try again when it has finished"
-                        ) from None
-                    time.sleep(0.05)
-            try:
-                held, named = os.fstat(fd), os.stat(path)
-                current = (held.st_dev, held.st_ino) == (named.st_dev, named.st_ino)
-            except FileNotFoundError:
-                current = False
-        except BaseException:
-            os.close(fd)
-            raise
-        if current:
-            break
-        os.close(fd)  # the lock file was removed by the import before us: take the new one
-    try:
-        yield
-    finally:
-        path.unlink(missing_ok=True)
-        for made_folder in reversed(made):
-            try:
-                made_folder.rmdir()  # only if empty: this import failed into a new dataset
-            except OSError:
-                break
-        os.close(fd)
-
-
-def _make_folders(folder: Path) -> list[Path]:
-    """Make ``folder`` and its missing parents; the ones made, outermost first."""
-    missing = []
-    for parent in [folder, *folder.parents]:
-        if parent.exists():
-            break
-        missing.append(parent)
-    made = []
-    for parent in reversed(missing):
-        try:
-            parent.mkdir()
-            made.append(parent)
-        except FileExistsError:
-            pass
-    return made

@@ -374,6 +374,18 @@ def require_keys(
             node = node[part]
 
 
+def channel_scalings(manifest: Mapping[str, Any]) -> dict[str, str]:
+    """Per channel recorded through a factor (``sensors.<channel>.scale``, set by ``selfsense
+    import --scale/--gain``: the logged column times the factor is the channel), a short label
+    for table headers and figure axes, e.g. ``{"U": "20 × logged (gain)"}``; empty when none."""
+    sensors = manifest.get("sensors") or {}
+    return {
+        channel: f"{float(sensor['scale']):g} × logged ({sensor.get('scale_kind', 'scale')})"
+        for channel, sensor in sensors.items()
+        if isinstance(sensor, Mapping) and "scale" in sensor
+    }
+
+
 def load_manifest(path: str | Path) -> dict:
     """A manifest by its path, raw/<name>/dataset.yaml, validated as :func:`load_dataset` does
     (the rules pass the manifest's path)."""
