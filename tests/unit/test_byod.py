@@ -49,7 +49,11 @@ def characterised(tmp_path, folder, experiment="sine_1hz"):
         [str(folder / f"{experiment}.nc")], str(page), str(figure), folder.name
     )
     script("characterise").main(
-        str(folder / "dataset.yaml"), [str(page)], str(table), str(out / "instruments.csv")
+        str(folder / "dataset.yaml"),
+        [str(page)],
+        str(table),
+        str(out / "instruments.csv"),
+        str(out / "hysteresis_model.csv"),
     )
     return pd.read_csv(table).iloc[0].to_dict(), figure
 
@@ -325,6 +329,15 @@ def test_reference_values_replace_the_published_numbers():
         "out of band",
     ]
     assert (rows["kind"] == KIND).all()
+    # a dataset logged through a gain heads its columns with it: the same rows are found
+    scaled = table.rename(
+        columns={
+            "stroke [µm]": "stroke [µm; x_disp = 10 × logged (sensitivity)]",
+            "gain (least squares) [µm/V]": "gain (least squares) [µm/V; U = 20 × logged (gain)]",
+        }
+    )
+    again = reference_rows(stack | {"reference": reference}, {"characterise/summary.csv": scaled})
+    assert list(again["reproduced"]) == [31.0, 0.3]
 
 
 def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():

@@ -25,8 +25,11 @@ rule characterise_page:
     params:
         title=lambda w: loop_page_title(w.dataset, w.page),
         scalings=lambda w: channel_scalings(DATASETS[w.dataset]),
+        periods=lambda w: protocol_periods(w.dataset, LOOP_PAGES[w.dataset][w.page]),
         settle_s=config["characterise"]["settle_s"],
         min_hold_s=config["characterise"]["min_hold_s"],
+        cycle_rules=config["characterise"]["cycles"],
+        hysteresis=config["characterise"]["hysteresis"],
     wildcard_constraints:
         page=r"[A-Za-z0-9_]+",  # a number, or the capture of a page of one
     log:
@@ -42,7 +45,8 @@ rule characterise_page:
 
 rule characterise:
     """The dataset's characterisation table, one row per capture in catalogue order, from its
-    loop pages' rows; and the actuator and its sensors as the manifest describes them."""
+    loop pages' rows; each capture's hysteresis model's parameters; and the actuator and its
+    sensors as the manifest describes them."""
     input:
         pages=lambda w: expand(rules.characterise_page.output.rows, dataset=w.dataset, page=LOOP_PAGES[w.dataset]),
         manifest=RAW / "{dataset}" / "dataset.yaml",
@@ -52,6 +56,8 @@ rule characterise:
                      category="{dataset}", subcategory="Characterisation"),
         instruments=report("results/{dataset}/characterise/instruments.csv", caption="../report/instruments.rst",
                            category="{dataset}", subcategory="Characterisation"),
+        model=report("results/{dataset}/characterise/hysteresis_model.csv", caption="../report/hysteresis_model.rst",
+                     category="{dataset}", subcategory="Characterisation"),
     log:
         "logs/{dataset}/characterise.log",
     benchmark:

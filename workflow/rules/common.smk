@@ -12,6 +12,7 @@ from snakemake.utils import validate
 
 from selfsense.chapters import figure_names
 from selfsense.chapters.figure_names import loop_pages
+from selfsense.methods.cycles import protocol_period
 from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, channel_scalings, expand_protocols, load_dataset, load_yaml,
                                     protocol_duration, validate_config)
 from selfsense.scorecard.calibration import load_targets
@@ -251,6 +252,15 @@ def captures_per_job(dataset):
 
 #: {dataset: {page: its experiments}} of the loop figures: a page is a characterise_page job
 LOOP_PAGES = {d: loop_pages(CAPTURES[d], captures_per_job(d)) for d in CHARACTERISE_DATASETS}
+
+
+def protocol_periods(dataset, experiments):
+    """{experiment: its drive's period [s]} of those experiments whose protocol gives one (a
+    param of their page's job: only its own captures, so that a new batch changes no earlier
+    page's params); the others' is found from their drive."""
+    runs = {e: EXPERIMENTS[dataset].get(e) for e in experiments}
+    periods = {e: protocol_period(run.protocol) for e, run in runs.items() if run is not None}
+    return {e: p for e, p in periods.items() if p is not None}
 
 
 def loop_page_title(dataset, page):

@@ -43,8 +43,14 @@ def loop(x, y, xlabel, ylabel, title, labels=None):
     return fig
 
 
+#: a loop panel of fewer points draws them larger
+SPARSE_POINTS = 5000
+
+
 def loop_grid(rows, title):
-    """One row of loops per item: rows are (name, panels) with panels as in :func:`loops`."""
+    """One row of loops per item: rows are (name, panels) with panels (x, y, xlabel, ylabel) or
+    (x, y, xlabel, ylabel, used): ``used`` a boolean mask of the points measured (None: all),
+    the others drawn faint (light grey, smaller)."""
     ncols = max(len(panels) for _, panels in rows)
     fig, axes = plt.subplots(
         len(rows),
@@ -56,12 +62,18 @@ def loop_grid(rows, title):
     for ax_row, (name, panels) in zip(axes, rows):
         for ax in ax_row[len(panels) :]:
             ax.axis("off")
-        for ax, (x, y, xlabel, ylabel) in zip(ax_row, panels):
+        for ax, (x, y, xlabel, ylabel, *rest) in zip(ax_row, panels):
             # points, not a line: thinned to the figure's resolution, a long run at a fast drive
             # keeps about one point per cycle, and a line through them crosses the panel at every
             # sample (a scribble that hid the loop and took Agg 1 s a panel to fill); raster in the
             # PDF too
-            ax.plot(x, y, ".", ms=1.0, mew=0, rasterized=True)
+            used = rest[0] if rest else None
+            ms = 1.0 if len(x) > SPARSE_POINTS else 2.5  # a short record's points stay visible
+            if used is None:
+                ax.plot(x, y, ".", ms=ms, mew=0, rasterized=True)
+            else:
+                ax.plot(x[~used], y[~used], ".", ms=ms, mew=0, color="0.75", rasterized=True)
+                ax.plot(x[used], y[used], ".", ms=ms, mew=0, color="C0", rasterized=True)
             ax.set(xlabel=xlabel, ylabel=ylabel)
             ax.grid(alpha=0.3)
         ax_row[0].set_title(name, fontsize=9)

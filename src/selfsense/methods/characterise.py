@@ -6,9 +6,20 @@ capture holds one; with the current, the charge q = ∫I dt (thesis Eq 5.1's int
 charge–position slope dx/dq (the inverse of Eq 5.3's a0) and the q–U slope and loop (the
 capacitance seen by the drive). No thesis experiment names: a capture qualifies by its channels.
 
+Measured on cycles, not samples (:mod:`selfsense.methods.cycles`): a capture with a periodic
+drive is cut into the drive's cycles, the warm-up (the capture's ``warmup_s``, else detected from
+x), minor loops (amplitude ramps), pauses and the unfinished cycle at the end are dropped, and the
+stroke and loop width are those of each steady full-amplitude cycle, reported as the median over
+them with their least and largest; the gains, nonlinearity and the charge measures are taken on
+those cycles together. A capture without a periodic drive (steps, an arbitrary waveform) is
+measured over all its samples after the warm-up, and its note says so. The creep after a step is
+taken on the whole capture.
+
 A capture is streamed once and reduced to block means, at most :data:`MAX_POINTS` of them, so
 memory does not grow with its length: 10 min at 48 kHz keeps 1.7 kHz, where a 150 Hz loop
-loses 1.3 % of its stroke to the averaging (the table states the rate each capture kept).
+loses 1.3 % of its stroke to the averaging (the table states the rate each capture kept). A cycle
+of fewer than :data:`MIN_CYCLE_SAMPLES` block means is too coarse to be measured alone: the
+stroke and loop width are then those of the used cycles together (said in the note).
 """
 
 from __future__ import annotations
@@ -26,6 +37,9 @@ from selfsense.io.figures import (  # plt: after figures has chosen the Agg back
     loop_grid,
     placeholder,
 )
+from selfsense.methods.cycles import REASONS, RULES, CycleRules, Cycles, cycle_loops, find_cycles
+from selfsense.methods.cycles import filled as filled_drive
+from selfsense.methods.hysteresis import MAX_ORDER, ORDER_TOLERANCE, fit_maxwell_slip
 from selfsense.methods.metrics import branch_gap, branch_means, direction
 
 #: a capture is reduced to at most this many block means
@@ -37,6 +51,13 @@ END_FRACTION = 0.02
 HOLD_FRACTION = 0.02
 #: smoothing of the drive before its direction is taken: this fraction of a drive period
 SMOOTH_PERIOD_FRACTION = 1 / 200
+#: a cycle of fewer block means is not measured alone (its peaks and its loop's middle fall
+#: between samples): the used cycles are then measured together
+MIN_CYCLE_SAMPLES = 48
+#: a cycle's loop width: its branches in one bin per this many samples of the cycle, 8 to 40 bins
+SAMPLES_PER_BIN = 6
+#: the minor loops' amplitudes listed in the table: at most this many
+MAX_LISTED = 24
 
 
 def displacement_channel(channels: Iterable[str]) -> str | None:
@@ -107,8 +128,11 @@ def _has_loop(up: np.ndarray) -> bool:
     return min(np.count_nonzero(up > 0), np.count_nonzero(up < 0)) >= 16
 
 
-def loop_measures(u: np.ndarray, x: np.ndarray, up: np.ndarray) -> dict[str, float]:
-    """Stroke [m], gains [m/V], loop width and nonlinearity [% of stroke] of an x–U record."""
+def loop_measures(
+    u: np.ndarray, x: np.ndarray, up: np.ndarray, width: bool = True
+) -> dict[str, float]:
+    """Stroke [m], gains [m/V], loop width and nonlinearity [% of stroke] of an x–U record (the
+    loop width left NaN unless ``width``: the cycles' own replace it)."""
     stroke = float(np.ptp(x))
     u_lo, x_lo, u_hi, x_hi = _ends(u, x)
     end_gain = (x_hi - x_lo) / (u_hi - u_lo)
@@ -122,7 +146,7 @@ def loop_measures(u: np.ndarray, x: np.ndarray, up: np.ndarray) -> dict[str, flo
     if _has_loop(up):
         # the chord is taken off sample by sample: a bin's samples do not sit at its centre
         _, rise, fall = branch_means(u, x - (x_lo + end_gain * (u - u_lo)), up)
-        out["loop_width"] = 100 * branch_gap(u, x, up) / stroke
+        out["loop_width"] = 100 * branch_gap(u, x, up) / stroke if width else np.nan
         out["nonlinearity"] = 100 * float(np.nanmax(np.abs(0.5 * (rise + fall)))) / stroke
     return out
 
@@ -174,39 +198,174 @@ def charge_measures(
     return out
 
 
-#: the table's columns: (heading, key of the measures, scale from SI)
-COLUMNS = (
-    ("stroke [µm]", "stroke", UM),
-    ("gain (least squares) [µm/V]", "gain_ls", UM),
-    ("gain (end points) [µm/V]", "gain_end", UM),
-    ("x–U loop width [% of stroke]", "loop_width", 1.0),
-    ("nonlinearity vs end-point chord [% of stroke]", "nonlinearity", 1.0),
-    ("creep after step [µm]", "creep", UM),
-    ("creep [% of step]", "creep_percent", 1.0),
-    ("hold [s]", "hold_s", 1.0),
-    ("dx/dq [µm/µC]", "dx_dq", 1.0),
-    ("q–U slope [µF]", "capacitance", UF),
-    ("q–U loop width [% of charge range]", "q_loop_width", 1.0),
-)
+def rising_with_period(u: np.ndarray, period_samples: float) -> np.ndarray:
+    """As :func:`rising`, with the drive's period known [samples]."""
+    width = max(1, int(round(period_samples * SMOOTH_PERIOD_FRACTION)))
+    smooth = np.convolve(u, np.ones(width) / width, mode="same") if width > 1 else u
+    return direction(smooth)
+
+
+def steady_cycles(
+    reduced: Reduced,
+    x_channel: str,
+    period_s: float | None = None,
+    warmup_s: float | None = None,
+    rules: CycleRules = RULES,
+) -> Cycles:
+    """The cycles of a reduced capture (:func:`reduce_capture`): ``.used`` the steady
+    full-amplitude ones as slices of ``reduced.data[...]``, in time order, ``.dropped`` the rest
+    with their reasons, ``.period_s`` and its ``.source`` ("drive" or "protocol"). ``period_s``:
+    the drive's period if the protocol gives it (else found from U); ``warmup_s``: the capture's
+    attribute (None: detected from x). See :mod:`selfsense.methods.cycles`."""
+    d = reduced.data
+    return find_cycles(d["U"], reduced.fs, d[x_channel], period_s, warmup_s, rules)
+
+
+def _listed(values: Sequence[float]) -> str:
+    shown = ", ".join(f"{v:.3g}" for v in values[:MAX_LISTED])
+    more = len(values) - MAX_LISTED
+    return shown + (f", … ({more} more)" if more > 0 else "")
+
+
+def cycle_measures(
+    u: np.ndarray, x: np.ndarray, up: np.ndarray, cycles: Cycles
+) -> tuple[dict[str, float], str]:
+    """The stroke [m] and loop width [% of stroke] of each used cycle: their median, least and
+    largest; and a note when the cycles are too coarse to be measured alone (then pooled)."""
+    lengths = [c.stop - c.start for c in cycles.used]
+    per_cycle = float(np.median(lengths))
+    if per_cycle < MIN_CYCLE_SAMPLES:
+        used = cycles.mask() & np.isfinite(x) & np.isfinite(u)
+        uu, xx, rise = u[used], x[used], up[used]
+        out = {"stroke": float(np.ptp(xx))}
+        if _has_loop(rise):
+            # the chord taken off sample by sample first (as cycle_loops does): same gap, and the
+            # bins' samples, off their centres, differ by the loop's curvature only
+            u_lo, x_lo, u_hi, x_hi = _ends(uu, xx)
+            chord = x_lo + (x_hi - x_lo) / (u_hi - u_lo) * (uu - u_lo)
+            out["loop_width"] = 100 * branch_gap(uu, xx - chord, rise) / out["stroke"]
+        note = f"{per_cycle:.0f} samples a cycle: stroke and loop width of the used cycles together"
+        return out, note
+    bins = int(np.clip(per_cycle // SAMPLES_PER_BIN, 8, 40))
+    strokes, gaps = cycle_loops(u, x, up, cycles.used, bins)
+    widths = 100 * gaps / strokes
+    out = {}
+    for key, values in (("stroke", strokes), ("loop_width", widths)):
+        finite = values[np.isfinite(values)]
+        if finite.size:
+            out |= {
+                key: float(np.median(finite)),
+                f"{key}_min": float(finite.min()),
+                f"{key}_max": float(finite.max()),
+            }
+    return out, ""
+
+
+def cycle_facts(cycles: Cycles) -> dict:
+    """The cycle analysis's columns: period, warm-up, cycles used and dropped per reason, the
+    full and minor cycles' drive amplitudes."""
+    counts = cycles.counts()
+    source = cycles.warmup_source or (
+        "none detected" if cycles.periodic else "none (no cycles to detect one on)"
+    )
+    out = {"warmup_s": cycles.warmup_s, "warmup_from": source}
+    if not cycles.periodic:
+        return out | {"period_from": "no periodic drive"}
+    return out | {
+        "period_s": cycles.period_s,
+        "period_from": cycles.source,
+        "amplitude": cycles.amplitude,
+        "cycles_used": counts["used"],
+        **{f"dropped_{r}": counts[r] for r in REASONS},
+        "minor_amplitudes": _listed(cycles.minor_amplitudes),
+    }
 
 
 def characterise(
-    reduced: Reduced, x_channel: str, settle_s: float, min_hold_s: float
-) -> dict[str, float]:
-    """Every measure of one reduced capture, in SI units (see :data:`COLUMNS`)."""
+    reduced: Reduced,
+    x_channel: str,
+    settle_s: float,
+    min_hold_s: float,
+    cycles: Cycles | None = None,
+) -> dict:
+    """Every measure of one reduced capture, in SI units (see :data:`COLUMNS`), measured on its
+    steady full-amplitude cycles (``cycles``: :func:`steady_cycles`, found here when not given),
+    and a ``note``: the cycles used and dropped and why, or what was measured instead."""
     d = reduced.data
+    if cycles is None:
+        cycles = steady_cycles(reduced, x_channel)
     ok = np.isfinite(d["U"]) & np.isfinite(d[x_channel])
     t = np.arange(len(ok))[ok] / reduced.fs
-    u, x = d["U"][ok], d[x_channel][ok]
-    up = rising(u)
-    out = loop_measures(u, x, up) | creep_after_step(t, u, x, settle_s, min_hold_s)
-    if "I" in d:
-        q = charge(np.nan_to_num(d["I"]), reduced.fs)[ok]
-        out |= charge_measures(u, x, q, up)
+    u_all, x_all = d["U"], d[x_channel]
+    out: dict = creep_after_step(t, u_all[ok], x_all[ok], settle_s, min_hold_s)
+    notes = [cycles.summary()] if cycles.periodic else []
+    if cycles.periodic and cycles.used:
+        u = filled_drive(u_all)
+        up = rising_with_period(u, cycles.period_s * reduced.fs)
+        used = cycles.mask() & ok
+        measured, note = cycle_measures(u, x_all, up, cycles)
+        out |= loop_measures(u[used], x_all[used], up[used], width=False) | measured
+        notes += [note] if note else []
+        if cycles.minor_amplitudes:
+            notes.append(
+                f"{len(cycles.minor_amplitudes)} minor loops (drive amplitude "
+                f"{min(cycles.minor_amplitudes):.3g}–{max(cycles.minor_amplitudes):.3g})"
+            )
+    else:
+        used = ok.copy()
+        used[: cycles.after_warmup().start] = False
+        up = np.zeros(len(ok), int)
+        if np.count_nonzero(used) >= CHARACTERISE_MIN_SAMPLES:
+            up[used] = rising(u_all[used])
+            out |= loop_measures(u_all[used], x_all[used], up[used])
+        notes.append(
+            (cycles.note or "no steady full-amplitude cycle")
+            + ": stroke, gains and loop over all samples"
+            + (f" after the {cycles.warmup_s:g} s warm-up" if cycles.warmup_s else "")
+        )
+    out |= cycle_facts(cycles)
+    if "I" in d and np.count_nonzero(used) >= CHARACTERISE_MIN_SAMPLES:
+        q = charge(np.nan_to_num(d["I"]), reduced.fs)
+        out |= charge_measures(u_all[used], x_all[used], q[used], up[used])
+    out["note"] = "; ".join(n for n in notes if n)
     return out
 
 
-#: the dataset table's columns, in order
+#: the table's columns: (heading, key of the measures, scale from SI or None for a text, the
+#: channels whose declared scaling the heading shows: "x" the capture's displacement channel)
+COLUMNS = (
+    ("stroke [µm]", "stroke", UM, ("x",)),
+    ("gain (least squares) [µm/V]", "gain_ls", UM, ("x", "U")),
+    ("gain (end points) [µm/V]", "gain_end", UM, ("x", "U")),
+    ("x–U loop width [% of stroke]", "loop_width", 1.0, ()),
+    ("nonlinearity vs end-point chord [% of stroke]", "nonlinearity", 1.0, ()),
+    ("creep after step [µm]", "creep", UM, ("x",)),
+    ("creep [% of step]", "creep_percent", 1.0, ()),
+    ("hold [s]", "hold_s", 1.0, ()),
+    ("dx/dq [µm/µC]", "dx_dq", 1.0, ("x", "I")),
+    ("q–U slope [µF]", "capacitance", UF, ("I", "U")),
+    ("q–U loop width [% of charge range]", "q_loop_width", 1.0, ()),
+    ("stroke, least cycle [µm]", "stroke_min", UM, ("x",)),
+    ("stroke, largest cycle [µm]", "stroke_max", UM, ("x",)),
+    ("x–U loop width, least cycle [% of stroke]", "loop_width_min", 1.0, ()),
+    ("x–U loop width, largest cycle [% of stroke]", "loop_width_max", 1.0, ()),
+    ("drive period [s]", "period_s", 1.0, ()),
+    ("period from", "period_from", None, ()),
+    ("drive amplitude, used cycles [V]", "amplitude", 1.0, ("U",)),
+    ("warm-up [s]", "warmup_s", 1.0, ()),
+    ("warm-up from", "warmup_from", None, ()),
+    ("cycles used", "cycles_used", 1.0, ()),
+    *((f"cycles dropped: {r}", f"dropped_{r}", 1.0, ()) for r in REASONS),
+    ("minor loops' drive amplitudes [V]", "minor_amplitudes", None, ("U",)),
+    ("hysteresis model: elements", "model_order", 1.0, ()),
+    ("hysteresis model: cycles fit / chose the order / tested", "model_cycles", None, ()),
+    ("hysteresis model: x from U, tested cycles, rms [% of stroke]", "forward_rms", 1.0, ()),
+    ("hysteresis model: x from U, tested cycles, max [% of stroke]", "forward_max", 1.0, ()),
+    ("feedforward (model inverse), tested cycles, rms [% of stroke]", "feedforward_rms", 1.0, ()),
+    ("feedforward (model inverse), tested cycles, max [% of stroke]", "feedforward_max", 1.0, ()),
+)
+
+#: the dataset table's columns, in order (without the channels' declared scalings)
 TABLE_COLUMNS = [
     "experiment",
     "displacement channel",
@@ -215,6 +374,50 @@ TABLE_COLUMNS = [
     "note",
 ]
 
+#: the dataset's hysteresis-model table: a row per parameter of each capture's model
+MODEL_COLUMNS = ["experiment", "parameter", "value", "unit"]
+
+
+def heading(
+    base: str,
+    channels: Sequence[str],
+    x_channel: str | None,
+    scalings: Mapping[str, str] | None,
+) -> str:
+    """A column's heading with the declared scaling of the channels it depends on, inside its unit
+    bracket: "gain (least squares) [µm/V; U = 20 × logged (gain)]"."""
+    names = [x_channel if c == "x" else c for c in channels]
+    parts = [f"{c} = {scalings[c]}" for c in names if c and scalings and c in scalings]
+    if not parts or not base.endswith("]"):
+        return base
+    return f"{base[:-1]}; {'; '.join(parts)}]"
+
+
+def plain_heading(text: str) -> str:
+    """A heading without the channels' scalings :func:`heading` put in (the heading of
+    :data:`TABLE_COLUMNS`)."""
+    if text.endswith("]") and "; " in text and " [" in text:
+        unit_start = text.rindex(" [")
+        return text[: text.index("; ", unit_start)] + "]"
+    return text
+
+
+def axis_label(label: str, channel: str | None, scalings: Mapping[str, str] | None) -> str:
+    """An axis label with the channel's declared scaling after it: "U [V] (20 × logged)"."""
+    if channel and scalings and channel in scalings:
+        return f"{label} ({scalings[channel]})"
+    return label
+
+
+def table_columns(rows: Sequence[Mapping]) -> list[str]:
+    """The table's columns for its rows: :data:`TABLE_COLUMNS`, each as the rows head it (with
+    their channels' scalings; a column twice when captures declare different ones)."""
+    present = list(dict.fromkeys(k for r in rows for k in r))
+    out = []
+    for base in TABLE_COLUMNS:
+        out += [k for k in present if plain_heading(k) == base] or [base]
+    return out
+
 
 def row(
     experiment: str,
@@ -222,16 +425,20 @@ def row(
     x_channel: str | None,
     rate: float | None,
     note: str = "",
+    scalings: Mapping[str, str] | None = None,
 ) -> dict:
-    """One row of the dataset's table (µm, µF; empty where the capture does not allow it)."""
-    values = {
-        heading: measures[key] * scale if key in measures else np.nan
-        for heading, key, scale in COLUMNS
-    }
+    """One row of the dataset's table (µm, µF; empty where the capture does not allow it),
+    headed with the channels' declared ``scalings`` (channel → label) where given."""
+    values = {}
+    for base, key, scale, channels in COLUMNS:
+        value = measures.get(key, "" if scale is None else np.nan)
+        if scale is not None and value is not None:
+            value = float(value) * scale
+        values[heading(base, channels, x_channel, scalings)] = value
     return (
         {"experiment": experiment, "displacement channel": x_channel or "", "rate used [Hz]": rate}
         | values
-        | {"note": note}
+        | {"note": "; ".join(n for n in (note, measures.get("note", "")) if n)}
     )
 
 
@@ -258,46 +465,128 @@ def instruments(manifest: Mapping) -> list[dict]:
 
 @dataclass(frozen=True)
 class LoopPanels:
-    """One capture's loops as drawn: (x, y, xlabel, ylabel) per panel, thinned to the figure's
-    resolution so that a dataset's worth of them fits in memory."""
+    """One capture's loops as drawn: (x, y, xlabel, ylabel, used) per panel, thinned to the
+    figure's resolution so that a dataset's worth of them fits in memory; ``used`` is True on the
+    samples of the cycles measured (None: all were), the others are drawn faint."""
 
     name: str
-    panels: tuple[tuple[np.ndarray, np.ndarray, str, str], ...]
+    panels: tuple[tuple[np.ndarray, np.ndarray, str, str, np.ndarray | None], ...]
 
 
-def loop_panels(reduced: Reduced, x_channel: str, name: str, max_points: int = 20000) -> LoopPanels:
-    """x–U loop, and beside it the q–U loop where the capture has the current."""
+def loop_panels(
+    reduced: Reduced,
+    x_channel: str,
+    name: str,
+    max_points: int = 20000,
+    cycles: Cycles | None = None,
+    scalings: Mapping[str, str] | None = None,
+) -> LoopPanels:
+    """x–U loop, and beside it the q–U loop where the capture has the current; with ``cycles``
+    the dropped ones faint and the title counting them, with ``scalings`` the channels' declared
+    scaling on the axes."""
     d = reduced.data
     step = max(1, len(d["U"]) // max_points)  # the figure needs no more points than pixels
     u = d["U"][::step]
-    panels = [(u, d[x_channel][::step] * UM, "U [V]", f"{x_channel} [µm]")]
-    if "I" in d:
-        panels.append(
-            (u, charge(np.nan_to_num(d["I"]), reduced.fs)[::step] * UF, "U [V]", "q = ∫I dt [µC]")
+    used = None
+    if cycles is not None and cycles.periodic:
+        used = cycles.mask()[::step]
+        name = f"{name}: {len(cycles.used)} cycles used, {len(cycles.dropped)} dropped (grey)"
+    elif cycles is not None:
+        used = np.ones(len(d["U"]), bool)
+        used[: cycles.after_warmup().start] = False
+        used = used[::step]
+        name = f"{name}: no periodic drive, all samples" + (
+            f" after the {cycles.warmup_s:g} s warm-up (grey)" if cycles.warmup_s else ""
         )
+    u_label = axis_label("U [V]", "U", scalings)
+    x_label = axis_label(f"{x_channel} [µm]", x_channel, scalings)
+    panels = [(u, d[x_channel][::step] * UM, u_label, x_label, used)]
+    if "I" in d:
+        q = charge(np.nan_to_num(d["I"]), reduced.fs)[::step] * UF
+        panels.append((u, q, u_label, axis_label("q = ∫I dt [µC]", "I", scalings), used))
     return LoopPanels(name, tuple(panels))
 
 
-def characterise_capture(
-    path, settle_s: float, min_hold_s: float
-) -> tuple[dict, LoopPanels | None]:
-    """One capture streamed once: its table row, and its loops (None without U or a
-    displacement)."""
-    name = Path(path).stem
+def reduce_capture(path) -> tuple[Reduced | None, str | None, float | None]:
+    """A capture streamed once into block means (at most :data:`MAX_POINTS`) of U, its
+    displacement and the current where recorded: (reduced, displacement channel, the capture's
+    ``warmup_s`` or None when it does not give one); reduced is None without U or a
+    displacement."""
     with open_capture(path) as cap:
         x = displacement_channel(cap.channels)
         if "U" not in cap.channels or x is None:
-            return row(
-                name, {}, x, None, "no drive voltage U and displacement in this capture"
-            ), None
+            return None, x, None
         cap.require_samples(CHARACTERISE_MIN_SAMPLES, "characterise (one drive cycle)")
         names = ["U", x] + (["I"] if "I" in cap.channels else [])
         factor = reduction_factor(cap.n)
         reduced = block_means(cap.iter_chunks(names, factor * (1 << 14)), cap.fs, factor)
         cap.require_varying(["U"], "characterise (stroke and gain per volt)")
-    return row(name, characterise(reduced, x, settle_s, min_hold_s), x, reduced.fs), loop_panels(
-        reduced, x, name
-    )
+        warmup = cap.attrs.get("warmup_s")
+    return reduced, x, None if warmup is None else float(warmup)
+
+
+def hysteresis_model(
+    reduced: Reduced,
+    x_channel: str,
+    cycles: Cycles,
+    max_order: int = MAX_ORDER,
+    order_tolerance: float = ORDER_TOLERANCE,
+) -> tuple[dict, list[dict]]:
+    """The capture's own Maxwell model (:func:`selfsense.methods.hysteresis.fit_maxwell_slip`) on
+    its steady full-amplitude cycles: its measures for the table (the errors on the cycles neither
+    the fit nor the choice of order saw) and its parameters, one record each (the validation
+    cycles' rms voltage error of every order tried among them, the rule's evidence). Nothing
+    without a steady cycle or with a gap (a missing sample) in the record."""
+    u, x = reduced.data["U"], reduced.data[x_channel]
+    if (
+        not (cycles.periodic and cycles.used)
+        or not np.isfinite(u).all()
+        or not np.isfinite(x).all()
+    ):
+        return {}, []
+    fit = fit_maxwell_slip(u, x, cycles.used, max_order, order_tolerance)
+    measures = {
+        "model_order": fit.model.order,
+        "model_cycles": " / ".join(map(str, fit.cycles)),
+        "forward_rms": fit.forward[0],
+        "forward_max": fit.forward[1],
+        "feedforward_rms": fit.feedforward[0],
+        "feedforward_max": fit.feedforward[1],
+        "note": fit.note,
+    }
+    records = [{"parameter": n, "value": v, "unit": unit} for n, v, unit in fit.parameters()]
+    records += [
+        {"parameter": f"validation rms, {n} elements", "value": e, "unit": "V"}
+        for n, e in fit.validation_rms.items()
+    ]
+    return measures, records
+
+
+def characterise_capture(
+    path,
+    settle_s: float,
+    min_hold_s: float,
+    period_s: float | None = None,
+    scalings: Mapping[str, str] | None = None,
+    rules: CycleRules = RULES,
+    model: Mapping[str, float] | None = None,
+) -> tuple[dict, LoopPanels | None, list[dict]]:
+    """One capture streamed once: its table row, its loops (None without U or a displacement)
+    and its hysteresis model's parameters. ``period_s``: the drive's period if the protocol gives
+    it; ``scalings``: channel → its declared scaling, shown in the headings and on the axes;
+    ``model``: :func:`hysteresis_model`'s max_order and order_tolerance."""
+    name = Path(path).stem
+    reduced, x, warmup = reduce_capture(path)
+    if reduced is None:
+        note = "no drive voltage U and displacement in this capture"
+        return row(name, {}, x, None, note, scalings), None, []
+    cycles = steady_cycles(reduced, x, period_s, warmup, rules)
+    measures = characterise(reduced, x, settle_s, min_hold_s, cycles)
+    fitted, parameters = hysteresis_model(reduced, x, cycles, **(model or {}))
+    measures |= fitted | {"note": "; ".join(filter(None, [measures["note"], fitted.get("note")]))}
+    panels = loop_panels(reduced, x, name, cycles=cycles, scalings=scalings)
+    row_ = row(name, measures, x, reduced.fs, scalings=scalings)
+    return row_, panels, [{"experiment": name} | p for p in parameters]
 
 
 def loop_page(captures: Sequence[LoopPanels], title: str):

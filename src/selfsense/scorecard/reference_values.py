@@ -16,6 +16,7 @@ from typing import Any
 
 import pandas as pd
 
+from selfsense.methods.characterise import plain_heading
 from selfsense.scorecard.registry import Band, Entry, Locator, Tolerance, applicable
 from selfsense.scorecard.registry import tables_read as registry_tables
 from selfsense.scorecard.scoring import scorecard
@@ -59,9 +60,17 @@ def _capture(reference: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -
     if "experiment" in reference:
         return reference["experiment"]
     table = tables.get(CHARACTERISE)
-    if table is None or table["stroke [µm]"].isna().all():
+    stroke = _heading(table, "stroke [µm]")
+    if table is None or table[stroke].isna().all():
         return None
-    return str(table.loc[table["stroke [µm]"].idxmax(), "experiment"])
+    return str(table.loc[table[stroke].idxmax(), "experiment"])
+
+
+def _heading(table: pd.DataFrame | None, column: str) -> str:
+    """The characterisation table's heading of ``column``, which names the channels' declared
+    scalings where the dataset has them (:func:`selfsense.methods.characterise.heading`)."""
+    found = [c for c in (table.columns if table is not None else ()) if plain_heading(c) == column]
+    return found[0] if found else column
 
 
 def entries(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> list[Entry]:
@@ -71,6 +80,7 @@ def entries(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> 
         quantity, unit, table, column = QUANTITIES[key]
         where = ()
         if table == CHARACTERISE:  # no capture with a stroke matches no row: "missing from table"
+            column = _heading(tables.get(table), column)
             capture = _capture(ref, tables)
             where = (("experiment", capture or ""),)
             quantity = f"{quantity} ({capture})" if capture else quantity
