@@ -30,7 +30,7 @@ worked example (a 1 Hz, ±150 V sine at 5 kHz: columns t [s], U [V], x [µm]):
 
 writes raw/my_stack/sine_1hz.nc and raw/my_stack/dataset.yaml (scaffolded, or updated when the
 dataset exists); then results/my_stack/characterise/summary.csv and
-figures/my_stack/characterise/loops_01.png.
+figures/my_stack/characterise/loops_sine_1hz.png.
 
 a DAQ's file without header or time (tab-separated, 200 Hz; column 2 the amplifier's 1/20
 monitor of U, column 6 a displacement sensor's volts at 10 µm/V):
@@ -56,14 +56,13 @@ counted from 0?) is refused, naming the columns that vary. On a first import (no
 range in the manifest) a channel's range must be one a piezo bench records: a voltage within
 +-10 kV, a current within +-100 A, a force within +-1 MN, a displacement spanning 0.1 nm to 1 cm;
 else the refusal names the unit that fits (x_disp spans 49.4 m: ... type x_disp=6:um) or --range
-to keep it. A CSV, TDMS or v7.3
-file is read in chunks, only the columns asked for, twice (check, then write): memory does not
-grow with its length; a v4-v7 .mat file is loaded whole. Data rows that end in the separator
-while the header does not keep their columns. Overload values (|v| >= 1e30, e.g. 9.9E+37, or
-+-inf) are stored as missing and counted (the capture's import_note), before a range is derived;
-a channel overloaded in more than 1 % of its samples, or without a single value, is refused.
-Imports into one dataset run one after another (its lock, raw/<dataset>/.import.lock); an
-existing capture is never overwritten.
+to keep it. A CSV, TDMS or v7.3 file is read in chunks, only the columns asked for, twice
+(check, then write): memory does not grow with its length; a v4-v7 .mat file is loaded whole.
+Data rows that end in the separator while the header does not keep their columns. Overload
+values (|v| >= 1e30, e.g. 9.9E+37, or +-inf) are stored as missing and counted (the capture's
+import_note), before a range is derived; a channel overloaded in more than 1 % of its samples,
+or without a single value, is refused. Imports into one dataset run one after another (its
+lock, raw/<dataset>/.import.lock); an existing capture is never overwritten.
 """
 
 
