@@ -7,6 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from selfsense.methods.characterise import reduce_capture, steady_cycles
+from selfsense.methods.drive import Drive, Segment
 from selfsense.methods.hysteresis import (
     MaxwellSlip,
     element_strains,
@@ -16,6 +18,7 @@ from selfsense.methods.hysteresis import (
     thresholds,
 )
 from selfsense.twin import kernel as K
+from selfsense.twin.bench import simulate_capture
 from selfsense.verify.hysteresis_truth import twin_voltage
 
 FS = 48000.0
@@ -127,3 +130,19 @@ def test_on_the_twin_the_feedforward_error_is_within_1p5_of_the_twins_own(
     assert 2 <= fit.model.order <= 12
     # the forward prediction is as good as the compensator (both on the same held-out cycles)
     assert fit.forward[0] < linear_rms / 5
+
+
+def test_on_a_twin_capture_the_characterised_model_does_as_well(tmp_path, stack_params, stack_daq):
+    """The same through a capture of the twin's bench (its instruments: the laser's resolution
+    and drift, the drive's noise, the DAQ's 16 bits) and characterise's reduction and cycles."""
+    # twelve cycles: the first few are the start-up of the twin's creep, a warm-up
+    drive = Drive("voltage", (Segment(12.0, 1.0, 0.0, 100.0),))
+    path = simulate_capture(tmp_path / "sine.nc", stack_params, stack_daq, drive, {}, 7, "s").path
+    reduced, channel, warmup = reduce_capture(path)
+    cycles = steady_cycles(reduced, channel, period_s=1.0, warmup_s=warmup)
+    u, x = reduced.data["U"], reduced.data[channel]
+    fit = fit_maxwell_slip(u, x, cycles.used)
+    test = np.concatenate([np.arange(c.start, c.stop) for c in cycles.used[2::3]])
+    own = twin_voltage(stack_params, x)[test] - u[test]
+    assert fit.cycles[2] >= 2
+    assert fit.feedforward[0] <= 1.5 * 100 * np.sqrt(np.mean(own**2)) / fit.drive_span
