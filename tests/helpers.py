@@ -5,8 +5,10 @@ captures, manifests, configs and lab recordings of the fault and bring-your-own-
 Test modules import these from here, never from one another.
 """
 
+import contextlib
 import hashlib
 import importlib.util
+import io
 import shutil
 import subprocess
 import sys
@@ -334,3 +336,61 @@ def imported(folder, source, *channel_args, experiment="sine_1hz", dataset="lab_
         args += ["--channel", c]
     assert cli(["import", *args]) == 0
     return raw / dataset
+
+
+# -- selfsense import, in this process ------------------------------------------------------------
+
+
+def import_args(source, raw, *channels, dataset="lab", experiment="run", extra=()):
+    """`selfsense import` arguments for source into raw/<dataset>/ with these --channel specs."""
+    args = ["import", str(source), "--dataset", dataset, "--experiment", experiment]
+    args += ["--raw-dir", str(raw), *extra]
+    for c in channels:
+        args += ["--channel", c]
+    return args
+
+
+def run_import_command(args):
+    """The command in this process: its exit status and what it printed to stderr."""
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        status = cli(args)
+    return status, err.getvalue()
+
+
+def tree(folder):
+    """{relative path: bytes} of every file under folder, and its folders (a failed import
+    changes neither)."""
+    folder = Path(folder)
+    if not folder.exists():
+        return {}
+    return {
+        str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None)
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+def refused(args, *fragments, starts=None):
+    """The import exits 1 with one line ('selfsense import: <file or argument>: …') carrying every
+    fragment, and the raw folder is as it was (nothing made, nothing left behind)."""
+    raw = Path(args[args.index("--raw-dir") + 1])
+    before = tree(raw.parent)  # raw's parent: raw's name may be too long to ask about
+    status, err = run_import_command(args)
+    lines = [line for line in err.splitlines() if line.startswith("selfsense import: ")]
+    assert status == 1 and len(lines) == 1, err
+    message = lines[0][len("selfsense import: ") :]
+    assert message.startswith(str(starts if starts is not None else args[1])), message
+    for f in fragments:
+        assert f in message, message
+    assert tree(raw.parent) == before and leftovers(raw.parent) == []
+    return message
+
+
+def imports(args):
+    """The import exits 0 and leaves no temporary: the capture's path and what it printed."""
+    status, err = run_import_command(args)
+    assert status == 0, err
+    raw = Path(args[args.index("--raw-dir") + 1])
+    dataset, experiment = args[args.index("--dataset") + 1], args[args.index("--experiment") + 1]
+    assert leftovers(raw) == []
+    return raw / dataset / f"{experiment}.nc", err

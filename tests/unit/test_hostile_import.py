@@ -9,7 +9,6 @@ the other. A property test feeds arbitrary numeric columns, separators and lengt
 """
 
 import contextlib
-import io
 import subprocess
 import sys
 import tempfile
@@ -22,69 +21,25 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.io import savemat
 
-from selfsense.cli import main as cli
 from selfsense.io.capture import CHANNEL_UNITS, open_capture
 from selfsense.io.dataset_lock import dataset_lock
 from selfsense.io.importer import MAX_NAME, PLAUSIBLE, Request, run_import
 from selfsense.io.manifest import load_dataset
 from selfsense.io.sources import ImportProblem, parse_column
 
-from ..helpers import LAB_FS, ellipse, leftovers, write_csv
+from ..helpers import (
+    LAB_FS,
+    ellipse,
+    import_args,
+    imports,
+    leftovers,
+    refused,
+    run_import_command,
+    tree,
+    write_csv,
+)
 
 SELFSENSE = Path(sys.executable).with_name("selfsense")
-
-
-def args_for(source, raw, *channels, dataset="lab", experiment="run", extra=()):
-    args = ["import", str(source), "--dataset", dataset, "--experiment", experiment]
-    args += ["--raw-dir", str(raw), *extra]
-    for c in channels:
-        args += ["--channel", c]
-    return args
-
-
-def run(args):
-    """The command in this process: its exit status and what it printed to stderr."""
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        status = cli(args)
-    return status, err.getvalue()
-
-
-def tree(folder):
-    """{relative path: bytes} of every file under folder, and its folders (a failed import
-    changes neither)."""
-    folder = Path(folder)
-    if not folder.exists():
-        return {}
-    return {
-        str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None)
-        for p in sorted(folder.rglob("*"))
-    }
-
-
-def refused(args, *fragments, starts=None):
-    """The import exits 1 with one line ('selfsense import: <file or argument>: …') carrying every
-    fragment, and the raw folder is as it was (nothing made, nothing left behind)."""
-    raw = Path(args[args.index("--raw-dir") + 1])
-    before = tree(raw.parent)  # raw's parent: raw's name may be too long to ask about
-    status, err = run(args)
-    lines = [line for line in err.splitlines() if line.startswith("selfsense import: ")]
-    assert status == 1 and len(lines) == 1, err
-    message = lines[0][len("selfsense import: ") :]
-    assert message.startswith(str(starts if starts is not None else args[1])), message
-    for f in fragments:
-        assert f in message, message
-    assert tree(raw.parent) == before and leftovers(raw.parent) == []
-    return message
-
-
-def imports(args):
-    status, err = run(args)
-    assert status == 0, err
-    raw = Path(args[args.index("--raw-dir") + 1])
-    dataset, experiment = args[args.index("--dataset") + 1], args[args.index("--experiment") + 1]
-    assert leftovers(raw) == []
-    return raw / dataset / f"{experiment}.nc", err
 
 
 def read(capture, *channels):
@@ -107,7 +62,7 @@ def write_rows(path, header, rows, sep=","):
 def test_a_bad_fs_leaves_nothing_behind_and_the_corrected_retry_works(tmp_path, fs):
     source = write_csv(tmp_path / "sine.csv")
     raw = tmp_path / "raw"
-    args = args_for(source, raw, "U=U [V]:V", extra=["--fs", fs])
+    args = import_args(source, raw, "U=U [V]:V", extra=["--fs", fs])
     refused(args, "the sampling rate must be a finite number > 0 Hz", starts="--fs ")
     assert not raw.exists()  # not even the dataset's folder
     args[args.index(fs)] = str(LAB_FS)
@@ -118,7 +73,7 @@ def test_a_bad_fs_leaves_nothing_behind_and_the_corrected_retry_works(tmp_path, 
 @pytest.mark.parametrize("option", ["--experiment", "--dataset"])
 def test_a_name_too_long_for_a_file_is_refused_naming_the_option(tmp_path, option):
     source = write_csv(tmp_path / "sine.csv")
-    args = args_for(source, tmp_path / "raw", "U=U [V]:V", extra=["--fs", str(LAB_FS)])
+    args = import_args(source, tmp_path / "raw", "U=U [V]:V", extra=["--fs", str(LAB_FS)])
     args[args.index(option) + 1] = "e" * 300
     refused(args, "a name of 300 characters: at most 100", starts=option)
     assert not (tmp_path / "raw").exists()
@@ -131,7 +86,9 @@ def test_a_file_system_error_is_one_line_naming_the_path(tmp_path):
     source = write_csv(tmp_path / "sine.csv")
     raw = tmp_path / ("r" * 300)  # ENAMETOOLONG from the file system itself
     refused(
-        args_for(source, raw, "U=U [V]:V", extra=["--fs", "5000"]), "file name too long", starts=raw
+        import_args(source, raw, "U=U [V]:V", extra=["--fs", "5000"]),
+        "file name too long",
+        starts=raw,
     )
 
 
@@ -147,7 +104,7 @@ def test_data_rows_ending_in_the_separator_keep_their_columns(tmp_path):
     source = write_rows(tmp_path / "trailing.csv", ["t", "U", "x"], rows)  # data: one field more
     for extra, experiment in ((["--fs", str(LAB_FS)], "by_fs"), (["--time", "t:s"], "by_time")):
         capture, _ = imports(
-            args_for(
+            import_args(
                 source,
                 tmp_path / "raw",
                 "U=U:V",
@@ -169,7 +126,7 @@ def test_data_rows_ending_in_the_separator_keep_their_columns(tmp_path):
         )
     )
     capture, _ = imports(
-        args_for(source, tmp_path / "raw", "U=U:V", experiment="header", extra=["--time", "t:s"])
+        import_args(source, tmp_path / "raw", "U=U:V", experiment="header", extra=["--time", "t:s"])
     )
     assert np.abs(read(capture, "U")[0]["U"] - u).max() <= step["U"]
 
@@ -250,7 +207,7 @@ def test_data_rows_ending_in_the_separator_keep_their_columns(tmp_path):
 def test_a_file_that_is_not_what_the_arguments_say_is_one_line(tmp_path, text, channels, fragments):
     source = tmp_path / "bad.csv"
     source.write_text(text)
-    refused(args_for(source, tmp_path / "raw", *channels, extra=["--fs", "1000"]), *fragments)
+    refused(import_args(source, tmp_path / "raw", *channels, extra=["--fs", "1000"]), *fragments)
     assert not (tmp_path / "raw").exists()
 
 
@@ -258,7 +215,7 @@ def test_a_bad_separator_is_one_line_naming_the_option(tmp_path):
     source = write_rows(tmp_path / "a.csv", ["U"], [[1], [2]])
     for sep in ("ab", ".", "-", "e"):
         refused(
-            args_for(source, tmp_path / "raw", "U=U:V", extra=["--fs", "10", "--sep", sep]),
+            import_args(source, tmp_path / "raw", "U=U:V", extra=["--fs", "10", "--sep", sep]),
             "one character that cannot be part of a number",
             starts="--sep",
         )
@@ -268,7 +225,7 @@ def test_a_tab_separated_file_with_empty_cells_keeps_its_columns(tmp_path):
     source = tmp_path / "a.tsv"
     source.write_text("U\tx\n1\t\n\t2\n3\t4\n")
     capture, _ = imports(
-        args_for(source, tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--fs", "10"])
+        import_args(source, tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--fs", "10"])
     )
     data, _, step = read(capture, "U", "x_laser")
     np.testing.assert_allclose(data["U"], [1, np.nan, 3], atol=step["U"])
@@ -288,7 +245,7 @@ def test_an_overload_sentinel_is_stored_as_missing_and_counted_before_the_range(
     source = tmp_path / "overload.csv"
     source.write_text("t,U,x\n" + "\n".join(lines) + "\n")
     capture, err = imports(
-        args_for(source, tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--time", "t:s"])
+        import_args(source, tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--time", "t:s"])
     )
     data, attrs, step = read(capture, "x_laser")
     assert np.isnan(data["x_laser"][100]) and np.isnan(data["x_laser"]).sum() == 1
@@ -307,7 +264,7 @@ def test_a_channel_overloaded_beyond_1_percent_is_refused(tmp_path):
     rows = [(k, "9.9E+37" if k % 50 == 0 else k) for k in range(1000)]  # 2 %
     source = write_rows(tmp_path / "overload.csv", ["t", "x"], rows)
     refused(
-        args_for(source, tmp_path / "raw", "x_laser=x:um", extra=["--fs", "1000"]),
+        import_args(source, tmp_path / "raw", "x_laser=x:um", extra=["--fs", "1000"]),
         "column 'x' (x_laser) is overloaded in 2 % of its 1000 samples",
         "first 9.9e+37 at data row 1",
     )
@@ -320,28 +277,28 @@ def test_a_complex_mat_variable_is_refused(tmp_path):
     t, u, x = ellipse(periods=1)
     savemat(tmp_path / "c.mat", {"U": u, "x": x * 1e6 * (1 + 0.5j)})
     refused(
-        args_for(
+        import_args(
             tmp_path / "c.mat", tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--fs", "5000"]
         ),
         "variable x is complex",
     )
     savemat(tmp_path / "b.mat", {"U": u, "x": "a text"})
     refused(
-        args_for(
+        import_args(
             tmp_path / "b.mat", tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--fs", "5000"]
         ),
         "'x' is not numeric",
     )
     savemat(tmp_path / "l.mat", {"U": u, "x": x[:-5]})
     refused(
-        args_for(
+        import_args(
             tmp_path / "l.mat", tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--fs", "5000"]
         ),
         "the variables differ in length",
     )
     savemat(tmp_path / "inf.mat", {"U": u, "x": np.full_like(x, np.inf)})
     refused(
-        args_for(
+        import_args(
             tmp_path / "inf.mat", tmp_path / "raw", "U=U:V", "x_laser=x:um", extra=["--fs", "5000"]
         ),
         "variable 'x' (x_laser) holds no value to import",
@@ -365,7 +322,7 @@ def jittered(path, jitter, seed=3):
 
 def test_a_time_axis_jittered_within_a_quarter_sample_is_accepted_with_fs_from_the_fit(tmp_path):
     source = jittered(tmp_path / "jitter.csv", 0.2)
-    capture, _ = imports(args_for(source, tmp_path / "raw", "U=U:V", extra=["--time", "t:s"]))
+    capture, _ = imports(import_args(source, tmp_path / "raw", "U=U:V", extra=["--time", "t:s"]))
     fs = load_dataset(tmp_path / "raw", "lab")["daq"]["fs"]
     assert abs(fs / LAB_FS - 1) < 1e-6  # end points alone: 0.4 samples over 15 000, 2.7e-5
     with open_capture(capture) as cap:
@@ -379,7 +336,7 @@ def test_a_time_axis_off_by_more_than_a_quarter_sample_is_refused(tmp_path):
     lines[5001] = f"{t + 0.3 / LAB_FS!r},{u!r}"  # sample 5000 another 0.3 samples late
     source.write_text("\n".join(lines) + "\n")
     refused(
-        args_for(source, tmp_path / "raw", "U=U:V", extra=["--time", "t:s"]),
+        import_args(source, tmp_path / "raw", "U=U:V", extra=["--time", "t:s"]),
         "the time column is not sampled at a fixed rate: sample 5000",
         "on the least-squares line",
     )
@@ -389,7 +346,7 @@ def test_a_time_axis_off_by_more_than_a_quarter_sample_is_refused(tmp_path):
 def test_a_time_column_with_a_hole_is_refused(tmp_path):
     source = write_rows(tmp_path / "hole.csv", ["t", "U"], [(0, 1), ("", 2), (0.002, 3)])
     refused(
-        args_for(source, tmp_path / "raw", "U=U:V", extra=["--time", "t:s"]),
+        import_args(source, tmp_path / "raw", "U=U:V", extra=["--time", "t:s"]),
         "the time column 't' is empty at data row 2",
     )
 
@@ -408,7 +365,7 @@ def test_a_manifest_that_cannot_be_written_takes_the_capture_with_it(tmp_path, m
     monkeypatch.setattr(importer, "atomic_path", failing)
     source = write_csv(tmp_path / "sine.csv")
     refused(
-        args_for(source, tmp_path / "raw", "U=U [V]:V", extra=["--fs", "5000"]),
+        import_args(source, tmp_path / "raw", "U=U [V]:V", extra=["--fs", "5000"]),
         "No space left on device",
         starts=tmp_path / "raw" / "lab" / "dataset.yaml",
     )
@@ -463,7 +420,7 @@ def test_two_imports_at_once_run_one_after_the_other_and_never_overwrite(tmp_pat
     def command(source, dataset, experiment):
         return [
             str(SELFSENSE),
-            *args_for(
+            *import_args(
                 source,
                 "raw",
                 "U=U:V",
@@ -561,7 +518,7 @@ def test_any_numeric_columns_give_a_correct_capture_or_one_line_naming_the_file(
             wanted["x_laser"] = (columns[1], "um", 1e-6)
         # a column by its header name, or by its position counted from 1
         where = (lambda j: header[j]) if rec["header"] else (lambda j: str(j + 1))
-        args = args_for(
+        args = import_args(
             source,
             tmp / "raw",
             *(f"{c}={where(j + 1)}:{unit}" for j, (c, (_, unit, _)) in enumerate(wanted.items())),
@@ -586,7 +543,7 @@ def test_any_numeric_columns_give_a_correct_capture_or_one_line_naming_the_file(
                 importable = False  # one value throughout, or not what a piezo bench records
         if n < 2:  # a capture holds two samples at the least
             importable = False
-        status, err = run(args)
+        status, err = run_import_command(args)
         lines = [line for line in err.splitlines() if line.startswith("selfsense import: ")]
         if status:
             assert status == 1 and len(lines) == 1, err

@@ -6,12 +6,9 @@ position counted from 0, a constant column, µm read as m, the wrong separator) 
 that says what to type instead, and leave nothing behind.
 """
 
-import contextlib
-import io
 import logging
 import re
 import warnings
-from pathlib import Path
 
 import h5py
 import numpy as np
@@ -34,7 +31,7 @@ from selfsense.io.manifest import (
 )
 from selfsense.io.sources import ImportProblem, parse_column
 
-from ..helpers import leftovers
+from ..helpers import import_args, imports, refused
 
 FS = 200.0
 N = 4000
@@ -62,56 +59,6 @@ def write_table(path, columns, sep="\t", header=None):
     return path
 
 
-def args_for(source, raw, *channels, dataset="lab", experiment="run", extra=()):
-    args = ["import", str(source), "--dataset", dataset, "--experiment", experiment]
-    args += ["--raw-dir", str(raw), *extra]
-    for c in channels:
-        args += ["--channel", c]
-    return args
-
-
-def run(args):
-    """The command in this process: its exit status and what it printed to stderr."""
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        status = cli(args)
-    return status, err.getvalue()
-
-
-def tree(folder):
-    return {
-        str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None)
-        for p in sorted(folder.rglob("*"))
-    }
-
-
-def refused(args, *fragments, starts=None):
-    """Exit 1 with one line 'selfsense import: <file or argument>: …' carrying every fragment;
-    the folder around raw/ as it was."""
-    raw = args[args.index("--raw-dir") + 1]
-    parent = Path(raw).parent
-    before = tree(parent)
-    status, err = run(args)
-    lines = [line for line in err.splitlines() if line.startswith("selfsense import: ")]
-    assert status == 1 and len(lines) == 1, err
-    message = lines[0][len("selfsense import: ") :]
-    assert message.startswith(str(starts if starts is not None else args[1])), message
-    for f in fragments:
-        assert f in message, message
-    assert tree(parent) == before and leftovers(parent) == []
-    return message
-
-
-def imports(args):
-    status, err = run(args)
-    assert status == 0, err
-    raw = args[args.index("--raw-dir") + 1]
-    dataset, experiment = args[args.index("--dataset") + 1], args[args.index("--experiment") + 1]
-    folder = Path(raw) / dataset
-    assert leftovers(folder) == []
-    return folder / f"{experiment}.nc", err
-
-
 def read(capture, *channels):
     with open_capture(capture) as cap:
         return cap.read(list(channels)), cap.attrs, {c: cap.resolution(c) for c in channels}, cap
@@ -126,7 +73,7 @@ def test_a_headerless_tab_separated_daq_file_imports_scaled_with_columns_counted
 ):
     columns = daq_columns()
     source = write_table(tmp_path / "run3.txt", columns)
-    args = args_for(
+    args = import_args(
         source,
         tmp_path / "raw",
         "U=2:V",
@@ -191,7 +138,7 @@ def test_a_position_counted_from_0_stops_with_the_one_to_type(tmp_path, capsys):
     with pytest.raises(ImportProblem, match=r"the first column is 1 \(type 1:s\)"):
         parse_column("0:s", time=True)
     source = write_table(tmp_path / "run3.txt", daq_columns())
-    args = args_for(source, tmp_path / "raw", "U=0:V", extra=["--fs", "200", "--no-header"])
+    args = import_args(source, tmp_path / "raw", "U=0:V", extra=["--fs", "200", "--no-header"])
     with pytest.raises(SystemExit) as exit_:  # argparse refuses the argument: usage, one line
         cli(args)
     assert exit_.value.code == 2
@@ -199,14 +146,14 @@ def test_a_position_counted_from_0_stops_with_the_one_to_type(tmp_path, capsys):
     assert "columns are counted from 1" in err[-1] and "type U=1:V" in err[-1]
     assert not (tmp_path / "raw").exists()
     # a position past the last column
-    args = args_for(source, tmp_path / "raw", "U=7:V", extra=["--fs", "200", "--no-header"])
+    args = import_args(source, tmp_path / "raw", "U=7:V", extra=["--fs", "200", "--no-header"])
     refused(args, "column 7 for U does not exist (the file has 6 columns, counted from 1)")
 
 
 def test_a_constant_column_is_refused_naming_the_columns_that_vary(tmp_path):
     source = write_table(tmp_path / "run3.txt", daq_columns())
     # the slip: U=1 and x_disp=5 meant the second and sixth, counted from 0
-    args = args_for(
+    args = import_args(
         source, tmp_path / "raw", "U=1:V", "x_disp=5:um", extra=["--fs", "200", "--no-header"]
     )
     refused(
@@ -214,7 +161,7 @@ def test_a_constant_column_is_refused_naming_the_columns_that_vary(tmp_path):
         f"column 1 (U) holds one value (1) in all {N} rows: not a measurement",
         "columns are counted from 1: the columns that vary are 2, 3, 6",
     )
-    args = args_for(
+    args = import_args(
         source, tmp_path / "raw", "U=2:V", "x_disp=5:um", extra=["--fs", "200", "--no-header"]
     )
     refused(args, "column 5 (x_disp) holds one value (12)", "the columns that vary are 2, 3, 6")
@@ -222,7 +169,7 @@ def test_a_constant_column_is_refused_naming_the_columns_that_vary(tmp_path):
     header = ["status", "U mon [V]", "aux", "idle", "cj [C]", "x [V]"]
     named = write_table(tmp_path / "named.txt", daq_columns(), header=header)
     refused(
-        args_for(named, tmp_path / "raw", "U=idle:V", extra=["--fs", "200"]),
+        import_args(named, tmp_path / "raw", "U=idle:V", extra=["--fs", "200"]),
         "column 'idle' (U) holds one value (0)",
         "2 (U mon [V]), 3 (aux), 6 (x [V])",
     )
@@ -234,7 +181,7 @@ def test_a_header_name_made_of_digits_is_written_with_a_hash(tmp_path, caplog):
     # LabVIEW names its columns by channel number: the column named 1 is the third
     source = write_table(tmp_path / "n.csv", [t, x, u], sep=",", header=["t", "0", "1"])
     capture, _ = imports(
-        args_for(source, tmp_path / "raw", "U=#1:V", "x_laser=2:um", extra=["--time", "1:s"])
+        import_args(source, tmp_path / "raw", "U=#1:V", "x_laser=2:um", extra=["--time", "1:s"])
     )
     data, _, step, _ = read(capture, "U", "x_laser")
     assert np.abs(data["U"] - u).max() <= step["U"]
@@ -250,13 +197,15 @@ def test_a_header_name_made_of_digits_is_written_with_a_hash(tmp_path, caplog):
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="selfsense.io.importer"):
         imports(
-            args_for(source, tmp_path / "raw", "U=3:V", experiment="two", extra=["--fs", "200"])
+            import_args(source, tmp_path / "raw", "U=3:V", experiment="two", extra=["--fs", "200"])
         )
     # U=3 is the third column: no column elsewhere is named 3
     assert not [r for r in caplog.records if "is named" in r.getMessage()]
     with caplog.at_level(logging.WARNING, logger="selfsense.io.importer"):
         imports(
-            args_for(source, tmp_path / "raw", "U=1:V", experiment="three", extra=["--fs", "200"])
+            import_args(
+                source, tmp_path / "raw", "U=1:V", experiment="three", extra=["--fs", "200"]
+            )
         )
     said = [r.getMessage() for r in caplog.records if "is named" in r.getMessage()]
     assert said and "the header's column 3 is named '1': type 'U=#1:V'" in said[0]
@@ -271,17 +220,17 @@ def test_micrometres_read_as_metres_stop_a_first_import_suggesting_um_and_range(
     source = write_table(tmp_path / "run3.txt", columns)
     base = ["--fs", "200", "--no-header", "--gain", "U=20"]
     refused(
-        args_for(source, tmp_path / "raw", "U=2:V", "x_disp=6:m", extra=base),
+        import_args(source, tmp_path / "raw", "U=2:V", "x_disp=6:m", extra=base),
         "x_disp spans 49.4 m: not a piezo actuator's displacement (at most 10 mm)",
         "if the column is in um type x_disp=6:um, or give --range x_disp=LOW,HIGH to keep it",
     )
     # the suggestion imports
-    capture, _ = imports(args_for(source, tmp_path / "raw", "U=2:V", "x_disp=6:um", extra=base))
+    capture, _ = imports(import_args(source, tmp_path / "raw", "U=2:V", "x_disp=6:um", extra=base))
     data, *_ = read(capture, "x_disp")
     assert abs(np.ptp(data["x_disp"]) - 49.4e-6) < 1e-8
     # a range given declares it: the check is skipped (the user has said so)
     capture, _ = imports(
-        args_for(
+        import_args(
             source,
             tmp_path / "raw",
             "U=2:V",
@@ -335,7 +284,7 @@ def test_an_implausible_unit_is_refused_naming_the_unit_that_fits(
 ):
     source = write_table(tmp_path / "one.txt", [values, np.sin(np.arange(N) / 7)])
     refused(
-        args_for(source, tmp_path / "raw", f"{channel}=1:{unit}", extra=["--fs", "200"]),
+        import_args(source, tmp_path / "raw", f"{channel}=1:{unit}", extra=["--fs", "200"]),
         *fragments,
         f"--range {channel}=LOW,HIGH",
     )
@@ -352,7 +301,7 @@ def test_the_plausibility_table_states_each_limit():
 def test_a_tab_file_without_sep_is_detected_and_a_pipe_file_names_its_sep(tmp_path, caplog):
     columns = daq_columns()
     source = write_table(tmp_path / "run3.txt", columns)
-    args = args_for(
+    args = import_args(
         source, tmp_path / "raw", "U=2:V", extra=["--fs", "200", "--no-header", "--gain", "U=20"]
     )
     with caplog.at_level(logging.INFO, logger="selfsense.io.importer"):
@@ -363,17 +312,17 @@ def test_a_tab_file_without_sep_is_detected_and_a_pipe_file_names_its_sep(tmp_pa
     piped = write_table(tmp_path / "pipe.txt", columns, sep="|")
     raw = tmp_path / "raw2"
     refused(
-        args_for(piped, raw, "U=2:V", extra=["--fs", "200", "--no-header"]),
+        import_args(piped, raw, "U=2:V", extra=["--fs", "200", "--no-header"]),
         "no comma, semicolon or tab splits its rows alike: give --sep, e.g. --sep '|'",
     )
     spaced = write_table(tmp_path / "space.txt", columns, sep=" ", header=list("abcdef"))
     refused(
-        args_for(spaced, raw, "U=2:V", extra=["--fs", "200"]),
+        import_args(spaced, raw, "U=2:V", extra=["--fs", "200"]),
         "give --sep, e.g. --sep ' '",
     )
     # a separator given that leaves each row one field, where tab splits it
     refused(
-        args_for(source, raw, "U=2:V", extra=["--fs", "200", "--sep", ","]),
+        import_args(source, raw, "U=2:V", extra=["--fs", "200", "--sep", ","]),
         "separator ',' leaves each row one field; tab splits them into 6: type --sep tab",
     )
 
@@ -417,7 +366,7 @@ def test_a_table_without_sep_imports_as_with_it(tmp_path_factory, sep, seed):
     rng = np.random.default_rng(seed)
     u = rng.uniform(-100, 100, 50)
     source = write_table(folder / "rec.dat", [np.arange(50) / FS, u], sep=sep, header=["t", "U"])
-    capture, _ = imports(args_for(source, folder / "raw", "U=2:V", extra=["--time", "t:s"]))
+    capture, _ = imports(import_args(source, folder / "raw", "U=2:V", extra=["--time", "t:s"]))
     data, _, step, cap = read(capture, "U")
     assert cap.fs == FS and np.abs(data["U"] - np.round(u, 6)).max() <= step["U"]
 
@@ -429,34 +378,34 @@ def test_a_second_import_with_another_gain_for_a_channel_is_refused(tmp_path):
     source = write_table(tmp_path / "run3.txt", daq_columns())
     base = ["--fs", "200", "--no-header"]
     raw = tmp_path / "raw"
-    imports(args_for(source, raw, "U=2:V", extra=[*base, "--gain", "U=20"]))
+    imports(import_args(source, raw, "U=2:V", extra=[*base, "--gain", "U=20"]))
     refused(
-        args_for(source, raw, "U=2:V", experiment="again", extra=[*base, "--gain", "U=10"]),
+        import_args(source, raw, "U=2:V", experiment="again", extra=[*base, "--gain", "U=10"]),
         "sensors.U declares scale 20 (gain), this import --gain U=10",
         "type --gain U=20",
         starts=raw / "lab" / "dataset.yaml",
     )
     refused(
-        args_for(source, raw, "U=2:V", experiment="again", extra=[*base, "--scale", "U=20"]),
+        import_args(source, raw, "U=2:V", experiment="again", extra=[*base, "--scale", "U=20"]),
         "this import --scale U=20",
         "type --gain U=20",
         starts=raw / "lab" / "dataset.yaml",
     )
     refused(
-        args_for(source, raw, "U=2:V", experiment="again", extra=base),
+        import_args(source, raw, "U=2:V", experiment="again", extra=base),
         "this import U unscaled",
         "type --gain U=20",
         starts=raw / "lab" / "dataset.yaml",
     )
     # the same gain: imported, the manifest's declaration unchanged
-    imports(args_for(source, raw, "U=2:V", experiment="again", extra=[*base, "--gain", "U=20"]))
+    imports(import_args(source, raw, "U=2:V", experiment="again", extra=[*base, "--gain", "U=20"]))
     manifest = load_dataset(raw, "lab")
     assert manifest["experiments"] == ["run", "again"]
     assert manifest["sensors"] == {"U": {"scale": 20.0, "scale_kind": "gain"}}
     # a channel declared unscaled keeps it
-    imports(args_for(source, raw, "x_disp=6:um", dataset="plain", extra=base))
+    imports(import_args(source, raw, "x_disp=6:um", dataset="plain", extra=base))
     refused(
-        args_for(
+        import_args(
             source,
             raw,
             "x_disp=6:um",
@@ -487,7 +436,9 @@ def test_a_second_import_with_another_gain_for_a_channel_is_refused(tmp_path):
 )
 def test_a_bad_factor_is_one_line_naming_the_option(tmp_path, capsys, extra, fragments, starts):
     source = write_table(tmp_path / "run3.txt", daq_columns())
-    args = args_for(source, tmp_path / "raw", "U=2:V", extra=["--fs", "200", "--no-header", *extra])
+    args = import_args(
+        source, tmp_path / "raw", "U=2:V", extra=["--fs", "200", "--no-header", *extra]
+    )
     if starts is None:  # argparse's own refusal of the argument
         with pytest.raises(SystemExit) as exit_:
             cli(args)
@@ -526,7 +477,7 @@ def test_a_tdms_file_imports_by_group_and_channel_with_fs_from_wf_increment(tmp_
     source, columns = write_tdms(tmp_path / "run.tdms")
     raw = tmp_path / "raw"
     capture, _ = imports(
-        args_for(
+        import_args(
             source,
             raw,
             "U=Untitled/Dev1/ai0:V",
@@ -541,7 +492,7 @@ def test_a_tdms_file_imports_by_group_and_channel_with_fs_from_wf_increment(tmp_
     assert load_dataset(raw, "lab")["daq"]["fs"] == FS
     # by position counted from 1, --fs agreeing with wf_increment
     capture, _ = imports(
-        args_for(source, raw, "U=1:V", dataset="pos", extra=["--fs", "200", "--gain", "U=20"])
+        import_args(source, raw, "U=1:V", dataset="pos", extra=["--fs", "200", "--gain", "U=20"])
     )
     assert np.abs(read(capture, "U")[0]["U"] - 20 * columns[1]).max() <= step["U"]
 
@@ -555,7 +506,9 @@ def test_a_tdms_time_channel_must_agree_with_wf_increment(tmp_path):
         writer.write_segment(
             [ChannelObject("g", "t", 3.0 + t, properties=props), ChannelObject("g", "U", u)]
         )
-    capture, _ = imports(args_for(source, tmp_path / "raw", "U=g/U:V", extra=["--time", "g/t:s"]))
+    capture, _ = imports(
+        import_args(source, tmp_path / "raw", "U=g/U:V", extra=["--time", "g/t:s"])
+    )
     data, attrs, step, cap = read(capture, "U")
     assert cap.fs == FS and np.abs(data["U"] - u).max() <= step["U"]
     assert "started at 3 s" in attrs["import_note"]
@@ -565,7 +518,7 @@ def test_a_tdms_time_channel_must_agree_with_wf_increment(tmp_path):
             [ChannelObject("g", "t", t / 5, properties=props), ChannelObject("g", "U", u, props)]
         )
     refused(
-        args_for(source, tmp_path / "raw", "U=g/U:V", experiment="b", extra=["--time", "g/t:s"]),
+        import_args(source, tmp_path / "raw", "U=g/U:V", experiment="b", extra=["--time", "g/t:s"]),
         "the time column gives fs = 1000 Hz, wf_increment of channel 'g/U' (0.005 s) gives fs = "
         "200 Hz",
     )
@@ -610,34 +563,34 @@ def test_a_tdms_channel_that_is_not_what_the_arguments_say_is_one_line(
 ):
     flag = ChannelObject("Untitled", "flag", np.arange(N // 2) % 2 == 0)
     source, _ = write_tdms(tmp_path / "run.tdms", extra=[flag])
-    refused(args_for(source, tmp_path / "raw", *channels, extra=extra), *fragments)
+    refused(import_args(source, tmp_path / "raw", *channels, extra=extra), *fragments)
 
 
 def test_a_tdms_file_without_wf_increment_needs_fs_or_time(tmp_path):
     source, columns = write_tdms(tmp_path / "run.tdms", increment=None)
     refused(
-        args_for(source, tmp_path / "raw", "U=1:V"),
+        import_args(source, tmp_path / "raw", "U=1:V"),
         "give the time column (--time) or the sampling rate (--fs): its channels declare no "
         "wf_increment",
     )
-    capture, _ = imports(args_for(source, tmp_path / "raw", "U=1:V", extra=["--fs", "500"]))
+    capture, _ = imports(import_args(source, tmp_path / "raw", "U=1:V", extra=["--fs", "500"]))
     assert read(capture, "U")[3].fs == 500.0
     complex_ = tmp_path / "c.tdms"
     with TdmsWriter(complex_) as writer:
         writer.write_segment([ChannelObject("g", "z", np.arange(10) * (1 + 1j))])
     refused(
-        args_for(complex_, tmp_path / "raw", "U=g/z:V", experiment="z", extra=["--fs", "5"]),
+        import_args(complex_, tmp_path / "raw", "U=g/z:V", experiment="z", extra=["--fs", "5"]),
         "channel 'g/z' (U) is complex",
     )
     broken = tmp_path / "broken.tdms"
     broken.write_text("t,U\n0,1\n")
     refused(
-        args_for(broken, tmp_path / "raw", "U=1:V", experiment="b", extra=["--fs", "5"]),
+        import_args(broken, tmp_path / "raw", "U=1:V", experiment="b", extra=["--fs", "5"]),
         "not a TDMS file",
     )
     broken.write_bytes(b"TDSm" + bytes(range(200)))
     refused(
-        args_for(broken, tmp_path / "raw", "U=1:V", experiment="b", extra=["--fs", "5"]),
+        import_args(broken, tmp_path / "raw", "U=1:V", experiment="b", extra=["--fs", "5"]),
         "the TDMS file has no channels",
     )
 
@@ -683,7 +636,7 @@ def test_a_matlab_v73_file_imports_columns_counted_from_1(tmp_path):
     source, columns = write_v73(tmp_path / "run.mat")
     raw = tmp_path / "raw"
     capture, _ = imports(
-        args_for(
+        import_args(
             source,
             raw,
             "U=data[1]:V",
@@ -698,7 +651,7 @@ def test_a_matlab_v73_file_imports_columns_counted_from_1(tmp_path):
     assert np.abs(data["x_disp"] - 10e-6 * columns[5]).max() <= step["x_disp"]
     assert np.abs(data["Ur"] - columns[2]).max() <= step["Ur"]
     capture, _ = imports(
-        args_for(source, raw, "Ur=rec.row:V", dataset="row", extra=["--fs", "200"])
+        import_args(source, raw, "Ur=rec.row:V", dataset="row", extra=["--fs", "200"])
     )
     assert np.abs(read(capture, "Ur")[0]["Ur"] - columns[2]).max() <= step["Ur"]
 
@@ -731,7 +684,7 @@ def test_a_matlab_v73_file_imports_columns_counted_from_1(tmp_path):
 )
 def test_a_matlab_v73_variable_that_is_not_a_series_is_one_line(tmp_path, channel, fragments):
     source, _ = write_v73(tmp_path / "run.mat")
-    refused(args_for(source, tmp_path / "raw", channel, extra=["--fs", "200"]), *fragments)
+    refused(import_args(source, tmp_path / "raw", channel, extra=["--fs", "200"]), *fragments)
 
 
 def test_a_v7_mat_file_counts_from_1_too(tmp_path):
@@ -743,7 +696,7 @@ def test_a_v7_mat_file_counts_from_1_too(tmp_path):
         {"data": np.column_stack([columns[1], columns[5]]), "rec": {"Y": runs}},
     )
     capture, _ = imports(
-        args_for(
+        import_args(
             tmp_path / "v7.mat",
             tmp_path / "raw",
             "U=data[1]:V",
@@ -755,7 +708,7 @@ def test_a_v7_mat_file_counts_from_1_too(tmp_path):
     assert np.abs(data["U"] - columns[1]).max() <= step["U"]
     assert np.abs(data["x_disp"] - 1e-6 * columns[5]).max() <= step["x_disp"]
     refused(
-        args_for(
+        import_args(
             tmp_path / "v7.mat",
             tmp_path / "raw",
             "U=rec.Y[3].Data:V",
@@ -765,7 +718,7 @@ def test_a_v7_mat_file_counts_from_1_too(tmp_path):
         "'rec.Y[3].Data': Y[3] does not exist (Y has 2 elements; counted from 1)",
     )
     refused(
-        args_for(
+        import_args(
             tmp_path / "v7.mat",
             tmp_path / "raw",
             "U=data[0]:V",
