@@ -19,8 +19,9 @@ all cycles mixes the major loop with minor ones). The rules, applied in this ord
    drive is periodic when the record holds two periods at least, U correlates with itself one
    period later by :attr:`CycleRules.periodic_correlation` at least (or, over three periods where
    it moves at least, U over its local amplitude of rule 2 does, where it moves: amplitude ramps
-   and pauses do not hide a period), and one whole cycle is found; otherwise the record is reported as having no periodic drive (steps, an arbitrary
-   waveform) with the reason, and no cycle is formed. A given period is checked the same way: one
+   and pauses do not hide a period), and one whole cycle is found; otherwise the record is
+   reported as having no periodic drive (steps, an arbitrary waveform) with the reason, and no
+   cycle is formed. A given period is checked the same way: one
    the drive does not have is reported as such.
 2. **Boundaries.** The drive's upward crossings of its local mid-level (U minus its running mean
    over one period, so that a ramp of amplitude on a unipolar drive still crosses it), with a
