@@ -28,6 +28,8 @@ MANIFEST = load_dataset(ROOT / "raw", "tokin_nb40")
 PARAMS = B.BenderParams.from_manifest(MANIFEST["twin"])
 FS = float(MANIFEST["daq"]["fs"])
 EQ15 = B.Compensation("model_10", R=21e9, c=3.4e7)
+#: an identification's Eq 15 setting, on purpose not the twin's R and c (21 GΩ, 3.4e7 1/A)
+IDENTIFIED = {"R": 2.2e10, "c": 3.3e7}
 
 
 def run(drive: Drive, params=PARAMS, compensation=B.Compensation(), seed=0, name="test"):
@@ -49,10 +51,14 @@ def run(drive: Drive, params=PARAMS, compensation=B.Compensation(), seed=0, name
     return rec, truth
 
 
-def run_experiment(name, campaign="thesis", seed=0):
+def run_experiment(name, campaign="thesis", seed=0, identified=None):
+    """One catalogue experiment in memory; ``identified``: the R and c an Eq 15 run takes."""
     exp = expand_protocols(["ronkanen"], campaign)[name]
     return run(
-        drive_from_protocol(exp.protocol), compensation=B.compensation_of(exp), seed=seed, name=name
+        drive_from_protocol(exp.protocol),
+        compensation=B.compensation_of(exp, identified),
+        seed=seed,
+        name=name,
     )
 
 
@@ -235,16 +241,30 @@ def test_catalogue_compensations():
     catalogue = expand_protocols(["ronkanen"], "thesis")
     assert B.compensation_of(catalogue["rk_static_hold"]) == B.Compensation()
     assert B.compensation_of(catalogue["rk_ramp_300na_10g"]) == B.Compensation("impedance", X=10e9)
-    assert B.compensation_of(catalogue["rk_drift_current"]) == EQ15
+    assert B.compensation_of(catalogue["rk_drift_current"], IDENTIFIED) == B.Compensation(
+        "model_10", **IDENTIFIED
+    )
     repeat = drive_from_protocol(catalogue["rk_repeat_current"].protocol)
     assert repeat.duration == pytest.approx(20 * 240.0)
 
 
-@pytest.mark.parametrize(
-    "compensation", [{"impedance": 1e9, "R": 21e9, "c": 3.4e7}, {"R": 21e9}, {"X": 1e9}]
-)
-def test_protocol_schema_rejects_a_bad_compensation(compensation):
-    doc = {
+def test_the_eq15_runs_take_the_identified_R_and_c_never_the_twins():
+    """The paper ran Eq 15 with the R and c it identified (Eq 12): every Eq 15 run of the
+    catalogue takes them from the identification, and without them it does not run (no number
+    stands in, least of all the twin's built R and c); the identification's own captures (the
+    hold, the ramps) have fixed settings, so the identification never needs itself."""
+    catalogue = expand_protocols(["ronkanen"], "thesis")
+    eq15 = {n for n, e in catalogue.items() if e.compensation and "impedance" not in e.compensation}
+    assert eq15 == {"rk_decay_current", "rk_repeat_current", "rk_drift_current"}
+    assert all(B.needs_identification(catalogue[n].compensation) for n in eq15)
+    identification = ["rk_static_hold", *(n for n in catalogue if n.startswith("rk_ramp_"))]
+    assert not any(B.needs_identification(catalogue[n].compensation) for n in identification)
+    with pytest.raises(ValueError, match=r"rk_drift_current: .*needs the identified R and c"):
+        B.compensation_of(catalogue["rk_drift_current"])
+
+
+def _protocol(compensation):
+    return {
         "chapter": "x",
         "experiments": {
             "e": {
@@ -255,8 +275,31 @@ def test_protocol_schema_rejects_a_bad_compensation(compensation):
             }
         },
     }
+
+
+@pytest.mark.parametrize(
+    "compensation",
+    [
+        {"impedance": 1e9, "R": 21e9, "c": 3.4e7},
+        {"R": 21e9},
+        {"X": 1e9},
+        {"R": "identified", "c": 3.4e7},  # half identified: a built number would stand in
+        {"R": "identified"},
+        {"R": "fitted", "c": "fitted"},
+        {"impedance": "identified"},
+    ],
+)
+def test_protocol_schema_rejects_a_bad_compensation(compensation):
     with pytest.raises(ManifestError):
-        validate_document(doc, "protocol.schema.yaml", "test.yaml")
+        validate_document(_protocol(compensation), "protocol.schema.yaml", "test.yaml")
+
+
+@pytest.mark.parametrize(
+    "compensation",
+    [{"impedance": 2e9}, {"R": 21e9, "c": 3.4e7}, {"R": "identified", "c": "identified"}],
+)
+def test_protocol_schema_accepts_a_fixed_or_an_identified_compensation(compensation):
+    validate_document(_protocol(compensation), "protocol.schema.yaml", "test.yaml")
 
 
 def test_manifest_rejects_an_unknown_twin_section():
@@ -300,11 +343,52 @@ def test_table_2_from_the_paper_is_the_library_table(identified):
     np.testing.assert_allclose(paper["SSE [GOhm^2]"], pl.table_2()["SSE [GOhm^2]"])
 
 
+def identified_files(identified, folder):
+    """The identification of the fixture as rules powerloss_identify and powerloss_table_2 write
+    it: (identified.csv, table_2.csv) in ``folder``."""
+    _, _, table_2, value = identified
+    paths = folder / "identified.csv", folder / "table_2.csv"
+    value.rename_axis("key").reset_index().to_csv(paths[0], index=False)
+    table_2.to_csv(paths[1], index=False)
+    return paths
+
+
+def test_the_eq15_setting_is_read_from_the_identification(identified, tmp_path):
+    """R from the hold (identified.csv), c of model (10) fitted to the twin's ramps (table_2)."""
+    _, _, table_2, value = identified
+    eq15 = B.identified_compensation(*identified_files(identified, tmp_path))
+    twin = table_2[table_2["source"] == "twin captures"].set_index("equation")
+    assert eq15 == {"R": value["R"], "c": twin.loc["(10)", "c"]}
+
+
+def test_an_eq15_capture_runs_with_the_identified_R_and_c_not_the_twins(identified, tmp_path):
+    """The capture records the R and c its compensation ran with: the identification's, which
+    differ from the twin's built ones; without them the run stops."""
+    eq15 = B.identified_compensation(*identified_files(identified, tmp_path))
+    config = load_config(ROOT / "tests" / "config" / "smoke.yaml")
+    path = simulate_experiment(
+        ROOT / "raw", "tokin_nb40", "rk_drift_current", config, tmp_path / "d.nc", identified=eq15
+    ).path
+    with open_capture(path) as cap:
+        assert cap.attrs["compensation"] == "model_10"
+        ran = {"R": float(cap.attrs["compensation_R"]), "c": float(cap.attrs["compensation_c"])}
+    assert ran == eq15
+    assert ran["R"] != PARAMS.actuator.R and ran["c"] != PARAMS.actuator.c
+    with pytest.raises(ValueError, match="needs the identified R and c"):
+        simulate_experiment(
+            ROOT / "raw", "tokin_nb40", "rk_drift_current", config, tmp_path / "x.nc"
+        )
+
+
 def test_compensated_current_control_beats_open_loop_voltage_control(identified):
-    """The paper's claims (Section 7–8): hysteresis and drift fall by an order of magnitude."""
-    a_cmd = identified[3]["a_cmd"]
+    """The paper's claims (Section 7–8): hysteresis and drift fall by an order of magnitude, with
+    Eq 15 run on the R and c identified from the hold and the ramps."""
+    _, _, table_2, value = identified
+    twin = table_2[table_2["source"] == "twin captures"].set_index("equation")
+    eq15 = {"R": value["R"], "c": twin.loc["(10)", "c"]}
+    a_cmd = value["a_cmd"]
     pairs = {
-        k: {c: run_experiment(f"rk_{k}_{c}")[0] for c in ("current", "voltage")}
+        k: {c: run_experiment(f"rk_{k}_{c}", identified=eq15)[0] for c in ("current", "voltage")}
         for k in ("decay", "repeat", "drift")
     }
     table = ronkanen.performance(

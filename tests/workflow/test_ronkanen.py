@@ -1,10 +1,13 @@
 """End to end: the Ronkanen 2002 stage on the smoke campaign (session DAG of tests/conftest.py)."""
 
+import base64
 import json
 
 import pandas as pd
 import pytest
 
+from selfsense.io.capture import open_capture
+from selfsense.io.manifest import load_dataset
 from selfsense.methods import powerloss as pl
 
 pytestmark = pytest.mark.slow
@@ -80,3 +83,35 @@ def test_current_control_beats_voltage_control(smoke_run):
     assert (
         set(cycles["control"]) == {"current", "voltage"} and (cycles["peak-to-peak [m]"] > 0).all()
     )
+
+
+#: the Eq 15 runs ({R: identified, c: identified} in workflow/protocols/ronkanen.yaml)
+EQ15_RUNS = ("rk_decay_current", "rk_repeat_current", "rk_drift_current")
+
+
+def job_inputs(run, output):
+    """The inputs of the job that made ``output``, as Snakemake recorded them when it ran."""
+    record = run / ".snakemake" / "metadata" / base64.urlsafe_b64encode(output.encode()).decode()
+    return set(json.loads(record.read_text())["input"])
+
+
+@pytest.mark.parametrize("experiment", EQ15_RUNS)
+def test_eq15_runs_are_compensated_with_the_identified_R_and_c_not_the_twins(smoke_run, experiment):
+    """A DAG edge from the identification to the Eq 15 runs: their simulate job reads the
+    identified R (the hold's) and c (model (10) on the ramps), and the capture records that it ran
+    with them, not with the R and c the twin is built with."""
+    folder = "results/tokin_nb40/powerloss"
+    capture = f"raw/tokin_nb40/{experiment}.nc"
+    assert {f"{folder}/identified.csv", f"{folder}/table_2.csv"} <= job_inputs(smoke_run, capture)
+    R = read(smoke_run, "identified").set_index("key").loc["R", "value"]
+    table_2 = read(smoke_run, "table_2")
+    c = table_2.set_index(["source", "equation"]).loc[("twin captures", "(10)"), "c"]
+    with open_capture(smoke_run / capture) as cap:
+        assert cap.attrs["compensation"] == "model_10"
+        assert float(cap.attrs["compensation_R"]) == R
+        assert float(cap.attrs["compensation_c"]) == c
+    built = load_dataset(smoke_run / "raw", "tokin_nb40")["twin"]["actuator"]
+    assert R != float(built["R"]) and c != float(built["c"])
+    # the identification's own captures need no identification: no cycle
+    for ramp in ("rk_static_hold", "rk_ramp_300na_2g"):
+        assert f"{folder}/identified.csv" not in job_inputs(smoke_run, f"raw/tokin_nb40/{ramp}.nc")

@@ -7,8 +7,11 @@
 if SIMULATED:
 
     rule simulate:
-        """Run one experiment of the catalogue on the digital twin; validate and report the capture."""
+        """Run one experiment of the catalogue on the digital twin; validate and report the capture.
+        A Ronkanen run compensated with the identified R and c (Eq 15) reads them from the
+        powerloss stage's identification, made from the hold and the fixed-impedance ramps."""
         input:
+            unpack(lambda w: identified_compensation(w.dataset, w.experiment)),
             manifest=RAW / "{dataset}" / "dataset.yaml",
             protocol=lambda w: protocol_file(w.dataset, w.experiment),
             library=library_sources("simulate"),

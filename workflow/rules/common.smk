@@ -388,6 +388,46 @@ RONKANEN_VELOCITY_RAMPS = ["rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300
 FIRST_SEGMENT_END = {d: {e: float(x.protocol.get("warmup", 0.0)) + float(x.protocol["segments"][0]["duration"])
                          for e, x in EXPERIMENTS[d].items() if x is not None} for d in POWERLOSS_DATASETS}
 
+#: the protocol's word for Eq 15's R and c taken from the pipeline's identification
+#: (selfsense.twin.bender.IDENTIFIED; protocol.schema.yaml allows it for both or neither)
+IDENTIFIED = "identified"
+
+
+def identification_runs(dataset):
+    """The captures R and the ramps' impedances are identified from (rule powerloss_identify):
+    {"hold": the static hold, "ramps": every ramp with its fixed trial impedance}."""
+    return {"hold": "rk_static_hold", "ramps": [e for e in EXPERIMENTS[dataset] if e.startswith("rk_ramp_")]}
+
+
+def uses_identification(dataset, experiment):
+    """Whether the run's protocol compensates with the identified R and c ({R: identified,
+    c: identified}, Eq 15)."""
+    run = EXPERIMENTS[dataset].get(experiment)
+    return run is not None and IDENTIFIED in (run.compensation or {}).values()
+
+
+def identified_compensation(dataset, experiment):
+    """The simulate job's inputs an Eq 15 run reads R and c from: the identification's
+    identified.csv (R, from the static hold) and table_2.csv (c of model (10), from the ramps);
+    none for every other run. The powerloss stage makes them, so a dataset that skips it cannot
+    simulate such a run."""
+    if not uses_identification(dataset, experiment):
+        return {}
+    if dataset not in POWERLOSS_DATASETS:
+        raise ValueError(f"{protocol_file(dataset, experiment)}: {experiment} compensates with the identified R and "
+                         f"c, which the powerloss stage identifies; it is skipped for {dataset} "
+                         f"(results/{dataset}/stages.csv)")
+    folder = POWERLOSS.format(dataset=dataset)
+    return {"identified": f"{folder}/identified.csv", "table_2": f"{folder}/table_2.csv"}
+
+
+# the identification must not need itself: its captures are compensated with fixed settings only
+for _d in POWERLOSS_DATASETS:
+    for _e in [identification_runs(_d)["hold"], *identification_runs(_d)["ramps"]]:
+        if uses_identification(_d, _e):
+            raise ValueError(f"{protocol_file(_d, _e)}: {_e} compensates with the identified R and c, but they are "
+                             f"identified from it (rule powerloss_identify): give it a fixed setting")
+
 
 # ---- The scorecard and the twin's calibration
 

@@ -6,10 +6,11 @@
 
 
 rule powerloss_identify:
-    """R from the static hold (Section 4), X and a from every ramp (Table 1, Section 5)."""
+    """R from the static hold (Section 4), X and a from every ramp (Table 1, Section 5). Only
+    captures with fixed settings (none, a trial impedance): the Eq 15 runs read what this and
+    powerloss_table_2 (c of model (10)) identify (rule simulate)."""
     input:
-        unpack(lambda w: captures(w.dataset, hold="rk_static_hold",
-                                  ramps=[e for e in EXPERIMENTS[w.dataset] if e.startswith("rk_ramp_")])),
+        unpack(lambda w: captures(w.dataset, **identification_runs(w.dataset))),
         library=library_sources("powerloss_identify"),
     output:
         ramps=report(f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT),

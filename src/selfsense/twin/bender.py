@@ -42,6 +42,7 @@ from typing import Any
 
 import numba
 import numpy as np
+import pandas as pd
 from scipy.optimize import brentq
 
 from selfsense import __version__
@@ -134,6 +135,34 @@ class BenderParams:
         return out
 
 
+#: a protocol's Eq 15 setting ``{R: identified, c: identified}``: the operator runs Eq 15 with the
+#: R and c the pipeline identified (:func:`identified_compensation`), as the paper ran it with its
+#: own identification (Eq 12), never with the R and c the twin is built with
+IDENTIFIED = "identified"
+
+
+def needs_identification(entry: Mapping[str, Any] | None) -> bool:
+    """Whether a protocol's compensation takes Eq 15's R and c from the identification."""
+    return bool(entry) and IDENTIFIED in (entry.get("R"), entry.get("c"))
+
+
+def identified_compensation(identified: str | Path, table_2: str | Path) -> dict[str, float]:
+    """Eq 15's {"R": [Ω], "c": [1/A]} as the pipeline identified them from the captures that need
+    no compensation of this kind (the static hold and the fixed-impedance ramps): R from the hold
+    (``identified``, results/<dataset>/powerloss/identified.csv, key R) and c of model (10) fitted
+    to the ramps' impedances with that R held (``table_2``, source "twin captures", equation (10)).
+    """
+    values = pd.read_csv(identified).set_index("key")["value"]
+    table = pd.read_csv(table_2)
+    fit = table[(table["source"] == "twin captures") & (table["equation"] == "(10)")]
+    if "R" not in values.index or len(fit) != 1:
+        raise ValueError(
+            f"{identified}, {table_2}: no identified R (key R) or no single model (10) fit "
+            "to the twin's captures (source twin captures, equation (10))"
+        )
+    return {"R": float(values["R"]), "c": float(fit["c"].iloc[0])}
+
+
 @dataclass(frozen=True)
 class Compensation:
     """The feedforward block of Fig 1: which loss current the controller adds to i_c.
@@ -148,11 +177,23 @@ class Compensation:
     c: float = 0.0
 
     @classmethod
-    def from_protocol(cls, entry: Mapping[str, Any] | None) -> Compensation:
+    def from_protocol(
+        cls, entry: Mapping[str, Any] | None, identified: Mapping[str, float] | None = None
+    ) -> Compensation:
+        """The setting a protocol's ``compensation`` names; ``identified``: the identified
+        {"R", "c"} (:func:`identified_compensation`) that ``{R: identified, c: identified}``
+        takes."""
         if not entry:
             return cls()
         if "impedance" in entry:
             return cls("impedance", X=float(entry["impedance"]))
+        if needs_identification(entry):
+            if identified is None:
+                raise ValueError(
+                    "compensation {R: identified, c: identified} needs the identified R and c "
+                    "(results/<dataset>/powerloss/identified.csv, table_2.csv); none was given"
+                )
+            entry = {k: identified[k] if entry[k] == IDENTIFIED else entry[k] for k in ("R", "c")}
         return cls("model_10", R=float(entry["R"]), c=float(entry["c"]))
 
     def attrs(self) -> dict[str, object]:
@@ -502,9 +543,15 @@ def simulate_bender_capture(
     return w.scan_report()
 
 
-def compensation_of(experiment: Experiment) -> Compensation:
-    """The feedforward setting of a catalogue experiment."""
-    return Compensation.from_protocol(experiment.compensation)
+def compensation_of(
+    experiment: Experiment, identified: Mapping[str, float] | None = None
+) -> Compensation:
+    """The feedforward setting of a catalogue experiment; ``identified``: the identified R and c
+    an Eq 15 run ``{R: identified, c: identified}`` takes (:func:`identified_compensation`)."""
+    try:
+        return Compensation.from_protocol(experiment.compensation, identified)
+    except ValueError as err:
+        raise ValueError(f"{experiment.name}: {err}") from None
 
 
 def simulate_experiment(
@@ -517,15 +564,18 @@ def simulate_experiment(
     capture: Mapping[str, Any],
     compression: Mapping[str, Any],
     where: str = "twin",
+    identified: Mapping[str, float] | None = None,
 ) -> ScanReport:
     """One catalogue experiment on the bender twin, as
-    :func:`selfsense.twin.experiment.simulate_experiment` resolved it."""
+    :func:`selfsense.twin.experiment.simulate_experiment` resolved it; ``identified``: the
+    identified R and c of an Eq 15 run (:func:`identified_compensation`)."""
+    compensation = compensation_of(experiment, identified)
     return simulate_bender_capture(
         path,
         BenderParams.from_manifest(twin, where),
         daq,
         drive_from_protocol(experiment.protocol),
-        compensation_of(experiment),
+        compensation,
         attrs,
         seed,
         experiment.name,

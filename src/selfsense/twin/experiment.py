@@ -54,11 +54,17 @@ def simulate_experiment(
     output: str | Path | None = None,
     controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None,
     drive_leak: bool = True,
+    identified: Mapping[str, float] | None = None,
 ) -> ScanReport:
     """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
     capture is validated as it is written, :meth:`selfsense.io.capture.CaptureWriter.scan_report`).
     ``drive_leak=False`` is a study's what-if (:class:`.bench.Bench`), never a capture of the
     campaign.
+
+    A bender run whose protocol compensates with ``{R: identified, c: identified}`` (Eq 15) also
+    needs ``identified``, the {"R", "c"} the pipeline identified from the other captures
+    (:func:`selfsense.twin.bender.identified_compensation`): the twin's own R and c are never
+    the operator's setting.
 
     Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
     bench's real-time loop (:func:`selfsense.twin.closed_loop.realtime_controller`). It is passed
@@ -91,7 +97,7 @@ def simulate_experiment(
     settings = compression_settings(cap)
     try:
         return _simulate(
-            path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak
+            path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak, identified
         )
     except UnshrinkableChunk as err:
         # blosc fails on a chunk it cannot shrink; the twin is deterministic, so the same capture
@@ -110,11 +116,21 @@ def simulate_experiment(
             where,
             controller_for,
             drive_leak,
+            identified,
         )
 
 
 def _simulate(
-    path, manifest, exp, attrs, cap, compression, where, controller_for, drive_leak=True
+    path,
+    manifest,
+    exp,
+    attrs,
+    cap,
+    compression,
+    where,
+    controller_for,
+    drive_leak=True,
+    identified=None,
 ) -> ScanReport:
     """One run of the experiment into ``path`` with the writer's ``compression`` arguments."""
     if manifest["model"] == "bender":
@@ -131,6 +147,7 @@ def _simulate(
             cap,
             compression,
             f"{where}: twin",
+            identified,
         )
     params = TwinParams.from_manifest(manifest["twin"], f"{where}: twin")
     daq = daq_plan(manifest)
