@@ -159,3 +159,61 @@ def test_the_documented_bands_are_the_registrys(rules):
             assert f"up to {tol['abs']:g}" in table[name], name
         elif "factor" in tol:
             assert f"factor of {tol['factor']:g}" in table[name], name
+
+
+def test_every_band_centred_on_the_model_on_truth_holds_its_centre_to_the_twin_input_rule(
+    registry, rules
+):
+    """The model's bias (docs/scorecard.md, "The model's bias"): a recovery number centred on the
+    model on the twin's truth has a second verdict, that centre against the built value, by the
+    same rule as a recovery number of a model that fits the twin (±2 % of the built value)."""
+    twin_input = rules["twin input"]
+    centred = [e for e in registry if e.centre or e.built]
+    assert {e.band.name for e in centred} == {"model on truth"} and len(centred) == 10
+    for e in centred:
+        assert e.band.bias.name == twin_input["name"]
+        assert e.band.bias.tolerance.rel == twin_input["tolerance"]["rel"] == 2
+    assert [e for e in registry if e.band.bias] == centred
+    g = [e for e in centred if e.source == "Table 7.3"]
+    assert [e.quantity for e in g] == ["g (temperature coefficient)"] and g[0].published == 0.263115
+
+
+def test_numbers_that_hold_by_construction_are_checks(registry):
+    """One-sided bounds an idealised twin always meets, and numbers the twin's model shares with
+    the analysis, are of kind check, not emergent (docs/scorecard.md, "Kinds of numbers")."""
+    checks = {(e.source, e.quantity) for e in registry if e.kind == "check"}
+    scatter = {(e.source, e.quantity) for e in registry if e.band.name == "scatter"}
+    assert len(scatter) == 4 and scatter <= checks
+    prediction = {
+        (e.source, e.quantity)
+        for e in registry
+        if e.source == "Chapter 7 results, temperature prediction"
+    }
+    assert len(prediction) == 3 and prediction <= checks
+    assert ("Table 5.2", "significance F") in checks
+    assert checks == scatter | prediction | {("Table 5.2", "significance F")}
+    # the mixed run's two-sided temperature errors can fail either way: emergent
+    mixed = [e for e in registry if e.source == "Chapter 7 results, mixed-frequency run"]
+    assert mixed and {e.kind for e in mixed} == {"emergent"}
+
+
+def test_numbers_that_follow_a_calibration_name_it(registry):
+    """Γ's residuals (Tables 5.1, 5.2) follow the calibrated C_e–x loop without being its
+    signature: emergent, with the signature named; P3's open-loop creep is what the twin's hand-set
+    creep elements were chosen to meet: calibration, naming the unknowns that declare them."""
+    ids = {t.id for t in load_targets(ROOT / "workflow" / "twin_calibration.yaml").targets}
+    assert "ce_x_loop" in ids
+    residuals = [
+        e
+        for e in registry
+        if e.source == "Table 5.1"
+        or (e.source == "Table 5.2" and e.quantity in ("residual SS", "residual MS"))
+    ]
+    assert len(residuals) == 16
+    for e in residuals:
+        assert e.kind == "emergent" and "ce_x_loop" in e.note, e.quantity
+    (creep,) = [e for e in registry if e.quantity == "P3, open-loop creep"]
+    assert creep.kind == "calibration"
+    unknowns = {u["id"]: u for u in load_yaml(ROOT / "workflow" / "unknowns.yaml")["unknowns"]}
+    for name in ("creep_c_fast", "creep_c_slow", "creep_tau_fast", "creep_tau_slow"):
+        assert name in creep.note and "Table 6.2 P3" in unknowns[name]["affects"], name

@@ -25,9 +25,26 @@ VERDICTS = (WITHIN, OUT, NOT_YET, MISSING, INFORMATION)
 PUBLISHED = "published"
 RECOVERY = "twin recovery"
 
-#: what kind of number a row is (docs/scorecard.md); only `emergent` ones count as reproduced
-KINDS = ("emergent", "closed form", "recovery", "calibration")
+#: what kind of number a row is (docs/scorecard.md); only `emergent` ones count as reproduced.
+#: `check`: holds by construction (the twin's model is the analysis's own, or the band cannot fail)
+KINDS = ("emergent", "closed form", "recovery", "calibration", "check")
 EMERGENT = "emergent"
+CHECK = "check"
+#: the summary's line (its `kind` column) that counts the model's bias of the recovery rows centred
+#: on the model on the twin's truth, by their bias verdict (docs/scorecard.md, "The model's bias")
+BIAS = "model's bias"
+
+#: the columns of a recovery row's second verdict: the model on the twin's truth (the band's
+#: centre) against the value the twin is built with, held to the band's bias rule
+BIAS_COLUMNS = [
+    "model on truth",
+    "bias",
+    "bias [%]",
+    "bias band",
+    "bias band low",
+    "bias band high",
+    "bias verdict",
+]
 
 COLUMNS = [
     "section",
@@ -46,6 +63,7 @@ COLUMNS = [
     "tolerance",
     "justification",
     "verdict",
+    *BIAS_COLUMNS,
     "read from",
     "note",
 ]
@@ -140,12 +158,16 @@ def last_digit(printed: str) -> float:
 @dataclass(frozen=True)
 class Band:
     """The rule for one kind of quantity: its tolerance (None: information, no verdict), the side
-    it bounds when the source states a bound, and the reason, written once in the registry."""
+    it bounds when the source states a bound, and the reason, written once in the registry.
+
+    ``bias``: for a band centred on the model on the twin's truth, the rule that centre is held to
+    about the value the twin is built with (the model's bias, a second verdict of its own)."""
 
     name: str
     justification: str
     tolerance: Tolerance | None = None
     bound: str | None = None  # "upper" | "lower" when the rule itself is a bound (a scatter)
+    bias: Band | None = None
 
 
 @dataclass(frozen=True)
@@ -254,6 +276,7 @@ class Entry:
     centre: Locator | None = (
         None  # the model on the twin's truth the band is centred on, if not the published
     )
+    built: str | None = None  # twin recovery against the model on truth: the built value's column
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -299,13 +322,20 @@ def _band(doc: Mapping[str, Any], where: str) -> Band:
     tolerance = Tolerance(**doc["tolerance"]) if "tolerance" in doc else None
     if tolerance is not None and tolerance.factor is not None and tolerance.scale == "linear":
         raise RegistryError(f"{where}: a factor needs scale: log or log1m")
-    return Band(doc["name"], doc["justification"], tolerance, doc.get("bound"))
+    bias = _band(doc["bias"], f"{where} (its bias)") if "bias" in doc else None
+    if bias is not None and (bias.tolerance is None or bias.bound or bias.bias):
+        raise RegistryError(
+            f"{where}: the bias rule {bias.name!r} needs a tolerance, two-sided, "
+            "and no bias of its own"
+        )
+    return Band(doc["name"], doc["justification"], tolerance, doc.get("bound"), bias)
 
 
 def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Entry:
     value = {**group, **item}
     published = value["published"]
     truth = published.get("truth") if isinstance(published, Mapping) else None
+    built = published.get("built") if isinstance(published, Mapping) else None
     section = group.get("section", PUBLISHED)
     locate = _locator({**group.get("locate", {}), **item.get("locate", {})}, where)
     if truth is not None and (section != RECOVERY or locate is None):
@@ -335,6 +365,17 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
             "the source's model reads it); "
             "a twin recovery row reads its truth with published: {truth: ...}"
         )
+    on_truth = centre is not None or built is not None
+    if on_truth and band.bias is None:
+        raise RegistryError(
+            f"{where}: band {band.name!r} is centred on the model on the twin's truth, so it "
+            "needs a bias rule (bias:) to hold that centre to the built value"
+        )
+    if band.bias is not None and not on_truth:
+        raise RegistryError(
+            f"{where}: band {band.name!r} judges the model's bias, which needs the model on "
+            "truth: a centre, or published: {truth: <its column>, built: <the built value's>}"
+        )
     return Entry(
         section=section,
         kind=value["kind"],
@@ -352,6 +393,7 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
         printed=item.get("printed"),
         cause=cause,
         centre=centre,
+        built=built,
     )
 
 

@@ -14,6 +14,7 @@ from typing import Any
 import pandas as pd
 
 from selfsense.scorecard.registry import (
+    BIAS,
     CAUSE_MARK,
     COLUMNS,
     EMERGENT,
@@ -25,25 +26,32 @@ from selfsense.scorecard.registry import (
     VERDICTS,
     WITHIN,
 )
-from selfsense.scorecard.scoring import counts
+from selfsense.scorecard.scoring import bias_verdicts, counts
 
 # --- renderings ---------------------------------------------------------------------------------
 
 
 def summary(cards: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """Counts per dataset, kind and chapter (and a "total" row per dataset and kind): the numbers
-    the report's opening and the README quote. ``reproduced`` = within + out of band."""
+    the report's opening and the README quote. ``reproduced`` = within + out of band.
+
+    Every row counts by its verdict, a recovery row by its chain's (what the measurement gives back
+    against the model on truth). The model's bias of the recovery rows centred on the model on
+    truth is counted in lines of its own, kind :data:`BIAS`, by their bias verdicts (``numbers``:
+    the rows that have one)."""
     rows = []
     for dataset, card in cards.items():
-        for kind in KINDS:
-            part = card[card["kind"] == kind]
+        judged = bias_verdicts(card) != ""
+        parts = [(kind, card[card["kind"] == kind], "verdict") for kind in KINDS]
+        parts.append((BIAS, card[judged], "bias verdict"))
+        for kind, part, column in parts:
             if not len(part):
                 continue
             groups = [(str(c), g) for c, g in part.groupby("chapter", sort=False)] + [
                 ("total", part)
             ]
             for chapter, g in groups:
-                n = counts(g)
+                n = counts(g, column)
                 rows.append(
                     {
                         "dataset": dataset,
@@ -60,7 +68,8 @@ def summary(cards: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
 
 
 def headline(counts_: pd.DataFrame) -> str:
-    """One line per dataset: emergent numbers within band, then the other kinds."""
+    """One line per dataset: emergent numbers within band, then the other kinds; then, on a line of
+    its own, the model's bias of the recovery numbers centred on the model on truth."""
     lines = []
     for dataset, part in counts_[counts_["chapter"] == "total"].groupby("dataset", sort=False):
         by_kind = part.set_index("kind")
@@ -74,6 +83,12 @@ def headline(counts_: pd.DataFrame) -> str:
         ]
         parts += [_kind_tally(by_kind.loc[k], k) for k in KINDS[1:] if k in by_kind.index]
         lines.append("; ".join(parts) + ".")
+        if BIAS in by_kind.index:
+            lines.append(
+                f"**{_rst(dataset)}**, recovery numbers centred on the model on the twin's truth: "
+                + _kind_tally(by_kind.loc[BIAS], BIAS)
+                + " (the model on truth against the built value)."
+            )
     return "\n\n".join(lines)
 
 
@@ -93,18 +108,29 @@ def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
         headline(table)
         + "\n\n"
         + "\n".join(_table(table[table["kind"] == EMERGENT], "Emergent numbers by chapter"))
-        + "\n\nClosed-form, recovery and calibration numbers are checks of the method "
-        'and the twin, not reproductions (docs/scorecard.md, "Kinds of numbers").\n'
+        + "\n\n"
+        + LANDING_NOTE
     )
+
+
+#: what the landing page says of the kinds that are not reproductions, and of the model's bias
+LANDING_NOTE = """Closed-form, recovery, calibration and check numbers are not reproductions: they \
+hold by the source's own equations, by how the twin is built or calibrated, or by construction \
+(docs/scorecard.md, "Kinds of numbers"). A recovery number centred on the model on the twin's \
+truth is counted by what the measurement gives back of that model; the model's bias, that model \
+against the value the twin is built with, is counted on a line of its own \
+(docs/scorecard.md, "The model's bias").
+"""
 
 
 def out_of_band_rst(cards: Mapping[str, pd.DataFrame]) -> str:
     """A page: per dataset, every number out of band by source (with the registry's note saying
-    why) and every number missing from its table."""
+    why), every recovery number whose model's bias is out of its band, and every number missing
+    from its table."""
     return _lists_page(
         cards,
         "Numbers out of band, and missing from their tables",
-        lambda card: _out_of_band(card) + _missing(card),
+        lambda card: _out_of_band(card) + _bias_out(card) + _missing(card),
         "None: every reproduced number is within band.",
     )
 
@@ -174,8 +200,10 @@ def _drop_unsafe_links(doctree) -> None:
 
 
 def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
-    # a scorecard read back from CSV has NaN where a text cell was empty
-    return {d: c.fillna({"unit": "", "note": "", "read from": ""}) for d, c in cards.items()}
+    # a scorecard read back from CSV has NaN where a text cell was empty (and one written before
+    # the bias columns has none)
+    text = {"unit": "", "note": "", "read from": "", "bias band": "", "bias verdict": ""}
+    return {d: c.fillna({k: text[k] for k in text if k in c.columns}) for d, c in cards.items()}
 
 
 def _table(table: pd.DataFrame, title: str) -> list[str]:
@@ -220,6 +248,31 @@ def _out_of_band(card: pd.DataFrame) -> list[str]:
             ),
         ),
     ]
+
+
+def _bias_out(card: pd.DataFrame) -> list[str]:
+    """The recovery numbers whose model on the twin's truth is out of its bias band: the source's
+    model reads the twin as something other than the value it is built with."""
+    out = card[bias_verdicts(card) == OUT]
+    if not len(out):
+        return []
+    return [
+        "- The model's bias out of band (recovery numbers whose band is centred on the model on "
+        "the twin's truth, that model against the value the twin is built with; their own verdict "
+        "is in the list above when out of band):",
+        *_by_source(out, _describe_bias),
+    ]
+
+
+def _describe_bias(row: pd.Series) -> str:
+    unit = f" {_rst(row['unit'])}" if row["unit"] else ""
+    change = "" if pd.isna(row["bias [%]"]) else f" ({row['bias [%]']:+.1f} %)"
+    built = row["model on truth"] - row["bias"]
+    return (
+        f"{_rst(row['quantity'])}: model on truth {row['model on truth']:.6g}{unit}, built "
+        f"{built:.6g}{unit}{change}, bias band {row['bias band low']:.6g} … "
+        f"{row['bias band high']:.6g}{unit} ({_rst(row['bias band'])})"
+    )
 
 
 def _missing(card: pd.DataFrame) -> list[str]:
@@ -317,10 +370,17 @@ def scorecard_html(card: pd.DataFrame, title: str) -> str:
     """A self-contained page of the scorecard (the report shows HTML inline, a CSV only as a
     download)."""
     tally = ", ".join(f"{n} {v}" for v, n in counts(card).items())
-    head = "".join(f"<th>{html.escape(c)}</th>" for c in COLUMNS)
+    biased = counts(card, "bias verdict")
+    if biased[WITHIN] + biased[OUT]:
+        tally += (
+            f"; the model's bias (recovery numbers centred on the model on the twin's truth, "
+            f"against the built value): {biased[WITHIN]} {WITHIN}, {biased[OUT]} {OUT}"
+        )
+    columns = [c for c in COLUMNS if c in card.columns]
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
     body = "\n".join(
         f'<tr class="{row["verdict"].replace(" ", "-")}">'
-        + "".join(f"<td>{html.escape(_cell(row[c]))}</td>" for c in COLUMNS)
+        + "".join(_td(c, row[c]) for c in columns)
         + "</tr>"
         for _, row in card.iterrows()
     )
@@ -329,10 +389,20 @@ def scorecard_html(card: pd.DataFrame, title: str) -> str:
         "<style>body{font-family:sans-serif;font-size:13px} table{border-collapse:collapse}"
         " td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top}"
         " .within-band{background:#e6f4e6} .out-of-band{background:#fbe3e3}"
-        " .not-reproduced-yet{color:#777} .missing-from-table{background:#fff1c2}</style></head>\n"
+        " .not-reproduced-yet{color:#777} .missing-from-table{background:#fff1c2}"
+        " td.bias-out-of-band{background:#fbe3e3} td.bias-within-band{background:#e6f4e6}"
+        "</style></head>\n"
         f"<body><h1>{html.escape(title)}</h1><p>{html.escape(tally)}</p>\n"
         f"<table><thead><tr>{head}</tr></thead><tbody>\n{body}\n</tbody></table></body></html>\n"
     )
+
+
+def _td(column: str, value: Any) -> str:
+    """A cell; the bias verdict's coloured by itself (the row is coloured by the chain's)."""
+    text = html.escape(_cell(value))
+    if column == "bias verdict" and text in (WITHIN, OUT):
+        return f'<td class="bias-{text.replace(" ", "-")}">{text}</td>'
+    return f"<td>{text}</td>"
 
 
 def _cell(value: Any) -> str:
@@ -352,20 +422,24 @@ BEGIN, END = (
 
 def counts_markdown(counts_: pd.DataFrame, campaign: str) -> str:
     """The README's numbers: emergent published numbers within band per dataset and chapter, then
-    the other kinds, from the summary the pipeline writes (results/scorecard_counts.csv)."""
+    the other kinds that the summary has (results/scorecard_counts.csv, the pipeline's), and the
+    model's bias of the recovery numbers centred on the model on truth (:data:`BIAS`)."""
+    present = set(counts_["kind"])
+    kinds = [EMERGENT] + [k for k in (*KINDS[1:], BIAS) if k in present]
     lines = [
         f"Published numbers within their band on the `{campaign}` campaign "
         "(from `results/scorecard_counts.csv`):",
         "",
-        "| dataset | chapter | emergent: within band / reproduced "
-        "| closed form | recovery | calibration |",
-        "|---|---|---|---|---|---|",
+        "| "
+        + " | ".join(["dataset", "chapter", "emergent: within band / reproduced", *kinds[1:]])
+        + " |",
+        "|---" * (len(kinds) + 2) + "|",
     ]
     for (dataset, chapter), part in counts_.groupby(["dataset", "chapter"], sort=False):
         cells = {row["kind"]: f"{row[WITHIN]} / {row['reproduced']}" for _, row in part.iterrows()}
         name = "**total**" if chapter == "total" else _chapter(chapter)
         lines.append(
-            f"| {dataset} | {name} | " + " | ".join(cells.get(k, "–") for k in KINDS) + " |"
+            f"| {dataset} | {name} | " + " | ".join(cells.get(k, "–") for k in kinds) + " |"
         )
     return "\n".join(lines)
 

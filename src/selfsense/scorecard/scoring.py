@@ -3,6 +3,10 @@
 Pure: the registry's entries, the tables and the dataset manifest in, a DataFrame out. An entry
 whose table is not made for a dataset is kept as "not reproduced yet", never dropped, so the
 scorecard also shows how much is still to come.
+
+A recovery entry whose band is centred on the model on the twin's truth gets a second verdict,
+the model's bias (:class:`Bias`): that centre against the value the twin is built with, held to
+the band's bias rule. The first verdict, the chain's, is what the counts go by.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from typing import Any
 import pandas as pd
 
 from selfsense.scorecard.registry import (
+    BIAS_COLUMNS,
     COLUMNS,
     EDGE_RTOL,
     INFORMATION,
@@ -33,6 +38,20 @@ from selfsense.scorecard.registry import (
 
 
 @dataclass(frozen=True)
+class Bias:
+    """The model's bias of a recovery number whose band is centred on the model on the twin's
+    truth: that model on truth (``centre``) against the value the twin is built with (``built``,
+    the published value, or a twin recovery row's truth), in the band the rule ``rule`` makes
+    about ``built``, and the verdict."""
+
+    centre: float
+    built: float
+    band: tuple[float, float]
+    verdict: str
+    rule: str  # the bias rule's name and tolerance, as the scorecard shows it
+
+
+@dataclass(frozen=True)
 class Score:
     """One scored entry: its published value and band, the reproduced one (None when not
     reproduced)."""
@@ -44,6 +63,7 @@ class Score:
     verdict: str = NOT_YET
     detail: str = ""
     cause: str = ""  # what was measured of the number's error (Cause.note)
+    bias: Bias | None = None  # the model's bias, for a band centred on the model on truth
 
 
 # --- scoring ------------------------------------------------------------------------------------
@@ -59,6 +79,17 @@ def band(published: float, entry: Entry) -> tuple[float, float]:
     if entry.bound == "lower":
         return lo, math.inf
     return lo, hi
+
+
+def bias(entry: Entry, centre: float, built: float) -> Bias | None:
+    """The model's bias: the model on the twin's truth ``centre`` against the ``built`` value,
+    held to the entry's band's bias rule about ``built``; None for a band without one."""
+    rule = entry.band.bias
+    if rule is None or rule.tolerance is None or math.isnan(centre) or math.isnan(built):
+        return None
+    lo, hi = rule.tolerance.limits(built)
+    text = f"{rule.name}, {rule.tolerance.describe(entry.unit)} of the built value"
+    return Bias(centre, built, (lo, hi), judge(centre, lo, hi), text)
 
 
 def judge(reproduced: float, lo: float, hi: float) -> str:
@@ -90,6 +121,7 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
             published = lookup(entry.locate, table, entry.truth)
         reproduced = lookup(entry.locate, table)
         middle = published if centre is None else lookup(centre, tables[centre.table])
+        built = None if entry.built is None else lookup(entry.locate, table, entry.built)
     except (
         NotComputed
     ) as err:  # the stage's own statement that it has no value (say, a short campaign)
@@ -110,7 +142,14 @@ def score(entry: Entry, tables: Mapping[str, pd.DataFrame]) -> Score:
         )
     if measured and measured.table in tables:
         cause = measured.note(tables[measured.table])
-    return Score(entry, published, limits, reproduced, verdict, detail, cause)
+    model = (
+        bias(entry, middle, published)  # the band's centre against the published (built) value
+        if centre is not None
+        else bias(entry, published, built)  # a twin recovery row: its truth is the model's
+        if built is not None
+        else None
+    )
+    return Score(entry, published, limits, reproduced, verdict, detail, cause, model)
 
 
 def scorecard(
@@ -142,8 +181,25 @@ def _row(s: Score) -> dict[str, Any]:
         "tolerance": _tolerance_text(e, p),
         "justification": e.band.justification,
         "verdict": s.verdict,
+        **_bias_row(s.bias),
         "read from": e.locate.describe() if e.locate else "",
         "note": "; ".join(t for t in (s.detail, e.note, s.cause) if t),
+    }
+
+
+def _bias_row(b: Bias | None) -> dict[str, Any]:
+    """The bias columns: empty for a row without a model on truth."""
+    if b is None:
+        return dict.fromkeys(BIAS_COLUMNS, None) | {"bias band": "", "bias verdict": ""}
+    lo, hi = b.band
+    return {
+        "model on truth": b.centre,
+        "bias": b.centre - b.built,
+        "bias [%]": None if b.built == 0 else 100.0 * (b.centre - b.built) / abs(b.built),
+        "bias band": b.rule,
+        "bias band low": lo,
+        "bias band high": hi,
+        "bias verdict": b.verdict,
     }
 
 
@@ -163,5 +219,15 @@ def _tolerance_text(e: Entry, published: float) -> str:
     )
 
 
-def counts(card: pd.DataFrame) -> dict[str, int]:
-    return {v: int((card["verdict"] == v).sum()) for v in VERDICTS}
+def counts(card: pd.DataFrame, column: str = "verdict") -> dict[str, int]:
+    """How many rows have each verdict (of ``column``: "bias verdict" counts the model's bias; a
+    card without that column, written before it existed, has none)."""
+    verdicts = card[column] if column in card.columns else pd.Series([], dtype=object)
+    return {v: int((verdicts == v).sum()) for v in VERDICTS}
+
+
+def bias_verdicts(card: pd.DataFrame) -> pd.Series:
+    """Each row's bias verdict ("" where it has none, as in a card made before the column)."""
+    if "bias verdict" not in card.columns:
+        return pd.Series("", index=card.index, dtype=object)
+    return card["bias verdict"].fillna("").astype(str)
