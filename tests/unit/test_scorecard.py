@@ -601,4 +601,5 @@ def test_html_page_escapes_and_colours_by_verdict():
         STACK,
     )
     page = scorecard_html(card, "Scorecard: stack_ds")
-    assert "&lt;x&gt;" in page and 'class="within-band"' in page and "<x>" not in page
+    assert '<span class="q">&lt;x&gt;</span>' in page and "<x>" not in page
+    assert '<span class="v within" title="within band">within band</span>' in page

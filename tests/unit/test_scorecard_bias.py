@@ -3,6 +3,7 @@ twin's truth carries a second verdict, that model against the built value, count
 (docs/scorecard.md, "Kinds of numbers" and "The model's bias")."""
 
 import html
+import re
 from dataclasses import replace
 
 import docutils.core
@@ -258,11 +259,30 @@ def test_the_out_of_band_page_lists_every_bias_out_of_band_as_valid_restructured
 
 
 def test_the_html_page_shows_both_verdicts_each_coloured():
-    page = scorecard_html(card(), "Scorecard: ds")
-    assert "<th>bias verdict</th>" in page and "<th>model on truth</th>" in page
-    assert '<td class="bias-out-of-band">out of band</td>' in page
-    assert '<td class="bias-within-band">within band</td>' in page
-    assert "the model's bias" in html.unescape(page) and f"1 {WITHIN}, 2 {OUT}" in page
+    page = html.unescape(scorecard_html(card(), "Scorecard: ds"))
+    line = {
+        q: text
+        for q, text in re.findall(r'<span class="q">(.*?)</span>(.*?)</details>', page, re.S)
+    }
+    # the chain's verdict, then the model's bias beside it, each in its colour
+    chain = '<span class="v within" title="within band">within band</span>'
+    assert (
+        f'{chain} <span class="v out" title="the model\'s bias: out of band">bias out</span>'
+        in (line["g (temperature coefficient)"])
+    )
+    assert (
+        f'{chain} <span class="v within" title="the model\'s bias: within band">bias within'
+        in (line["C_P0 vs truth"])
+    )
+    assert "bias" not in re.sub(r"<dl>.*", "", line["e"])  # a row without a model on truth
+    # folded: the model on truth against the built value, and its band
+    assert (
+        "<dt>model's bias</dt><dd>model on truth 9.6078 µm/K, built 9.36 µm/K (+2.6 %), bias band "
+        "9.1728 … 9.5472 µm/K (twin input, ±2 % of the built value): out of band</dd>"
+    ) in line["alpha vs truth"]
+    # the headline's line of its own: 3 numbers, 1 within band of 3, 2 out of band
+    bias_line = re.search(r"<tr><th>model's bias</th>(.*?)</tr>", page).group(1)
+    assert re.sub(r"<[^>]+>", " ", bias_line).split() == ["3", "1", "/", "3", "2", "0", "0", "0"]
 
 
 # --- the registry ---------------------------------------------------------------------------------

@@ -16,17 +16,22 @@ import pandas as pd
 from selfsense.scorecard.registry import (
     BIAS,
     CAUSE_MARK,
-    COLUMNS,
+    CHECK,
     EMERGENT,
     INFORMATION,
     KINDS,
     MISSING,
     NOT_YET,
     OUT,
+    PUBLISHED,
     VERDICTS,
     WITHIN,
 )
 from selfsense.scorecard.scoring import bias_verdicts, counts
+
+#: where a row's note has a measured cause (Cause.note), which comes last: the pages count by it,
+#: and the HTML page shows it apart
+CAUSE = rf"(?:^|; )(?={CAUSE_MARK} (?:cause )?\()"
 
 # --- renderings ---------------------------------------------------------------------------------
 
@@ -235,7 +240,7 @@ def _out_of_band(card: pd.DataFrame) -> list[str]:
     if not len(out):
         return []
     unexplained = int((out["note"] == "").sum())
-    measured = int(out["note"].str.contains(rf"(?:^|; ){CAUSE_MARK} (?:cause )?\(").sum())
+    measured = int(out["note"].str.contains(CAUSE).sum())
     counts = [f"{measured} of {len(out)} with a measured cause"]
     if unexplained:
         counts.append(f"{unexplained} without a note in workflow/scorecard.yaml saying why")
@@ -265,13 +270,19 @@ def _bias_out(card: pd.DataFrame) -> list[str]:
 
 
 def _describe_bias(row: pd.Series) -> str:
-    unit = f" {_rst(row['unit'])}" if row["unit"] else ""
+    return f"{_rst(row['quantity'])}: {_bias_text(row, _rst)}"
+
+
+def _bias_text(row: pd.Series, text) -> str:
+    """A row's model on truth against the built value, and the bias band; ``text`` makes the
+    card's text safe for the page (:func:`_rst`; the HTML page escapes the whole)."""
+    unit = f" {text(row['unit'])}" if row["unit"] else ""
     change = "" if pd.isna(row["bias [%]"]) else f" ({row['bias [%]']:+.1f} %)"
     built = row["model on truth"] - row["bias"]
     return (
-        f"{_rst(row['quantity'])}: model on truth {row['model on truth']:.6g}{unit}, built "
+        f"model on truth {row['model on truth']:.6g}{unit}, built "
         f"{built:.6g}{unit}{change}, bias band {row['bias band low']:.6g} … "
-        f"{row['bias band high']:.6g}{unit} ({_rst(row['bias band'])})"
+        f"{row['bias band high']:.6g}{unit} ({text(row['bias band'])})"
     )
 
 
@@ -321,20 +332,33 @@ def _by_source(rows: pd.DataFrame, describe) -> list[str]:
 
 
 def _chapter(chapter: Any) -> str:
-    return f"Chapter {chapter}" if str(chapter).isdigit() else _rst(str(chapter))
+    return _rst(_chapter_title(chapter))
+
+
+def _chapter_title(chapter: Any) -> str:
+    """A chapter's number as "Chapter 3", the name of any other (say, a paper's)."""
+    return f"Chapter {chapter}" if str(chapter).isdigit() else _cell(chapter)
 
 
 def _describe(row: pd.Series) -> str:
     unit = f" {_rst(row['unit'])}" if row["unit"] else ""
-    lo, hi = row["band low"], row["band high"]
-    band_text = (
-        f"≤ {hi:.6g}" if pd.isna(lo) else f"≥ {lo:.6g}" if pd.isna(hi) else f"{lo:.6g} … {hi:.6g}"
-    )
+    band_text = _band_text(row["band low"], row["band high"])
     change = "" if pd.isna(row["deviation [%]"]) else f" ({row['deviation [%]']:+.1f} %)"
     kind = "" if row.get("kind", EMERGENT) == EMERGENT else f" ({_rst(row['kind'])})"
     return (
         f"{_rst(row['quantity'])}{kind}: published {row['published']:.6g}{unit}, "
         f"reproduced {row['reproduced']:.6g}{unit}{change}, band {band_text}{unit}"
+    )
+
+
+def _band_text(lo: Any, hi: Any) -> str:
+    """A band's limits: "≤ high", "≥ low" (a bound) or "low … high"."""
+    return (
+        f"≤ {_cell(hi)}"
+        if pd.isna(lo)
+        else f"≥ {_cell(lo)}"
+        if pd.isna(hi)
+        else f"{_cell(lo)} … {_cell(hi)}"
     )
 
 
@@ -366,49 +390,288 @@ def _underline(title: str, char: str) -> str:
     return char * sum(2 if unicodedata.east_asian_width(c) in "WF" else 1 for c in title)
 
 
+# --- the dataset's page -------------------------------------------------------------------------
+
+#: the order of a group's rows by kind: the reproductions first, then what the twin must give back,
+#: the source's own equations, the calibration's signatures and what holds by construction
+ROW_ORDER = (EMERGENT, "recovery", "closed form", "calibration", CHECK)
+#: the lines of the page's headline: the kinds, the model's bias after the recovery chain's
+HEADLINE_KINDS = (EMERGENT, "closed form", "recovery", BIAS, "calibration", CHECK)
+#: how the headline names a kind where the kind alone would say less
+_KIND_LABELS = {"recovery": "recovery (chain)"}
+#: each verdict's CSS class (its colour) and label on the page; a verdict not here is shown grey
+VERDICT_STYLE = {
+    WITHIN: ("within", "within band"),
+    OUT: ("out", "out of band"),
+    NOT_YET: ("pending", "not yet"),
+    MISSING: ("missing", "missing"),
+    INFORMATION: ("info", "no verdict"),
+}
+#: the labels of the bias verdict beside a recovery row's own
+_BIAS_LABELS = {WITHIN: "bias within", OUT: "bias out"}
+#: the columns of a number's line (the header row of the page)
+LINE_COLUMNS = (
+    "quantity",
+    "unit",
+    "kind",
+    "published",
+    "reproduced",
+    "deviation",
+    "band",
+    "verdict",
+)
+
+PAGE_CSS = """
+body{font:13px/1.35 system-ui,-apple-system,"Segoe UI",sans-serif;margin:10px 20px;color:#1f2328}
+h1{font-size:20px;margin:0 0 6px}
+h2{font-size:16px;margin:16px 0 2px;padding-top:4px;border-top:2px solid #d0d7de}
+h3{font-size:13px;margin:8px 0 2px}
+.head+h2{border-top:0;margin-top:6px}
+h2 small,h3 small{font-weight:normal;color:#57606a;margin-left:6px}
+.top{display:flex;gap:28px;align-items:flex-start;flex-wrap:wrap}
+.kinds{border-collapse:collapse}
+.kinds th,.kinds td{padding:1px 8px;text-align:right;font-variant-numeric:tabular-nums}
+.kinds th:first-child{text-align:left}
+.kinds thead th{font-weight:normal;color:#57606a;font-size:12px;border-bottom:1px solid #d0d7de}
+.aside{color:#57606a;font-size:12px;max-width:46em;margin:4px 0 0}
+nav ul{margin:2px 0 0;padding:0;list-style:none}
+nav li{margin:2px 0}
+.zero{color:#8c959f}
+.head,.row>summary{display:grid;column-gap:10px;padding:1px 4px;
+ grid-template-columns:minmax(14em,1fr) 4em 6.5em 6.5em 6.5em 5.5em 13em 13em}
+.head{position:sticky;top:0;z-index:1;background:#fff;margin-top:10px;font-size:12px;
+ color:#57606a;border-bottom:1px solid #d0d7de}
+summary{cursor:pointer;list-style:none}
+summary::-webkit-details-marker{display:none}
+.q::before{content:"\\25B8  ";color:#8c959f}
+details[open]>summary .q::before{content:"\\25BE  "}
+.row:nth-of-type(even)>summary{background:#f6f8fa}
+.row>summary:hover{background:#eaeef2}
+.x{text-align:right;font-variant-numeric:tabular-nums}
+.k{color:#57606a}
+.emergent .k{color:#1f2328;font-weight:600}
+.v{display:inline-block;padding:0 5px;border-radius:3px;font-size:12px;white-space:nowrap}
+.within{background:#dafbe1;color:#116329}
+.out{background:#ffebe9;color:#a40e26}
+.info{background:#eaeef2;color:#57606a}
+.pending{background:#fff8c5;color:#7d4e00}
+.missing{background:#fff8c5;color:#7d4e00;outline:1px dashed #bf8700}
+dl{display:grid;grid-template-columns:7em 1fr;gap:2px 10px;margin:2px 0 6px 18px;padding:4px 8px;
+ background:#f6f8fa;border-left:3px solid #d0d7de}
+dt{color:#57606a}
+dd{margin:0}
+"""
+
+
 def scorecard_html(card: pd.DataFrame, title: str) -> str:
-    """A self-contained page of the scorecard (the report shows HTML inline, a CSV only as a
-    download)."""
-    tally = ", ".join(f"{n} {v}" for v, n in counts(card).items())
-    biased = counts(card, "bias verdict")
-    if biased[WITHIN] + biased[OUT]:
-        tally += (
-            f"; the model's bias (recovery numbers centred on the model on the twin's truth, "
-            f"against the built value): {biased[WITHIN]} {WITHIN}, {biased[OUT]} {OUT}"
+    """A self-contained page of one dataset's scorecard (the report shows HTML inline, a CSV only
+    as a download), readable at 1280×800 without scrolling sideways: the title; a headline, one
+    line per kind and one for the model's bias (:func:`summary`'s totals); a table of contents of
+    the chapters with their counts; then per chapter and per source (a table or figure of it) a
+    line per number (:func:`scorecard_groups`, emergent ones first): quantity, unit, kind,
+    published, reproduced, deviation, band and the verdict in colour, a recovery row's bias verdict
+    beside it. A click on a line unfolds (``<details>``) the band's rule and justification, the
+    model's bias, the note, the measured cause and where the value was read from.
+
+    Every text of the card is data, never markup (``html.escape``); the page's only links are its
+    own anchors, and it needs no script, style sheet or font from elsewhere."""
+    card = _filled({"": card})[""]
+    table = summary({"": card})
+    groups = scorecard_groups(card)
+    chapters = "\n".join(
+        _chapter_html(i, chapter, parts, table) for i, (chapter, parts) in enumerate(groups, 1)
+    )
+    head = "".join(f"<span>{c}</span>" for c in LINE_COLUMNS)
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">\n'
+        f"<title>{html.escape(title)}</title>\n<style>{PAGE_CSS}</style></head>\n<body>\n"
+        f"<h1>{html.escape(title)}</h1>\n"
+        f'<div class="top">\n{_headline_html(table)}\n{_contents_html(groups, table)}\n</div>\n'
+        + (
+            f'<div class="head">{head}</div>\n{chapters}\n'
+            if groups
+            else "<p>No published number applies to this dataset.</p>\n"
         )
-    columns = [c for c in COLUMNS if c in card.columns]
-    head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
-    body = "\n".join(
-        f'<tr class="{row["verdict"].replace(" ", "-")}">'
-        + "".join(_td(c, row[c]) for c in columns)
-        + "</tr>"
-        for _, row in card.iterrows()
+        + "</body></html>\n"
+    )
+
+
+def scorecard_groups(card: pd.DataFrame) -> list[tuple[Any, list[tuple[Any, pd.DataFrame]]]]:
+    """The page's groups: per chapter, per source (a table or figure of it), each in the card's
+    (the registry's) order of first appearance; a source's rows ordered by kind,
+    :data:`ROW_ORDER` (the card's order within a kind, a kind not there last). Every row of the
+    card is in exactly one group."""
+    rank = {k: i for i, k in enumerate(ROW_ORDER)}
+    groups = []
+    for chapter, part in card.groupby("chapter", sort=False, dropna=False):
+        sources = []
+        for source, rows in part.groupby("source", sort=False, dropna=False):
+            kinds = rows["kind"].tolist()
+            order = sorted(range(len(rows)), key=lambda i: rank.get(kinds[i], len(rank)))
+            sources.append((source, rows.iloc[order]))
+        groups.append((chapter, sources))
+    return groups
+
+
+def _headline_html(table: pd.DataFrame) -> str:
+    """The counts per kind (:data:`HEADLINE_KINDS`, then any other the summary has)."""
+    total = table[table["chapter"] == "total"].set_index("kind")
+    kinds = [k for k in HEADLINE_KINDS if k in total.index]
+    kinds += [k for k in total.index if k not in HEADLINE_KINDS]
+    columns = ("", "numbers", "within band / reproduced", "out of band", "not yet", "missing")
+    rows = [
+        "<tr>"
+        + f"<th>{html.escape(_KIND_LABELS.get(k, k))}</th><td>{total.loc[k, 'numbers']}</td>"
+        + f"<td>{_count(total.loc[k, WITHIN], WITHIN)} / {total.loc[k, 'reproduced']}</td>"
+        + "".join(f"<td>{_count(total.loc[k, v], v)}</td>" for v in (OUT, NOT_YET, MISSING))
+        + f"<td>{_count(total.loc[k, INFORMATION], INFORMATION)}</td></tr>"
+        for k in kinds
+    ]
+    head = "".join(f"<th>{c}</th>" for c in (*columns, "no verdict"))
+    return (
+        f'<div><table class="kinds"><thead><tr>{head}</tr></thead><tbody>\n'
+        + "\n".join(rows)
+        + "\n</tbody></table>\n"
+        '<p class="aside">Only the emergent numbers are reproductions (docs/scorecard.md, '
+        "\"Kinds of numbers\"). A recovery row's verdict is the chain's, what the captures give "
+        "back against the model on the twin's truth; the model's bias is that model against the "
+        "value the twin is built with. A click on a line shows its band's rule and justification, "
+        "its note and cause, and where the value was read from.</p></div>"
+    )
+
+
+def _contents_html(groups: list, table: pd.DataFrame) -> str:
+    items = [
+        f'<li><a href="#c{i}">{html.escape(_chapter_title(chapter))}</a> '
+        + _tally_html(_chapter_counts(table, chapter))
+        + "</li>"
+        for i, (chapter, _) in enumerate(groups, 1)
+    ]
+    return f"<nav><b>Chapters</b><ul>\n{chr(10).join(items)}\n</ul></nav>"
+
+
+def _chapter_counts(table: pd.DataFrame, chapter: Any) -> dict[str, int]:
+    """A chapter's counts by verdict over every kind (the summary's lines of that chapter)."""
+    part = table[(table["chapter"] == str(chapter)) & table["kind"].isin(KINDS)]
+    return {"numbers": int(part["numbers"].sum()), **{v: int(part[v].sum()) for v in VERDICTS}}
+
+
+def _chapter_html(i: int, chapter: Any, parts: list, table: pd.DataFrame) -> str:
+    emergent = table[(table["chapter"] == str(chapter)) & (table["kind"] == EMERGENT)]
+    tally = (
+        f"emergent {emergent[WITHIN].iloc[0]} within band of {emergent['reproduced'].iloc[0]}"
+        if len(emergent)
+        else "no emergent numbers"
     )
     return (
-        f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>{html.escape(title)}</title>\n'
-        "<style>body{font-family:sans-serif;font-size:13px} table{border-collapse:collapse}"
-        " td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top}"
-        " .within-band{background:#e6f4e6} .out-of-band{background:#fbe3e3}"
-        " .not-reproduced-yet{color:#777} .missing-from-table{background:#fff1c2}"
-        " td.bias-out-of-band{background:#fbe3e3} td.bias-within-band{background:#e6f4e6}"
-        "</style></head>\n"
-        f"<body><h1>{html.escape(title)}</h1><p>{html.escape(tally)}</p>\n"
-        f"<table><thead><tr>{head}</tr></thead><tbody>\n{body}\n</tbody></table></body></html>\n"
+        f'<h2 id="c{i}">{html.escape(_chapter_title(chapter))} <small>{tally}</small></h2>\n'
+        + "\n".join(
+            f'<section><h3 id="c{i}-{j}">{html.escape(_cell(source))} '
+            f"<small>{_tally_html({'numbers': len(rows), **counts(rows)})}</small></h3>\n"
+            + "\n".join(_line_html(row) for _, row in rows.iterrows())
+            + "\n</section>"
+            for j, (source, rows) in enumerate(parts, 1)
+        )
     )
 
 
-def _td(column: str, value: Any) -> str:
-    """A cell; the bias verdict's coloured by itself (the row is coloured by the chain's)."""
-    text = html.escape(_cell(value))
-    if column == "bias verdict" and text in (WITHIN, OUT):
-        return f'<td class="bias-{text.replace(" ", "-")}">{text}</td>'
-    return f"<td>{text}</td>"
+def _tally_html(n: Mapping[str, int]) -> str:
+    """How many numbers, and a coloured count per verdict present."""
+    return f"{n['numbers']} number{'' if n['numbers'] == 1 else 's'} " + " ".join(
+        _badge(v, f"{n[v]} {VERDICT_STYLE[v][1]}") for v in VERDICTS if n[v]
+    )
+
+
+def _count(n: int, verdict: str) -> str:
+    return _badge(verdict, str(n)) if n else '<span class="zero">0</span>'
+
+
+def _badge(verdict: str, label: str | None = None, prefix: str = "") -> str:
+    """A verdict in its colour (:data:`VERDICT_STYLE`), shown as ``label`` (its own by default)."""
+    css, own = VERDICT_STYLE.get(verdict, ("info", verdict))
+    label = own if label is None else label
+    return (
+        f'<span class="v {css}" title="{html.escape(prefix + verdict)}">{html.escape(label)}</span>'
+    )
+
+
+def _line_html(row: pd.Series) -> str:
+    """A number's line, its folded detail below it."""
+    kind = _cell(row["kind"])
+    verdict = _badge(_cell(row["verdict"]))
+    bias = _cell(row.get("bias verdict", ""))
+    if bias:
+        label = _BIAS_LABELS.get(bias, f"bias {VERDICT_STYLE.get(bias, ('', bias))[1]}")
+        verdict += " " + _badge(bias, label, "the model's bias: ")
+    cells = [
+        ("q", row["quantity"]),
+        ("u", row["unit"]),
+        ("k", kind),
+        ("x", row["published"]),
+        ("x", _cell(row["reproduced"]) or "–"),
+        ("x", _deviation(row)),
+        ("b", _band_cell(row)),
+    ]
+    line = "".join(f'<span class="{c}">{html.escape(_cell(v))}</span>' for c, v in cells)
+    return (
+        f'<details class="row{" emergent" if kind == EMERGENT else ""}"><summary>{line}'
+        f"<span>{verdict}</span></summary>{_folded_html(row)}</details>"
+    )
+
+
+def _deviation(row: pd.Series) -> str:
+    """In % of the published value where it has one (a published 0 has none), else absolute."""
+    if pd.notna(row["deviation [%]"]):
+        return f"{row['deviation [%]']:+.1f} %"
+    return "" if pd.isna(row["deviation"]) else f"{row['deviation']:+.4g}"
+
+
+def _band_cell(row: pd.Series) -> str:
+    lo, hi = row["band low"], row["band high"]
+    return "–" if pd.isna(lo) and pd.isna(hi) else _band_text(lo, hi)
+
+
+def _folded_html(row: pd.Series) -> str:
+    """What a click on a line shows: the band's rule and justification, the deviation, the model's
+    bias, the note, the measured cause, where the value was read from and a section other than
+    the published numbers'."""
+    unit = f" {row['unit']}" if row["unit"] else ""
+    note, cause = _note_and_cause(_cell(row["note"]))
+    deviation = "" if pd.isna(row["deviation"]) else f"{row['deviation']:+.6g}{unit}"
+    if deviation and pd.notna(row["deviation [%]"]):
+        deviation += f" ({row['deviation [%]']:+.2f} %)"
+    band = f"{_cell(row['band'])} ({_cell(row['tolerance'])})"
+    if not (pd.isna(row["band low"]) and pd.isna(row["band high"])):
+        band += f": {_band_text(row['band low'], row['band high'])}{unit}"
+    bias = ""
+    if pd.notna(row.get("model on truth", math.nan)):
+        bias = f"{_bias_text(row, str)}: {_cell(row['bias verdict']) or 'no verdict'}"
+    section = _cell(row["section"])
+    items = [
+        ("band", f"{band}. {_cell(row['justification'])}"),
+        ("deviation", deviation),
+        ("model's bias", bias),
+        ("note", note),
+        ("cause", cause),
+        ("read from", _cell(row["read from"])),
+        ("section", "" if section == PUBLISHED else section),
+    ]
+    return (
+        "<dl>" + "".join(f"<dt>{k}</dt><dd>{html.escape(v)}</dd>" for k, v in items if v) + "</dl>"
+    )
 
 
 def _cell(value: Any) -> str:
+    """A cell as text: a number to 6 significant digits, an empty one (NaN, None) as ""."""
     if isinstance(value, float):
         return "" if math.isnan(value) else f"{value:.6g}"
     return "" if value is None else str(value)
+
+
+def _note_and_cause(note: str) -> tuple[str, str]:
+    """A row's note split at its measured cause (:data:`CAUSE`), which comes last."""
+    found = re.search(CAUSE, note)
+    return (note, "") if found is None else (note[: found.start()], note[found.end() :])
 
 
 # --- the numbers the documentation quotes ---------------------------------------------------------
