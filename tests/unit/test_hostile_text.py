@@ -275,6 +275,22 @@ def test_the_scorecards_pages_show_a_hostile_manifest_as_text():
     assert_inert(scorecard_html(card, "Scorecard: hostile"))
 
 
+def test_the_scorecard_page_shows_hostile_text_as_text_and_makes_no_other_element():
+    """The dataset's HTML page escapes every text of the card: the payloads in the sources, the
+    justifications and the locators make no element a plain card's page lacks, the page's only
+    links are its own anchors, and the payloads read as given."""
+    card = hostile_card()
+    page = scorecard_html(card, SCRIPT)
+    plain = card.assign(
+        **{c: "x" for c in ("source", "justification", "note", "read from", "quantity")}
+    )
+    assert set(tags(page)) <= set(tags(scorecard_html(plain, "x")))
+    assert_inert(page)
+    assert set(re.findall(r"""(?:href|src)\s*=\s*["']?([^"'\s>]*)""", page)) <= {"#c1"}
+    text = visible(page)
+    assert all(p in text for p in PAYLOADS)
+
+
 # --- spreadsheet formulas in CSV ------------------------------------------------------------------
 
 
