@@ -36,8 +36,11 @@ MAX_ORDER = 12
 #: within RESOLUTION of the drive span of it (noise-free data: every order that fits is exact)
 ORDER_TOLERANCE = 0.05
 RESOLUTION = 1e-9
-#: the fit uses at most this many samples (the model is rate independent: thinning the record keeps
-#: its loops while a cycle keeps a hundred samples or more, which this leaves for 500 cycles)
+#: at most this many steady cycles enter the fit, evenly spread over the record (a third each to
+#: the fit, the choice of order and the test)
+MAX_CYCLES = 90
+#: and at most this many of their samples (the model is rate independent: thinning a cycle keeps
+#: its loop while it keeps a few hundred samples, which this leaves for MAX_CYCLES)
 MAX_FIT_SAMPLES = 50_000
 #: held-out errors need at least one cycle in each of the three sets
 MIN_CYCLES = 3
@@ -72,34 +75,44 @@ class MaxwellSlip:
 
 
 @numba.njit(cache=True)
-def _strains(x, r, out):
+def _strains(x, r, rows, out):
     b = np.full(r.size, x[0])
+    k = 0
     for t in range(x.size):
+        if k >= rows.size:
+            break
         for i in range(r.size):
             lo, hi = x[t] - r[i], x[t] + r[i]
             if b[i] < lo:
                 b[i] = lo
             elif b[i] > hi:
                 b[i] = hi
-            out[t, i] = x[t] - b[i]
+        if t == rows[k]:
+            for i in range(r.size):
+                out[k, i] = x[t] - b[i]
+            k += 1
 
 
-def element_strains(x: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """clip(x − b_i, −r_i, r_i) of every element over the record, anchors relaxed at x[0]: the
-    play operator's complement, an (n_samples, n_elements) array."""
-    out = np.empty((len(x), len(r)))
-    _strains(np.ascontiguousarray(x, float), np.ascontiguousarray(r, float), out)
+def element_strains(x: np.ndarray, r: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+    """clip(x − b_i, −r_i, r_i) of every element, anchors relaxed at x[0] and moved by the whole
+    record: the play operator's complement, an (n_rows, n_elements) array at ``rows`` (increasing
+    sample indices; None: every sample)."""
+    rows = np.arange(len(x)) if rows is None else np.asarray(rows, np.int64)
+    out = np.empty((len(rows), len(r)))
+    _strains(np.ascontiguousarray(x, float), np.ascontiguousarray(r, float), rows, out)
     return out
 
 
-def element_strains_reference(x: np.ndarray, r: np.ndarray) -> np.ndarray:
+def element_strains_reference(
+    x: np.ndarray, r: np.ndarray, rows: np.ndarray | None = None
+) -> np.ndarray:
     """Plain-numpy :func:`element_strains`."""
     b = np.full(len(r), float(x[0]))
     out = np.empty((len(x), len(r)))
     for t, xt in enumerate(x):
         b = np.clip(b, xt - r, xt + r)
         out[t] = xt - b
-    return out
+    return out if rows is None else out[np.asarray(rows, int)]
 
 
 @numba.njit(cache=True)
@@ -175,8 +188,9 @@ def thresholds(order: int, half_stroke: float) -> np.ndarray:
     return (np.arange(order) + 0.5) / order * half_stroke
 
 
-def _design(x: np.ndarray, r: np.ndarray) -> np.ndarray:
-    return np.column_stack([np.ones(len(x)), x, element_strains(x, r)])
+def _design(x: np.ndarray, r: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The columns of U = u0 + c0·x + Σ k_i·strain_i at ``rows``."""
+    return np.column_stack([np.ones(len(rows)), x[rows], element_strains(x, r, rows)])
 
 
 def _solve(design: np.ndarray, u: np.ndarray, min_slope: float) -> np.ndarray:
@@ -188,8 +202,15 @@ def _solve(design: np.ndarray, u: np.ndarray, min_slope: float) -> np.ndarray:
     return fit.x / scale
 
 
-def _rows(cycles: Sequence[slice]) -> np.ndarray:
-    return np.concatenate([np.arange(c.start, c.stop) for c in cycles]).astype(int)
+def _rows(cycles: Sequence[slice], step: int = 1) -> np.ndarray:
+    return np.concatenate([np.arange(c.start, c.stop, step) for c in cycles]).astype(np.int64)
+
+
+def _chosen(cycles: Sequence[slice]) -> list[slice]:
+    """At most MAX_CYCLES of the cycles, evenly spread over them."""
+    if len(cycles) <= MAX_CYCLES:
+        return list(cycles)
+    return [cycles[k] for k in np.linspace(0, len(cycles) - 1, MAX_CYCLES).round().astype(int)]
 
 
 @dataclass(frozen=True)
@@ -237,13 +258,13 @@ def fit_maxwell_slip(
     tolerance: float = ORDER_TOLERANCE,
 ) -> HysteresisFit:
     """Identify the model on a recording's steady cycles (``cycles``: slices of u and x, in time
-    order). The whole record runs through the elements, so every cycle starts from the anchors its
-    past left; only the cycles' samples enter the fit and the errors."""
-    u, x = np.asarray(u, float), np.asarray(x, float)
+    order; at most MAX_CYCLES of them, evenly spread, and MAX_FIT_SAMPLES of their samples, are
+    used). The whole record runs through the elements, so every cycle starts from the anchors
+    its past left; only the cycles' samples enter the fit and the errors."""
+    u, x = np.ascontiguousarray(u, float), np.ascontiguousarray(x, float)
+    cycles = _chosen(cycles)
     step = max(1, -(-sum(c.stop - c.start for c in cycles) // MAX_FIT_SAMPLES))
-    u, x = u[::step], x[::step]
-    cycles = [slice(-(-c.start // step), -(-c.stop // step)) for c in cycles]
-    steady = _rows(cycles)
+    steady = _rows(cycles, step)
     stroke, span = float(np.ptp(x[steady])), float(np.ptp(u[steady]))
     min_slope = MIN_SLOPE_FRACTION * span / stroke
     if len(cycles) < MIN_CYCLES:
@@ -252,25 +273,29 @@ def fit_maxwell_slip(
     else:
         sets = (cycles[0::3], cycles[1::3], cycles[2::3])
         note = ""
-    fit_rows, val_rows, test_rows = (_rows(s) if s else np.array([], int) for s in sets)
+    fit_rows, val_rows, test_rows = (_rows(s, step) if s else np.array([], np.int64) for s in sets)
+    rows = np.concatenate([fit_rows, val_rows])
+    order_rows = np.sort(np.concatenate([rows, test_rows]))
+    fit_at, val_at, test_at = (
+        np.searchsorted(order_rows, r) for r in (fit_rows, val_rows, test_rows)
+    )
     validation: dict[int, float] = {}
     if val_rows.size:
         for n in range(1, max_order + 1):
-            design = _design(x, thresholds(n, stroke / 2))
-            p = _solve(design[fit_rows], u[fit_rows], min_slope)
-            validation[n] = float(np.sqrt(np.mean((design[val_rows] @ p - u[val_rows]) ** 2)))
+            design = _design(x, thresholds(n, stroke / 2), order_rows)
+            p = _solve(design[fit_at], u[fit_rows], min_slope)
+            validation[n] = float(np.sqrt(np.mean((design[val_at] @ p - u[val_rows]) ** 2)))
         best = min(validation.values())
         enough = (1 + tolerance) * best + RESOLUTION * span
         order = min(n for n, e in validation.items() if e <= enough)
     else:
         order = max_order
     r = thresholds(order, stroke / 2)
-    design = _design(x, r)
-    rows = np.concatenate([fit_rows, val_rows])
-    p = _solve(design[rows], u[rows], min_slope)
+    design = _design(x, r, order_rows)
+    p = _solve(design[np.searchsorted(order_rows, rows)], u[rows], min_slope)
     model = MaxwellSlip(float(p[0]), float(p[1]), r, p[2:])
     forward = _errors(model.position(u)[test_rows] - x[test_rows], stroke)
-    feedforward = _errors(design[test_rows] @ p - u[test_rows], span)
+    feedforward = _errors(design[test_at] @ p - u[test_rows], span)
     return HysteresisFit(
         model,
         validation,
