@@ -169,7 +169,12 @@ SCALINGS = {"U": "20 × logged (gain)", "x_laser": "0.5 × logged"}
 def test_headings_and_axes_show_the_channels_declared_scaling(tmp_path):
     u, x = recording()
     path = capture(tmp_path / "scaled.nc", u, x)
-    row, panels, _ = ch.characterise_capture(path, 0.1, 1.0, scalings=SCALINGS)
+    row, panels, model = ch.characterise_capture(path, 0.1, 1.0, scalings=SCALINGS)
+    units = {p["parameter"]: p["unit"] for p in model}
+    assert (
+        units["u0"] == "V; U = 20 × logged (gain)" and units["r_1"] == "µm; x_laser = 0.5 × logged"
+    )
+    assert units["c0"] == "V/µm; U = 20 × logged (gain); x_laser = 0.5 × logged"
     assert "gain (least squares) [µm/V; x_laser = 0.5 × logged; U = 20 × logged (gain)]" in row
     assert "stroke [µm; x_laser = 0.5 × logged]" in row
     assert "drive amplitude, used cycles [V; U = 20 × logged (gain)]" in row

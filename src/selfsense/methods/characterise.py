@@ -531,12 +531,14 @@ def hysteresis_model(
     cycles: Cycles,
     max_order: int = MAX_ORDER,
     order_tolerance: float = ORDER_TOLERANCE,
+    scalings: Mapping[str, str] | None = None,
 ) -> tuple[dict, list[dict]]:
     """The capture's own Maxwell model (:func:`selfsense.methods.hysteresis.fit_maxwell_slip`) on
     its steady full-amplitude cycles: its measures for the table (the errors on the cycles neither
     the fit nor the choice of order saw) and its parameters, one record each (the validation
-    cycles' rms voltage error of every order tried among them, the rule's evidence). Nothing
-    without a steady cycle or with a gap (a missing sample) in the record."""
+    cycles' rms voltage error of every order tried among them, the rule's evidence), each unit
+    with the declared ``scalings`` of its channels. Nothing without a steady cycle or with a gap (a
+    missing sample) in the record."""
     u, x = reduced.data["U"], reduced.data[x_channel]
     if (
         not (cycles.periodic and cycles.used)
@@ -554,9 +556,22 @@ def hysteresis_model(
         "feedforward_max": fit.feedforward[1],
         "note": fit.note,
     }
-    records = [{"parameter": n, "value": v, "unit": unit} for n, v, unit in fit.parameters()]
+    # a unit names the declared scaling of the channels it is of (V: U, µm: x)
+    of = {"V": ("U",), "µm": ("x",), "V/µm": ("U", "x")}
+    records = [
+        {
+            "parameter": n,
+            "value": v,
+            "unit": heading(f"[{unit}]", of[unit], x_channel, scalings)[1:-1],
+        }
+        for n, v, unit in fit.parameters()
+    ]
     records += [
-        {"parameter": f"validation rms, {n} elements", "value": e, "unit": "V"}
+        {
+            "parameter": f"validation rms, {n} elements",
+            "value": e,
+            "unit": heading("[V]", ("U",), x_channel, scalings)[1:-1],
+        }
         for n, e in fit.validation_rms.items()
     ]
     return measures, records
@@ -582,7 +597,7 @@ def characterise_capture(
         return row(name, {}, x, None, note, scalings), None, []
     cycles = steady_cycles(reduced, x, period_s, warmup, rules)
     measures = characterise(reduced, x, settle_s, min_hold_s, cycles)
-    fitted, parameters = hysteresis_model(reduced, x, cycles, **(model or {}))
+    fitted, parameters = hysteresis_model(reduced, x, cycles, **(model or {}), scalings=scalings)
     measures |= fitted | {"note": "; ".join(filter(None, [measures["note"], fitted.get("note")]))}
     panels = loop_panels(reduced, x, name, cycles=cycles, scalings=scalings)
     row_ = row(name, measures, x, reduced.fs, scalings=scalings)
