@@ -98,3 +98,14 @@ def test_every_rule_takes_its_resources_from_the_one_helper():
 def test_scripts_read_the_config_only_through_their_params():
     scripts = sorted((ROOT / "workflow" / "scripts").glob("*.py"))
     assert [p.name for p in scripts if "snakemake.config" in p.read_text()] == []
+
+
+def test_scripts_are_entry_points_of_at_most_50_lines():
+    """A script reads its inputs, calls the library and writes its outputs: its logic is in
+    src/selfsense, where it is tested and reused."""
+    long = {
+        p.name: n
+        for p in sorted((ROOT / "workflow" / "scripts").glob("*.py"))
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > 50
+    }
+    assert not long, long

@@ -22,30 +22,12 @@ def main(
     output=None,
     report=None,
     log=None,
-    identified=None,
-    table_2=None,
+    identified_tables=None,
 ):
     logger = script_logging(log)
-    eq15 = None
-    if identified is not None:
-        # here: only the Eq 15 runs read the identification (the bender twin's module)
-        from selfsense.twin.bender import identified_compensation
-
-        eq15 = identified_compensation(identified, table_2)
-        logger.info(
-            "Eq 15 compensation as identified: R = %.6g Ohm (%s), c = %.6g 1/A (%s)",
-            eq15["R"],
-            identified,
-            eq15["c"],
-            table_2,
-        )
+    config = {"campaign": campaign, "capture": capture}
     scan = simulate_experiment(
-        raw_dir,
-        dataset,
-        experiment,
-        {"campaign": campaign, "capture": capture},
-        output,
-        identified=eq15,
+        raw_dir, dataset, experiment, config, output, identified_tables=identified_tables
     )
     write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
     logger.info(
@@ -55,16 +37,8 @@ def main(
 
 if "snakemake" in globals():
     i, p, o = snakemake.input, snakemake.params, snakemake.output
+    tables = (i.identified, i.table_2) if hasattr(i, "identified") else None
     # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
-    main(
-        Path(i.manifest).parents[1],
-        snakemake.wildcards.dataset,
-        snakemake.wildcards.experiment,
-        p.campaign,
-        p.capture,
-        o.capture,
-        o.report,
-        snakemake.log[0],
-        getattr(i, "identified", None),
-        getattr(i, "table_2", None),
-    )
+    raw, w = Path(i.manifest).parents[1], snakemake.wildcards
+    args = (p.campaign, p.capture, o.capture, o.report, snakemake.log[0], tables)
+    main(raw, w.dataset, w.experiment, *args)

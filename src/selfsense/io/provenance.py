@@ -296,6 +296,11 @@ def save_figure(
     write_json(provenance(inputs, config, **extra), f"{path}.json")
 
 
+def modified_utc(path: str | os.PathLike) -> str:
+    """When a file was last written (its mtime), in UTC to the minute."""
+    return time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(Path(path).stat().st_mtime))
+
+
 def script_logging(log_path: str | os.PathLike | None) -> logging.Logger:
     """Log a rule's script to its ``log:`` file (or stderr when run alone)."""
     logger = logging.getLogger("selfsense")

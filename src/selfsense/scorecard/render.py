@@ -8,7 +8,7 @@ import html
 import math
 import re
 import unicodedata
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import pandas as pd
@@ -73,8 +73,8 @@ def summary(cards: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
 
 
 def headline(counts_: pd.DataFrame) -> str:
-    """One line per dataset: emergent numbers within band, then the other kinds; then, on a line of
-    its own, the model's bias of the recovery numbers centred on the model on truth."""
+    """One line per dataset: emergent numbers within band, then the other kinds, then the model's
+    bias of the recovery numbers centred on the model on truth."""
     lines = []
     for dataset, part in counts_[counts_["chapter"] == "total"].groupby("dataset", sort=False):
         by_kind = part.set_index("kind")
@@ -86,14 +86,8 @@ def headline(counts_: pd.DataFrame) -> str:
                 else "no emergent numbers"
             )
         ]
-        parts += [_kind_tally(by_kind.loc[k], k) for k in KINDS[1:] if k in by_kind.index]
+        parts += [_kind_tally(by_kind.loc[k], k) for k in (*KINDS[1:], BIAS) if k in by_kind.index]
         lines.append("; ".join(parts) + ".")
-        if BIAS in by_kind.index:
-            lines.append(
-                f"**{_rst(dataset)}**, recovery numbers centred on the model on the twin's truth: "
-                + _kind_tally(by_kind.loc[BIAS], BIAS)
-                + " (the model on truth against the built value)."
-            )
     return "\n\n".join(lines)
 
 
@@ -118,13 +112,40 @@ def landing_rst(cards: Mapping[str, pd.DataFrame]) -> str:
     )
 
 
+def coverage(this_run: Sequence[str], earlier: Mapping[str, str]) -> str:
+    """reStructuredText of one paragraph: the datasets a project-wide summary covers, this run's
+    and the earlier ones' (each with its scorecard's date). A name is a folder's (letters, digits,
+    _ and -): a literal."""
+    text = "Datasets: " + ", ".join(f"``{d}``" for d in this_run) + " (this run)"
+    for dataset, when in earlier.items():
+        text += f"; ``{dataset}`` (scorecard of an earlier run, {when})"
+    return text + "."
+
+
+def summary_pages(
+    cards: Mapping[str, pd.DataFrame], this_run: Sequence[str], earlier: Mapping[str, str]
+) -> tuple[str, str, str]:
+    """The project-wide summary's reStructuredText: the landing (:func:`landing_rst`, opened by
+    :func:`coverage` when it holds an earlier run's scorecard: the landing's height is counted,
+    the first screen must hold it), the out-of-band page and the not-yet page (each with
+    :func:`coverage` under its title)."""
+    paragraph = coverage(this_run, earlier)
+
+    def covered(page: str) -> str:
+        title, _, body = page.partition("\n\n")
+        return f"{title}\n\n{paragraph}\n\n{body}"
+
+    landing = landing_rst(cards)
+    return (
+        f"{paragraph}\n\n{landing}" if earlier else landing,
+        covered(out_of_band_rst(cards)),
+        covered(pending_rst(cards)),
+    )
+
+
 #: what the landing page says of the kinds that are not reproductions, and of the model's bias
-LANDING_NOTE = """Closed-form, recovery, calibration and check numbers are not reproductions: they \
-hold by the source's own equations, by how the twin is built or calibrated, or by construction \
-(docs/scorecard.md, "Kinds of numbers"). A recovery number centred on the model on the twin's \
-truth is counted by what the measurement gives back of that model; the model's bias, that model \
-against the value the twin is built with, is counted on a line of its own \
-(docs/scorecard.md, "The model's bias").
+LANDING_NOTE = """Only emergent numbers are reproductions; what the other kinds and a recovery \
+number's model's bias are: docs/scorecard.md, "Kinds of numbers" and "The model's bias".
 """
 
 

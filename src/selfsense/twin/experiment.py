@@ -55,6 +55,7 @@ def simulate_experiment(
     controller_for: Callable[[DaqPlan, Drive, float], Controller] | None = None,
     drive_leak: bool = True,
     identified: Mapping[str, float] | None = None,
+    identified_tables: tuple[str | Path, str | Path] | None = None,
 ) -> ScanReport:
     """Make raw/<dataset>/<experiment>.nc with the twin, as configured; returns its QC scan (the
     capture is validated as it is written, :meth:`selfsense.io.capture.CaptureWriter.scan_report`).
@@ -62,9 +63,10 @@ def simulate_experiment(
     campaign.
 
     A bender run whose protocol compensates with ``{R: identified, c: identified}`` (Eq 15) also
-    needs ``identified``, the {"R", "c"} the pipeline identified from the other captures
-    (:func:`selfsense.twin.bender.identified_compensation`): the twin's own R and c are never
-    the operator's setting.
+    needs ``identified``, the {"R", "c"} the pipeline identified from the other captures, or
+    ``identified_tables``, the identification's tables they are read from (identified.csv,
+    table_2.csv: :func:`selfsense.twin.bender.identified_compensation`): the twin's own R and c
+    are never the operator's setting.
 
     Closed-loop experiments also need ``controller_for(daq, drive, warmup)``, which builds the
     bench's real-time loop (:func:`selfsense.twin.closed_loop.realtime_controller`). It is passed
@@ -97,7 +99,17 @@ def simulate_experiment(
     settings = compression_settings(cap)
     try:
         return _simulate(
-            path, manifest, exp, attrs, cap, settings, where, controller_for, drive_leak, identified
+            path,
+            manifest,
+            exp,
+            attrs,
+            cap,
+            settings,
+            where,
+            controller_for,
+            drive_leak,
+            identified,
+            identified_tables,
         )
     except UnshrinkableChunk as err:
         # blosc fails on a chunk it cannot shrink; the twin is deterministic, so the same capture
@@ -131,12 +143,21 @@ def _simulate(
     controller_for,
     drive_leak=True,
     identified=None,
+    identified_tables=None,
 ) -> ScanReport:
     """One run of the experiment into ``path`` with the writer's ``compression`` arguments."""
     if manifest["model"] == "bender":
         # here: its analysis imports (pandas, scipy.optimize) cost a stack's simulation ≈ 0.4 s
         from selfsense.twin import bender
 
+        if identified is None and identified_tables:
+            identified = bender.identified_compensation(*identified_tables)
+            LOG.info(
+                "Eq 15 compensation as identified: R = %.6g Ohm, c = %.6g 1/A (%s)",
+                identified["R"],
+                identified["c"],
+                ", ".join(map(str, identified_tables)),
+            )
         return bender.simulate_experiment(
             path,
             manifest["twin"],
