@@ -133,6 +133,21 @@ def _balance(x, u, u0, c0, r, k, b):
 
 
 @numba.njit(cache=True)
+def newton_step(y, f, df, lo, hi):
+    """One step on a monotone increasing residual f(y) with slope df: Newton inside the bracket
+    [lo, hi], which the step narrows, and bisection whenever Newton would leave it (at the kinks
+    of a Maxwell operator, where the slope jumps). Returns the new y, lo, hi."""
+    if f > 0.0:
+        hi = y
+    else:
+        lo = y
+    y -= f / df
+    if y <= lo or y >= hi:
+        y = 0.5 * (lo + hi)
+    return y, lo, hi
+
+
+@numba.njit(cache=True)
 def positions(u, u0, c0, r, k):
     """x at every sample of u: the root of U(x) = u with the anchors as they stand, found by
     Newton inside a bracket (bisection where Newton would leave it, at the operator's kinks); the
@@ -147,13 +162,7 @@ def positions(u, u0, c0, r, k):
         for _ in range(MAX_ITERATIONS):
             if abs(f) <= 1e-12 * (1.0 + abs(u[t])):
                 break
-            if f > 0.0:
-                hi = x
-            else:
-                lo = x
-            x -= f / df
-            if x <= lo or x >= hi:
-                x = 0.5 * (lo + hi)
+            x, lo, hi = newton_step(x, f, df, lo, hi)
             f, df = _balance(x, u[t], u0, c0, r, k, b)
         for i in range(r.size):
             if b[i] < x - r[i]:

@@ -50,6 +50,7 @@ from selfsense.io.capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, ch
 from selfsense.io.manifest import Experiment
 from selfsense.methods import powerloss as pl
 from selfsense.methods.drive import Drive, drive_from_protocol
+from selfsense.methods.hysteresis import newton_step
 from selfsense.twin.bench import DaqPlan, experiment_seed
 from selfsense.twin.instruments import SlowProcess
 from selfsense.twin.maxwell import (
@@ -58,7 +59,6 @@ from selfsense.twin.maxwell import (
     balanced,
     maxwell,
     maxwell_reference,
-    newton_step,
     slide_anchors,
     slide_anchors_reference,
     span,

@@ -25,6 +25,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from selfsense.methods.hysteresis import newton_step
 from selfsense.methods.lti import tustin
 from selfsense.twin.maxwell import (
     MAX_ITERATIONS,
@@ -32,7 +33,6 @@ from selfsense.twin.maxwell import (
     balanced,
     maxwell,
     maxwell_reference,
-    newton_step,
     slide_anchors,
     slide_anchors_reference,
     span,

@@ -1,6 +1,7 @@
 """The Maxwell resistive-capacitive hysteresis operator (thesis Eq 1.11–1.12) both twins share,
-with the kernel scaffolding around it: the constants a per-sample loop needs and the safeguarded
-Newton step that solves a voltage balance through the operator.
+with the kernel scaffolding around it: the constants a per-sample loop needs. The safeguarded
+Newton step that solves a voltage balance through the operator is the analysis's own
+(:func:`selfsense.methods.hysteresis.newton_step`).
 
 Element i holds a charge anchor q_b[i]: its voltage is (q − q_b[i])/C_h[i] clipped to ±v_h[i], and
 while clipped the anchor slides with q so that the element stays at its break-away voltage. U_H(q)
@@ -110,21 +111,6 @@ def span(v_h):
 def balanced(f, target):
     """Whether a balance's residual f is zero to the resolution of its target voltage."""
     return abs(f) < 1e-13 * (1.0 + abs(target))
-
-
-@numba.njit(cache=True)
-def newton_step(y, f, df, lo, hi):
-    """One step on a monotone increasing residual f(y) with slope df: Newton inside the bracket
-    [lo, hi], which the step narrows, and bisection whenever Newton would leave it (at the kinks
-    of U_H, where the slope jumps). Returns the new y, lo, hi."""
-    if f > 0.0:
-        hi = y
-    else:
-        lo = y
-    y -= f / df
-    if y <= lo or y >= hi:
-        y = 0.5 * (lo + hi)
-    return y, lo, hi
 
 
 def maxwell_reference(q: float, q_b: np.ndarray, C_h: np.ndarray, v_h: np.ndarray) -> float:
