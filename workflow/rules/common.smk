@@ -14,7 +14,7 @@ from selfsense.chapters import figure_names
 from selfsense.chapters.figure_names import loop_pages
 from selfsense.methods.cycles import protocol_period
 from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, channel_scalings, expand_protocols, load_dataset, load_yaml,
-                                    protocol_duration, validate_config)
+                                    needs_identification, protocol_duration, validate_config)
 from selfsense.scorecard.calibration import load_targets
 from selfsense.scorecard.reference_values import tables_read as reference_tables
 from selfsense.scorecard.registry import applicable, parse_registry, tables_read
@@ -388,11 +388,6 @@ RONKANEN_VELOCITY_RAMPS = ["rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300
 FIRST_SEGMENT_END = {d: {e: float(x.protocol.get("warmup", 0.0)) + float(x.protocol["segments"][0]["duration"])
                          for e, x in EXPERIMENTS[d].items() if x is not None} for d in POWERLOSS_DATASETS}
 
-#: the protocol's word for Eq 15's R and c taken from the pipeline's identification
-#: (selfsense.twin.bender.IDENTIFIED; protocol.schema.yaml allows it for both or neither)
-IDENTIFIED = "identified"
-
-
 def identification_runs(dataset):
     """The captures R and the ramps' impedances are identified from (rule powerloss_identify):
     {"hold": the static hold, "ramps": every ramp with its fixed trial impedance}."""
@@ -403,7 +398,7 @@ def uses_identification(dataset, experiment):
     """Whether the run's protocol compensates with the identified R and c ({R: identified,
     c: identified}, Eq 15)."""
     run = EXPERIMENTS[dataset].get(experiment)
-    return run is not None and IDENTIFIED in (run.compensation or {}).values()
+    return run is not None and needs_identification(run.compensation)
 
 
 def identified_compensation(dataset, experiment):

@@ -9,12 +9,11 @@ the manifest leaves an earlier capture's report as it was, and up to date.
 """
 
 import json
-from dataclasses import asdict
 
 from selfsense.io.capture import read_header, scan_capture, write_scan_report
 from selfsense.io.contract import check_agreement, check_attributes, check_clipping
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import provenance, script_logging, write_json
+from selfsense.io.provenance import script_logging
 
 
 def main(capture, manifest, report, log=None, contract=None):
@@ -29,8 +28,8 @@ def main(capture, manifest, report, log=None, contract=None):
     if contract is None:
         write_scan_report(scan, report, inputs=[capture, manifest])
     else:
-        prov = provenance([capture], config={"manifest": str(manifest), "checked against": meta})
-        write_json(asdict(scan) | {"provenance": prov}, report)
+        checked = {"manifest": str(manifest), "checked against": meta}
+        write_scan_report(scan, report, inputs=[capture], config=checked)
     logger.info(
         "%s: %d samples, missing (NaN) %s, clipped %s",
         capture,

@@ -1106,11 +1106,16 @@ class ScanReport:
 
 
 def write_scan_report(
-    scan: ScanReport, path: os.PathLike | str, inputs: Sequence[os.PathLike | str] = ()
+    scan: ScanReport,
+    path: os.PathLike | str,
+    inputs: Sequence[os.PathLike | str] = (),
+    config: Mapping[str, object] | None = None,
 ) -> None:
     """A capture's QC report (qc/<experiment>.json): the scan and the provenance of the capture
-    (and of whatever else it was checked against, say the manifest)."""
-    write_json(asdict(scan) | {"provenance": provenance(list(inputs) or [scan.path])}, path)
+    (and of whatever else it was checked against, say the manifest, or ``config``: the parts of
+    it the checks read)."""
+    prov = provenance(list(inputs) or [scan.path], config=config)
+    write_json(asdict(scan) | {"provenance": prov}, path)
 
 
 def scan_capture(

@@ -30,7 +30,14 @@ from pathlib import Path
 
 import numpy as np
 
-from selfsense.io.sources import CHUNK_ROWS, Column, ImportProblem, column_spans, listed
+from selfsense.io.sources import (
+    CHUNK_ROWS,
+    Column,
+    ImportProblem,
+    column_spans,
+    listed,
+    source_labels,
+)
 
 #: the import's log (``selfsense import`` shows it): the separator detected, a column named
 #: like another's position
@@ -154,11 +161,10 @@ class CsvSource:
         self.kind = "TSV" if self.sep == "\t" else "CSV"
         self.names, self.width, self.skip = self._layout()
         self.positions = {c.name: self._position(c, self.names) for c in columns}
-        self.labels = {
-            c.name: f"column {c.spelled if isinstance(c.source, int) else repr(c.source)}"
-            + ("" if c.name == "time" else f" ({c.name})")
-            for c in columns
-        }
+        self.labels = source_labels(
+            columns,
+            lambda c: f"column {c.spelled if isinstance(c.source, int) else repr(c.source)}",
+        )
         self.chunk_rows = int(min(CHUNK_ROWS, max(64, CSV_CHUNK_CELLS // self.width)))
 
     @staticmethod

@@ -374,6 +374,17 @@ def require_keys(
             node = node[part]
 
 
+#: a protocol's Eq 15 setting ``{R: identified, c: identified}``: the operator runs Eq 15 with the
+#: R and c the pipeline identified (:func:`selfsense.twin.bender.identified_compensation`), as the
+#: paper ran it with its own identification (Eq 12), never with the R and c the twin is built with
+IDENTIFIED = "identified"
+
+
+def needs_identification(entry: Mapping[str, Any] | None) -> bool:
+    """Whether a protocol's compensation takes Eq 15's R and c from the identification."""
+    return bool(entry) and IDENTIFIED in (entry.get("R"), entry.get("c"))
+
+
 def channel_scalings(manifest: Mapping[str, Any]) -> dict[str, str]:
     """Per channel recorded through a factor (``sensors.<channel>.scale``, set by ``selfsense
     import --scale/--gain``: the logged column times the factor is the channel), a short label

@@ -37,7 +37,9 @@ from selfsense.io.sources import (
     ImportProblem,
     column_spans,
     listed,
+    one_length,
     short_error,
+    source_labels,
 )
 
 
@@ -91,21 +93,12 @@ class MatSource:
 
     def __init__(self, path: Path, columns: Sequence[Column]):
         self.path = path
-        self.labels = {
-            c.name: f"variable {c.source!r}" + ("" if c.name == "time" else f" ({c.name})")
-            for c in columns
-        }
+        self.labels = source_labels(columns, lambda c: f"variable {c.source!r}")
         self.columns = {c.name: c for c in columns}
         self.doc = _load_mat(path)
         self.data = {c.name: _mat_variable(path, self.doc, c) for c in columns}
         lengths = {name: len(v) for name, v in self.data.items()}
-        if len(set(lengths.values())) != 1:
-            raise ImportProblem(
-                f"{path}: the variables differ in length ("
-                + ", ".join(f"{self.labels[k]}: {n}" for k, n in lengths.items())
-                + ")"
-            )
-        if 0 in lengths.values():
+        if one_length(path, "variables", self.labels, lengths) == 0:
             raise ImportProblem(f"{path}: no data (the variables are empty)")
 
     def chunks(self, progress: bool = False) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
@@ -237,22 +230,13 @@ class Mat73Source:
     def __init__(self, path: Path, columns: Sequence[Column]):
         self.path = path
         self.columns = {c.name: c for c in columns}
-        self.labels = {
-            c.name: f"variable {c.source!r}" + ("" if c.name == "time" else f" ({c.name})")
-            for c in columns
-        }
+        self.labels = source_labels(columns, lambda c: f"variable {c.source!r}")
         with self._open() as f:
             #: per channel: the dataset's HDF5 path, its row to read (or None: its one column
             #: along axis 0), and how many samples
             self.where = {c.name: self._locate(f, c) for c in columns}
         lengths = {name: w[2] for name, w in self.where.items()}
-        if len(set(lengths.values())) != 1:
-            raise ImportProblem(
-                f"{path}: the variables differ in length ("
-                + ", ".join(f"{self.labels[k]}: {n}" for k, n in lengths.items())
-                + ")"
-            )
-        self.n = next(iter(lengths.values()))
+        self.n = one_length(path, "variables", self.labels, lengths)
 
     @contextmanager
     def _open(self) -> Iterator[Any]:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import re
 import shlex
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -176,6 +176,24 @@ def parse_attr(text: str) -> tuple[str, Any]:
         except ValueError:
             continue
     return key, value
+
+
+def source_labels(columns: Sequence[Column], spelled) -> dict[str, str]:
+    """{channel: how a refusal names where it is}: ``spelled(column)`` ("column 3", "variable
+    'data[2]'"), and the channel it is for but the time's."""
+    return {c.name: spelled(c) + ("" if c.name == "time" else f" ({c.name})") for c in columns}
+
+
+def one_length(path: Path, what: str, labels: Mapping[str, str], lengths: Mapping[str, int]) -> int:
+    """The one length all the requested ``what`` (variables, channels) share, or one line naming
+    each one's."""
+    if len(set(lengths.values())) != 1:
+        raise ImportProblem(
+            f"{path}: the {what} differ in length ("
+            + ", ".join(f"{labels[k]}: {n}" for k, n in lengths.items())
+            + ")"
+        )
+    return next(iter(lengths.values()))
 
 
 def listed(items: Sequence[str]) -> str:

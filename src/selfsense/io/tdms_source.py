@@ -33,7 +33,9 @@ from selfsense.io.sources import (
     ImportProblem,
     column_spans,
     listed,
+    one_length,
     short_error,
+    source_labels,
 )
 
 #: nptdms' path of a channel, /'Group'/'Channel' (a quote in a name doubled)
@@ -59,11 +61,9 @@ class TdmsSource:
             if not self.channels:
                 raise ImportProblem(f"{path}: the TDMS file has no channels")
             self.where = {c.name: self._locate(c) for c in columns}
-            self.labels = {
-                c.name: f"channel {self.spelled(self.where[c.name])!r}"
-                + ("" if c.name == "time" else f" ({c.name})")
-                for c in columns
-            }
+            self.labels = source_labels(
+                columns, lambda c: f"channel {self.spelled(self.where[c.name])!r}"
+            )
             objects = {name: tdms[g][ch] for name, (g, ch) in self.where.items()}
             for name, channel in objects.items():
                 self._check_type(name, channel)
@@ -71,13 +71,7 @@ class TdmsSource:
             self.declared_fs = self._declared_fs(
                 {n: ch for n, ch in objects.items() if n != "time"}
             )
-        if len(set(lengths.values())) != 1:
-            raise ImportProblem(
-                f"{path}: the channels differ in length ("
-                + ", ".join(f"{self.labels[k]}: {n}" for k, n in lengths.items())
-                + ")"
-            )
-        self.n = next(iter(lengths.values()))
+        self.n = one_length(path, "channels", self.labels, lengths)
         if self.n == 0:
             raise ImportProblem(f"{path}: no data (the channels are empty)")
 

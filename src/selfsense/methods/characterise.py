@@ -100,9 +100,7 @@ def rising(u: np.ndarray) -> np.ndarray:
     SMOOTH_PERIOD_FRACTION of its dominant period (noise would flip it sample by sample)."""
     spectrum = np.abs(np.fft.rfft(u - u.mean()))
     k = int(np.argmax(spectrum[1:])) + 1 if len(spectrum) > 1 else 1
-    width = max(1, int(round(len(u) / k * SMOOTH_PERIOD_FRACTION)))
-    smooth = np.convolve(u, np.ones(width) / width, mode="same") if width > 1 else u
-    return direction(smooth)
+    return rising_with_period(u, len(u) / k)
 
 
 def _slope(u: np.ndarray, y: np.ndarray) -> float:

@@ -47,7 +47,7 @@ from scipy.optimize import brentq
 
 from selfsense import __version__
 from selfsense.io.capture import TWIN_COMPRESSION, CaptureWriter, ScanReport, channel_spec
-from selfsense.io.manifest import Experiment
+from selfsense.io.manifest import IDENTIFIED, Experiment, needs_identification
 from selfsense.methods import powerloss as pl
 from selfsense.methods.drive import Drive, drive_from_protocol
 from selfsense.methods.hysteresis import newton_step
@@ -133,17 +133,6 @@ class BenderParams:
                     np.asarray(value, float) if isinstance(value, tuple) else float(value)
                 )
         return out
-
-
-#: a protocol's Eq 15 setting ``{R: identified, c: identified}``: the operator runs Eq 15 with the
-#: R and c the pipeline identified (:func:`identified_compensation`), as the paper ran it with its
-#: own identification (Eq 12), never with the R and c the twin is built with
-IDENTIFIED = "identified"
-
-
-def needs_identification(entry: Mapping[str, Any] | None) -> bool:
-    """Whether a protocol's compensation takes Eq 15's R and c from the identification."""
-    return bool(entry) and IDENTIFIED in (entry.get("R"), entry.get("c"))
 
 
 def identified_compensation(identified: str | Path, table_2: str | Path) -> dict[str, float]:
