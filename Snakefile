@@ -28,6 +28,7 @@ include: "workflow/rules/verify.smk"
 include: "workflow/rules/stages.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/twin.smk"
+include: "workflow/rules/envelope.smk"
 
 # A measured capture or manifest replaced by other bytes with an older mtime (cp -p, rsync -t,
 # tar x) would give "Nothing to be done": stop with one line naming it. Here, not in onstart:
@@ -37,17 +38,20 @@ check_inputs_unchanged(MEASURED)
 
 rule all:
     input:
-        ACQUIRE_OUTPUTS,
-        RIPPLE_OUTPUTS,
-        IDENTIFY_OUTPUTS,
-        GAMMA_OUTPUTS,
-        OBSERVER_OUTPUTS,
-        CONTROL_OUTPUTS,
-        THERMAL_OUTPUTS,
-        POWERLOSS_OUTPUTS,
-        CHARACTERISE_OUTPUTS,
-        VERIFY_OUTPUTS,
-        STAGE_PLAN_OUTPUTS,
-        REPORT_OUTPUTS,
-        TWIN_OUTPUTS,
+        # the run's own datasets: the envelope's members only for `snakemake envelope`
+        nominal(
+            ACQUIRE_OUTPUTS,
+            RIPPLE_OUTPUTS,
+            IDENTIFY_OUTPUTS,
+            GAMMA_OUTPUTS,
+            OBSERVER_OUTPUTS,
+            CONTROL_OUTPUTS,
+            THERMAL_OUTPUTS,
+            POWERLOSS_OUTPUTS,
+            CHARACTERISE_OUTPUTS,
+            VERIFY_OUTPUTS,
+            STAGE_PLAN_OUTPUTS,
+            REPORT_OUTPUTS,
+            TWIN_OUTPUTS,
+        ),
     default_target: True

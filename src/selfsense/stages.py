@@ -277,11 +277,16 @@ class StagePlan:
 
 def plan_stages(manifest: Mapping[str, Any], experiments: Experiments) -> StagePlan:
     """Which stages run for the dataset of ``manifest`` with ``experiments``, and what it lacks
-    for each one skipped: the stages it builds on first, then its own needs."""
+    for each one skipped: the stages it builds on first, then its own needs. A manifest with a
+    ``stages:`` list (an envelope member's) runs only those."""
     lacks: dict[str, tuple[str, ...]] = {}
+    chosen = manifest.get("stages")
     for stage in STAGES:
         before = [f"the {key} stage" for key in stage.after if lacks[key]]
-        lacks[stage.key] = tuple(dict.fromkeys(before + stage.lacks(manifest, experiments)))
+        own = stage.lacks(manifest, experiments)
+        if chosen is not None and stage.key not in chosen:
+            own = ["a place in the manifest's stages: list", *own]
+        lacks[stage.key] = tuple(dict.fromkeys(before + own))
     return StagePlan(lacks)
 
 

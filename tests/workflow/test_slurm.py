@@ -13,12 +13,19 @@ already goes every way a job can (a capture written and checked, read by the nex
 shared filesystem, tables compared byte for byte).
 """
 
+import json
 import re
+import shutil
 import subprocess
 
+import pandas as pd
 import pytest
+import yaml
 
-from ..helpers import ROOT, copy_repo, run_snakemake
+from selfsense.io.manifest import load_yaml
+from selfsense.io.unknowns import unknowns_hash
+
+from ..helpers import ROOT, SMOKE_CONFIG, copy_repo, run_snakemake
 
 pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
@@ -66,3 +73,46 @@ def test_chapter_3_tables_via_slurm_equal_the_local_run(slurm_cluster, smoke_run
     assert made == sorted(TABLES)
     for table in TABLES:
         assert (repo / table).read_bytes() == (smoke_run / table).read_bytes(), table
+
+
+#: a two-member smoke envelope of Chapter 3 (stages ripple and ch3), its members drawn by a Latin
+#: hypercube: 2 × 8 member jobs (manifest, 3 captures, their ripple, the Ch. 3 tables, the
+#: scorecard), the plan and the verdicts
+ENVELOPE = {"members": 2, "method": "latin", "seed": 5, "stages": ["ripple", "ch3"]}
+
+
+def test_a_two_member_envelope_via_slurm(slurm_cluster, smoke_run, tmp_path):
+    """The envelope's members are jobs like any dataset's: through SLURM, on the shared
+    filesystem, each member's manifest holds its row of the plan and its Chapter 3 table moves
+    with its draws; the verdicts' table has every emergent row (with 2 members, none has the 3
+    an envelope needs)."""
+    repo = tmp_path / "repo"
+    shutil.copytree(smoke_run, repo, symlinks=True)  # the nominal scorecard, up to date
+    config = yaml.safe_load((ROOT / SMOKE_CONFIG).read_text()) | {"envelope": ENVELOPE}
+    (repo / "envelope.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    run = run_snakemake(
+        repo,
+        "--workflow-profile",
+        "profiles/slurm",
+        *BARE_CLUSTER,
+        "envelope",
+        config="envelope.yaml",
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert run.stderr.count("has been submitted with SLURM jobid") >= 2 * 8 + 2, run.stderr[-3000:]
+    plan = pd.read_csv(repo / "results" / "envelope" / "pi_p885" / "plan.csv", index_col="member")
+    assert list(plan.index) == ["pi_p885~01", "pi_p885~02"]
+    phases = []
+    for member, row in plan.iterrows():
+        manifest = load_yaml(repo / "raw" / member / "dataset.yaml")
+        assert manifest["twin"]["ripple"]["phase_deg"] == row["ripple_phase_deg"]
+        assert manifest["stages"] == ENVELOPE["stages"]
+        phases.append(pd.read_csv(repo / "results" / member / "ch3" / "phases.csv"))
+    assert not phases[0].equals(phases[1])
+    card = pd.read_csv(repo / "results" / "envelope" / "pi_p885" / "scorecard.csv")
+    nominal = pd.read_csv(repo / "results" / "pi_p885" / "scorecard.csv")
+    assert len(card) == (nominal["kind"] == "emergent").sum()
+    assert set(card["envelope verdict"]) == {"no envelope"}
+    assert set(card.loc[card["chapter"].astype(str) == "3", "members"]) == {2}
+    sidecar = json.loads((repo / "results/envelope/pi_p885/scorecard.csv.json").read_text())
+    assert sidecar["unknowns_sha256"] == unknowns_hash(ROOT / "workflow" / "unknowns.yaml")

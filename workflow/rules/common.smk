@@ -13,11 +13,13 @@ from snakemake.utils import validate
 from selfsense.chapters import figure_names
 from selfsense.chapters.figure_names import loop_pages
 from selfsense.methods.cycles import protocol_period
-from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, channel_scalings, expand_protocols, load_dataset, load_yaml,
+from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, catalogue, channel_scalings, load_dataset, load_yaml,
                                     needs_identification, protocol_duration, validate_config)
 from selfsense.scorecard.calibration import load_targets
 from selfsense.scorecard.reference_values import tables_read as reference_tables
 from selfsense.scorecard.registry import applicable, parse_registry, tables_read
+from selfsense.io.unknowns import load_unknowns
+from selfsense.verify.envelope import envelope
 from selfsense import stages
 
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
@@ -111,31 +113,63 @@ def resources_for(size):
 
 RAW = Path(config["raw_dir"])
 DATASETS = {name: load_dataset(RAW, name) for name in config["datasets"]}
+
+# ---- The envelope (workflow/rules/envelope.smk): its members are datasets of their own,
+# <dataset>~NN, each the envelope dataset's manifest with one draw of the unknowns, run by the
+# same rules as any dataset. They are in DATASETS for the rules, in no list rule all or the
+# report's summary reads (NOMINAL): only `snakemake envelope` asks for them.
+NOMINAL = list(DATASETS)
+UNKNOWNS = "workflow/unknowns.yaml"
+ENVELOPE = envelope(config["envelope"], DATASETS, load_unknowns(UNKNOWNS, raw_dir=RAW))
+DATASETS |= ENVELOPE.manifests
+
+
+ENVELOPE_FOLDER = f"results/envelope/{ENVELOPE.design.dataset}"
+
+
+def envelope_inputs(wildcards):
+    """Rule envelope's inputs: the nominal scorecard, every member's, the plan; one line if the
+    envelope's dataset is not among the run's."""
+    base = ENVELOPE.design.dataset
+    if base not in NOMINAL:
+        raise ValueError(f"config.yaml: key envelope.dataset: {base} is not among datasets "
+                         f"({', '.join(NOMINAL)})")
+    return {"nominal": f"results/{base}/scorecard.csv", "plan": f"{ENVELOPE_FOLDER}/plan.csv",
+            "unit": f"{ENVELOPE_FOLDER}/unit.csv",
+            "members": [f"results/{m}/scorecard.csv" for m in ENVELOPE.manifests]}
+
+
+def nominal(*outputs):
+    """The outputs of the run's own datasets, without the envelope members'."""
+    return [o for group in outputs for o in group if not any(f"/{m}/" in o for m in ENVELOPE.manifests)]
+
+
 SIMULATED = [n for n, m in DATASETS.items() if m["source"] == "simulated"]
 MEASURED = [n for n in DATASETS if n not in SIMULATED]
 
 
 def _experiments(name):
     manifest = DATASETS[name]
-    catalogue = expand_protocols(manifest["protocols"], config["campaign"])
+    experiments = catalogue(manifest, config["campaign"], RAW / name / "dataset.yaml")
     if manifest["source"] == "measured" and "experiments" in manifest:
         missing = [e for e in manifest["experiments"] if not (RAW / name / f"{e}.nc").exists()]
         if missing:
             raise ValueError(f"{RAW / name / 'dataset.yaml'}: experiment {missing[0]} is listed "
                              f"without a capture {RAW / name / (missing[0] + '.nc')}")
-        return {e: catalogue.get(e) for e in manifest["experiments"]}
-    return catalogue
+        return {e: experiments.get(e) for e in manifest["experiments"]}
+    return experiments
 
 
 EXPERIMENTS = {name: _experiments(name) for name in DATASETS}
 
 
-#: what a dataset's name may be (the manifest's name, a folder under raw_dir)
+#: what a dataset's name may be (the manifest's name, a folder under raw_dir); an envelope
+#: member's adds ~ and its number
 DATASET_NAME = r"[A-Za-z0-9][A-Za-z0-9_-]*"
 
 
 wildcard_constraints:
-    dataset=DATASET_NAME,
+    dataset=DATASET_NAME + r"(~[0-9]+)?",
     experiment=r"[A-Za-z0-9_]+",
 
 
@@ -465,10 +499,15 @@ def stage_outputs():
 def scorecard_tables(dataset):
     """The registry's tables (and those its reference values are compared with) that some stage
     makes for the dataset: the scorecard reads (and reruns after) exactly these; the other entries
-    show as "not reproduced yet"."""
-    return [t for t in (f"results/{dataset}/{t}" for t in tables_read(applicable(SCORECARD, DATASETS[dataset]))
-                        + reference_tables(DATASETS[dataset]))
-            if t in stage_outputs()]
+    show as "not reproduced yet". An envelope member's: its emergent and calibration rows' only
+    (what the envelope reads)."""
+    entries = applicable(SCORECARD, DATASETS[dataset])
+    if dataset in ENVELOPE.manifests:  # the numbers' own tables, not those explaining them
+        read = list(dict.fromkeys(e.locate.table for e in entries
+                                  if e.kind in ("emergent", "calibration") and e.locate))
+    else:
+        read = tables_read(entries) + reference_tables(DATASETS[dataset])
+    return [t for t in (f"results/{dataset}/{t}" for t in read) if t in stage_outputs()]
 
 
 def earlier_scorecards():

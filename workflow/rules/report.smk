@@ -73,7 +73,7 @@ rule scorecard_summary:
     scorecard from an earlier run, as it is (ancient: never made again here), each said to be so
     with its date; running one dataset never drops another's numbers."""
     input:
-        cards=[f"results/{d}/scorecard.csv" for d in DATASETS],
+        cards=[f"results/{d}/scorecard.csv" for d in NOMINAL],
         earlier=[ancient(card) for card in EARLIER_SCORECARDS.values()],
         library=library_sources("scorecard_summary"),
     output:
@@ -98,4 +98,4 @@ rule scorecard_summary:
         "../scripts/scorecard_summary.py"
 
 
-REPORT_OUTPUTS = expand(rules.scorecard.output.table, dataset=DATASETS) + list(rules.scorecard_summary.output) + CURVE_OUTPUTS
+REPORT_OUTPUTS = expand(rules.scorecard.output.table, dataset=NOMINAL) + list(rules.scorecard_summary.output) + CURVE_OUTPUTS

@@ -10,10 +10,12 @@ the folder it runs in (or given).
 
 from __future__ import annotations
 
+import copy
 import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -428,17 +430,25 @@ def expand_protocols(
     campaign: str,
     directory: str | Path = PROTOCOLS,
     source: str | Path | None = None,
+    overrides: Mapping[str, float] | None = None,
 ) -> dict[str, Experiment]:
     """The experiment catalogue for a campaign: sets expanded to <name>_s<k>, smoke overrides
     applied. Every name is checked (:func:`check_protocol_name`, blamed on ``source``, the
-    manifest, if given) before any file is opened."""
+    manifest, if given) before any file is opened. ``overrides`` ({"<protocol>:<dotted key>":
+    value}, a manifest's ``protocol_overrides``) replace values of the files first."""
     for chapter in protocol_names:
         check_protocol_name(chapter, source or directory, directory)
+    by_chapter = _overrides_by_protocol(overrides or {}, protocol_names, source or directory)
     experiments: dict[str, Experiment] = {}
     for chapter in protocol_names:
         path = Path(directory) / f"{chapter}.yaml"
-        doc = load_yaml(path)
-        validate_document(doc, "protocol.schema.yaml", path)
+        # a copy: the experiments hold parts of it, and a caller may change them
+        doc = copy.deepcopy(_protocol_document(str(path), path.stat().st_mtime_ns))
+        if chapter in by_chapter:
+            for key, value in by_chapter[chapter].items():
+                _replace(
+                    doc, key, value, f"{source or path}: key protocol_overrides.{chapter}:{key}"
+                )
         for name, entry in doc["experiments"].items():
             entry = dict(entry)
             smoke = entry.pop("smoke", {})
@@ -461,3 +471,55 @@ def expand_protocols(
                     compensation=entry.get("compensation"),
                 )
     return experiments
+
+
+def catalogue(
+    manifest: Mapping[str, Any], campaign: str, source: str | Path | None = None
+) -> dict[str, Experiment]:
+    """A dataset's experiment catalogue: its protocols expanded for the campaign, with its
+    ``protocol_overrides`` (an envelope member's drawn levels and record lengths)."""
+    return expand_protocols(
+        manifest["protocols"], campaign, source=source, overrides=manifest.get("protocol_overrides")
+    )
+
+
+@lru_cache(maxsize=64)
+def _protocol_document(path: str, mtime_ns: int) -> Any:
+    """A protocol file, read and validated once per version (every envelope member expands the
+    same files)."""
+    doc = load_yaml(path)
+    validate_document(doc, "protocol.schema.yaml", path)
+    return doc
+
+
+def _overrides_by_protocol(
+    overrides: Mapping[str, float], protocol_names: Sequence[str], source: Any
+) -> dict[str, dict[str, float]]:
+    """{protocol: {dotted key: value}} of ``protocol_overrides``, each naming a protocol the
+    dataset runs."""
+    grouped: dict[str, dict[str, float]] = {}
+    for location, value in overrides.items():
+        chapter, _, key = location.partition(":")
+        if chapter not in protocol_names or not key:
+            raise ManifestError(
+                f"{source}: key protocol_overrides.{location}: not <protocol>:<dotted key> of a "
+                f"protocol the dataset runs ({', '.join(protocol_names)})",
+                "protocol_overrides",
+            )
+        grouped.setdefault(chapter, {})[key] = value
+    return grouped
+
+
+def _replace(doc: Any, dotted: str, value: float, where: str) -> None:
+    """Set the number at a dotted key of a protocol document (a list's element by its index)."""
+    *parents, last = dotted.split(".")
+    node = doc
+    for key in parents:
+        node = node[int(key)] if isinstance(node, list) and key.isdigit() else node.get(key)
+        if not isinstance(node, (Mapping, list)):
+            raise ManifestError(f"{where}: the protocol has no such key", "protocol_overrides")
+    index = int(last) if isinstance(node, list) and last.isdigit() else last
+    present = index < len(node) if isinstance(index, int) else index in node
+    if not present or not isinstance(node[index], (int, float)) or isinstance(node[index], bool):
+        raise ManifestError(f"{where}: the protocol holds no number there", "protocol_overrides")
+    node[index] = value

@@ -51,6 +51,7 @@ class Unknown:
 
     id: str
     dataset: str  # pi_p885 | tokin_nb40 | both
+    group: str  # its family: the envelope varies whole groups
     paths: tuple[str, ...]  # every location that holds the value (set together)
     nominal: float
     low: float
@@ -179,6 +180,7 @@ def _parse(entry: Mapping[str, Any], where: str) -> Unknown:
     return Unknown(
         id=entry["id"],
         dataset=entry["dataset"],
+        group=entry["group"],
         paths=paths,
         nominal=nominal,
         low=low,

@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from selfsense.io.capture import ScanReport, UnshrinkableChunk, compression_settings
-from selfsense.io.manifest import ManifestError, expand_protocols, load_dataset
+from selfsense.io.manifest import ManifestError, catalogue, load_dataset
 from selfsense.methods.drive import Drive, drive_from_protocol
 from selfsense.twin.bench import Bench, Controller, DaqPlan, simulate_capture
 from selfsense.twin.params import TwinParams
@@ -79,12 +79,12 @@ def simulate_experiment(
         raise ManifestError(
             f"{where}: source is {manifest['source']}; the twin never writes measured captures"
         )
-    catalogue = expand_protocols(manifest["protocols"], config["campaign"])
-    if experiment not in catalogue:
+    experiments = catalogue(manifest, config["campaign"], where)
+    if experiment not in experiments:
         raise ManifestError(
             f"{where}: unknown experiment {experiment!r} for campaign {config['campaign']}"
         )
-    exp = catalogue[experiment]
+    exp = experiments[experiment]
     cap = config["capture"]
     warmup = float(exp.protocol.get("warmup", 0.0))
     attrs = {

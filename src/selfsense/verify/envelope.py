@@ -1,0 +1,297 @@
+"""The reproduction envelope's members: which unknowns vary, the sampling plan, each member's
+manifest, and the Morris screening of what drives each published number.
+
+An envelope member is the nominal dataset with every varied unknown (workflow/unknowns.yaml) set
+to one draw: a dataset of its own, ``<dataset>~NN``, whose manifest this module writes, run by the
+same rules as the nominal one (docs/envelope.md). Draws come from SALib: Morris trajectories
+(Morris 1991; Campolongo, Cariboni, Saltelli 2007) over groups of unknowns, which both spread the
+members over the declared ranges and say which group moves which number (μ*, σ of the elementary
+effects), or a Latin hypercube (McKay, Beckman, Conover 1979) for the spread alone. Designs are
+drawn in the unit hypercube and mapped through each unknown's distribution, so μ* is per unit of
+an unknown's declared range and comparable between groups.
+
+Pure functions apart from :func:`write_member_manifest`.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import yaml
+from SALib.analyze import morris as morris_analysis
+from SALib.sample import latin
+from SALib.sample import morris as morris_sampling
+from scipy import stats
+
+from selfsense.io.manifest import ManifestError, validate_document
+from selfsense.io.provenance import atomic_path
+from selfsense.io.unknowns import MODEL_PREFIX, PROTOCOL_PATH, Unknown
+
+#: between a dataset's name and a member's number: pi_p885~07
+MEMBER_MARK = "~"
+#: the sampling methods an envelope may use
+METHODS = ("morris", "latin")
+
+
+@dataclass(frozen=True)
+class Design:
+    """An envelope's sampling design (config.yaml's ``envelope:``)."""
+
+    dataset: str
+    members: int
+    method: str  # morris | latin
+    seed: int
+    levels: int  # Morris grid levels
+    #: the groups of unknowns varied (each unknown's ``group``), each one factor for Morris
+    groups: Sequence[str]
+    #: the stages a member runs (the nominal run's others are not varied)
+    stages: Sequence[str]
+
+    @classmethod
+    def from_config(cls, section: Mapping[str, Any]) -> Design:
+        return cls(
+            dataset=section["dataset"],
+            members=int(section["members"]),
+            method=section["method"],
+            seed=int(section["seed"]),
+            levels=int(section["levels"]),
+            groups=list(section["groups"]),
+            stages=list(section["stages"]),
+        )
+
+
+def member_name(dataset: str, number: int) -> str:
+    """A member's dataset name: ``pi_p885~07`` (numbered from 1)."""
+    return f"{dataset}{MEMBER_MARK}{number:02d}"
+
+
+def is_member(name: str) -> bool:
+    """Whether a dataset name is an envelope member's."""
+    return MEMBER_MARK in name
+
+
+def varied_unknowns(
+    unknowns: Sequence[Unknown], design: Design, source: str = "config.yaml"
+) -> list[Unknown]:
+    """The unknowns the design varies: the design's dataset's, of its groups, in the groups'
+    order, except those fixed in the twin's code (``model:``), which cannot vary yet. A group
+    with nothing of the dataset's that can vary is refused in one line."""
+    own = [u for u in unknowns if design.dataset in u.datasets]
+    chosen: list[Unknown] = []
+    for group in design.groups:
+        members = [u for u in own if u.group == group and not u.in_model]
+        if not members:
+            known = sorted({u.group for u in own if not u.in_model})
+            raise ManifestError(
+                f"{source}: key envelope.groups: {group!r} is no group of {design.dataset}'s "
+                f"unknowns that can vary (workflow/unknowns.yaml: {', '.join(known)})"
+            )
+        chosen += members
+    return chosen
+
+
+def held_unknowns(unknowns: Sequence[Unknown], design: Design) -> list[Unknown]:
+    """The dataset's unknowns the design holds at their nominal (every envelope output says
+    which): those of groups it does not vary, and those fixed in the twin's code."""
+    varied = {u.id for u in varied_unknowns(unknowns, design)}
+    return [u for u in unknowns if design.dataset in u.datasets and u.id not in varied]
+
+
+def problem(varied: Sequence[Unknown], design: Design) -> dict[str, Any]:
+    """SALib's problem: every varied unknown on [0, 1] (its distribution's quantile), with its
+    group for Morris."""
+    spec: dict[str, Any] = {
+        "num_vars": len(varied),
+        "names": [u.id for u in varied],
+        "bounds": [[0.0, 1.0]] * len(varied),
+    }
+    if design.method == "morris":
+        spec["groups"] = [u.group for u in varied]
+    return spec
+
+
+def trajectories(design: Design) -> int:
+    """Morris's r: how many trajectories of (groups + 1) members the design's members hold."""
+    return design.members // (len(design.groups) + 1)
+
+
+def unit_design(varied: Sequence[Unknown], design: Design) -> np.ndarray:
+    """The members' draws in the unit hypercube (members × unknowns), from SALib.
+
+    Morris: r = members // (groups + 1) trajectories (at least 2 for σ), each moving one group at
+    a time by Δ on a ``levels``-level grid; a Latin hypercube: ``members`` rows, one per
+    stratum of every unknown."""
+    spec = problem(varied, design)
+    if design.method == "morris":
+        r = trajectories(design)
+        if r < 2:
+            need = 2 * (len(design.groups) + 1)
+            raise ManifestError(
+                f"config.yaml: key envelope.members: {design.members} members are fewer than "
+                f"two Morris trajectories of {len(design.groups)} groups: at least {need}"
+            )
+        return morris_sampling.sample(spec, r, num_levels=design.levels, seed=design.seed)
+    if design.method == "latin":
+        return latin.sample(spec, design.members, seed=design.seed)
+    raise ManifestError(
+        f"config.yaml: key envelope.method: {design.method!r} is not one of {', '.join(METHODS)}"
+    )
+
+
+def physical(u: np.ndarray, unknown: Unknown) -> np.ndarray:
+    """Quantiles ``u`` in [0, 1] as values of ``unknown``: its range drawn uniformly, a
+    loguniform range uniformly in log, an integer range as whole numbers (each equally likely),
+    a normal truncated to its range."""
+    u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
+    low, high = unknown.low, unknown.high
+    if unknown.kind == "uniform":
+        return low + u * (high - low)
+    if unknown.kind == "loguniform":
+        return np.exp(math.log(low) + u * (math.log(high) - math.log(low)))
+    if unknown.kind == "integer":
+        return np.minimum(low + np.floor(u * (high - low + 1)), high)
+    if unknown.kind == "normal":
+        a, b = (low - unknown.mean) / unknown.sd, (high - unknown.mean) / unknown.sd
+        return stats.truncnorm.ppf(u, a, b, loc=unknown.mean, scale=unknown.sd)
+    raise ManifestError(f"workflow/unknowns.yaml: {unknown.id}: no draw for kind {unknown.kind}")
+
+
+def sampling_plan(varied: Sequence[Unknown], design: Design) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(plan, unit): the members' values of every varied unknown, and the same draws in the unit
+    hypercube (what Morris's analysis reads), indexed by member name."""
+    unit = unit_design(varied, design)
+    names = [member_name(design.dataset, k + 1) for k in range(len(unit))]
+    ids = [u.id for u in varied]
+    unit_frame = pd.DataFrame(unit, index=pd.Index(names, name="member"), columns=ids)
+    # 12 significant digits: a protocol's 0.5 s, not 0.49999999999999994, in a member's manifest
+    plan = pd.DataFrame(
+        {u.id: [float(f"{v:.12g}") for v in physical(unit[:, j], u)] for j, u in enumerate(varied)},
+        index=unit_frame.index,
+    )
+    return plan, unit_frame
+
+
+def member_manifest(
+    base: Mapping[str, Any],
+    varied: Sequence[Unknown],
+    values: Mapping[str, float],
+    name: str,
+    stages: Sequence[str],
+) -> dict[str, Any]:
+    """The nominal manifest with one member's draws: a file location set in place, a protocol's
+    in ``protocol_overrides`` (keyed <protocol>:<dotted key>), only the design's stages run."""
+    manifest = copy.deepcopy(dict(base))
+    manifest["name"] = name
+    manifest["description"] = (
+        f"Envelope member {name} of {base['name']}: its manifest with the draws of "
+        f"{len(varied)} unknowns (workflow/unknowns.yaml). " + base["description"].strip()
+    )
+    overrides = dict(manifest.get("protocol_overrides", {}))
+    for unknown in varied:
+        value = float(values[unknown.id])
+        value = int(round(value)) if unknown.kind == "integer" else value
+        for location in unknown.paths:
+            match = PROTOCOL_PATH.fullmatch(location)
+            if match:
+                overrides[f"{match.group('name')}:{match.group('key')}"] = value
+            elif not location.startswith(MODEL_PREFIX):
+                _set(manifest, location.split("."), value, f"{base['name']}: {location}")
+    if overrides:
+        manifest["protocol_overrides"] = overrides
+    manifest["stages"] = list(stages)
+    return manifest
+
+
+def _set(doc: Any, keys: Sequence[str], value: float, where: str) -> None:
+    node = doc
+    for key in keys[:-1]:
+        node = node[int(key)] if isinstance(node, list) else node[key]
+    last = keys[-1]
+    if isinstance(node, list):
+        node[int(last)] = value
+    elif last in node:
+        node[last] = value
+    else:
+        raise ManifestError(f"{where}: the manifest has no such key")
+
+
+def write_member_manifest(manifest: Mapping[str, Any], path: str | Path) -> None:
+    """A member's raw/<member>/dataset.yaml, written whole or not at all."""
+    with atomic_path(path) as tmp:
+        text = yaml.safe_dump(dict(manifest), sort_keys=False, allow_unicode=True, width=100)
+        tmp.write_text(text, encoding="utf-8")
+
+
+def morris_screening(
+    varied: Sequence[Unknown],
+    design: Design,
+    unit: pd.DataFrame,
+    outputs: pd.DataFrame,
+) -> pd.DataFrame:
+    """Morris's μ* and σ of every output (a column of ``outputs``, members × outputs) for every
+    group: rows (output, factor, mu_star, sigma), in the outputs' units per unit of the
+    group's declared range. An output a member did not give (NaN) is screened on none: its
+    trajectories would be broken."""
+    spec = problem(varied, design)
+    rows = []
+    x = unit.loc[outputs.index].to_numpy()
+    for column in outputs.columns:
+        y = outputs[column].to_numpy(dtype=float)
+        if not np.isfinite(y).all():
+            continue
+        result = morris_analysis.analyze(
+            spec, x, y, num_levels=design.levels, seed=design.seed, print_to_console=False
+        )
+        for factor, mu_star, sigma in zip(
+            result["names"], result["mu_star"], result["sigma"], strict=True
+        ):
+            rows.append((column, str(factor), float(mu_star), float(sigma)))
+    return pd.DataFrame(rows, columns=["output", "factor", "mu_star", "sigma"])
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """An envelope as the workflow runs it: its design, what varies and what is held, the
+    members' draws and manifests (empty when the design's dataset is not among the run's)."""
+
+    design: Design
+    varied: tuple[Unknown, ...]
+    held: tuple[Unknown, ...]
+    plan: pd.DataFrame
+    unit: pd.DataFrame
+    manifests: Mapping[str, Mapping[str, Any]]
+
+
+def envelope(
+    section: Mapping[str, Any],
+    datasets: Mapping[str, Mapping[str, Any]],
+    unknowns: Sequence[Unknown],
+) -> Envelope:
+    """The envelope of config.yaml's ``envelope:`` section over the run's ``datasets`` (their
+    manifests): every member's manifest, validated as a dataset manifest."""
+    design = Design.from_config(section)
+    varied = varied_unknowns(unknowns, design)
+    held = held_unknowns(unknowns, design)
+    base = datasets.get(design.dataset)
+    if base is None:
+        empty = pd.DataFrame()
+        return Envelope(design, tuple(varied), tuple(held), empty, empty, {})
+    if base["source"] != "simulated":
+        raise ManifestError(
+            f"config.yaml: key envelope.dataset: {design.dataset} is measured: an envelope "
+            "varies the twin that makes a simulated dataset"
+        )
+    plan, unit = sampling_plan(varied, design)
+    manifests = {}
+    for name, values in plan.iterrows():
+        manifest = member_manifest(base, varied, values, str(name), design.stages)
+        validate_document(manifest, "dataset.schema.yaml", f"the manifest of member {name}")
+        manifests[str(name)] = manifest
+    return Envelope(design, tuple(varied), tuple(held), plan, unit, manifests)

@@ -1,0 +1,285 @@
+"""The reproduction envelope: SALib's draws mapped through each unknown's distribution, the Morris
+design's one-group-at-a-time steps and the Latin hypercube's strata, a member's manifest and
+protocol overrides (and what the stage plan makes of its stages: list), Morris's μ* recovered on
+a function with known effects, and the verdicts of a published number against an envelope."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from selfsense import stages
+from selfsense.io.manifest import (
+    ManifestError,
+    catalogue,
+    load_config,
+    load_dataset,
+    validate_document,
+)
+from selfsense.io.unknowns import Unknown, load_unknowns
+from selfsense.scorecard.envelope import (
+    envelope_counts,
+    envelope_scorecard,
+    judge,
+    member_values,
+    row_key,
+)
+from selfsense.verify.envelope import (
+    Design,
+    envelope,
+    held_unknowns,
+    member_manifest,
+    morris_screening,
+    physical,
+    sampling_plan,
+    varied_unknowns,
+)
+
+from ..helpers import ROOT
+
+
+def unknown(uid, low=0.0, high=1.0, kind="uniform", nominal=None, group=None, **kw):
+    nominal = low if nominal is None else nominal
+    group = group or uid.upper()
+    path = (f"twin.x.{uid}",)
+    return Unknown(uid, "pi_p885", group, path, nominal, low, high, kind, "1", (), "s", **kw)
+
+
+def design(groups, method="morris", members=8, levels=4, seed=1):
+    return Design("pi_p885", members, method, seed, levels, groups, ["ripple"])
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    config = load_config(ROOT / "config.yaml")
+    manifests = {d: load_dataset(ROOT / "raw", d) for d in config["datasets"]}
+    unknowns = load_unknowns(ROOT / "workflow" / "unknowns.yaml")
+    return config, manifests, unknowns
+
+
+# --- draws ----------------------------------------------------------------------------------------
+
+
+@given(st.floats(0.0, 1.0))
+def test_quantiles_map_into_each_range(u):
+    for item in (
+        unknown("a", 2.0, 5.0),
+        unknown("b", 0.01, 0.2, "loguniform"),
+        unknown("c", 12, 16, "integer"),
+        unknown("d", -1.0, 3.0, "normal", nominal=0.0, mean=0.0, sd=1.0),
+    ):
+        value = float(physical(np.array([u]), item)[0])
+        assert item.low <= value <= item.high
+        if item.kind == "integer":
+            assert value.is_integer()
+
+
+def test_quantiles_analytic():
+    assert physical(np.array([0.5]), unknown("a", 2.0, 6.0))[0] == pytest.approx(4.0)
+    # loguniform: the median is the geometric mean
+    assert physical(np.array([0.5]), unknown("b", 0.01, 1.0, "loguniform"))[0] == pytest.approx(0.1)
+    # integers 12..16: five equally likely values, u in [0.2, 0.4) is the second
+    assert list(physical(np.array([0.0, 0.25, 0.99, 1.0]), unknown("c", 12, 16, "integer"))) == [
+        12,
+        13,
+        16,
+        16,
+    ]
+    # a normal truncated symmetrically: the median is the mean
+    item = unknown("d", -2.0, 2.0, "normal", nominal=0.0, mean=0.0, sd=1.0)
+    assert physical(np.array([0.5]), item)[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_morris_steps_move_one_group_at_a_time():
+    group_of = {"a": "g1", "b": "g1", "c": "g2", "d": "g3", "e": "g3"}
+    items = [unknown(i, group=group_of[i]) for i in "abcde"]
+    plan, unit = sampling_plan(items, design(["g1", "g2", "g3"], members=8))
+    assert len(plan) == 8 and list(plan.index[:2]) == ["pi_p885~01", "pi_p885~02"]
+    for t in range(2):  # two trajectories of 4 points: each step changes exactly one group
+        rows = unit.iloc[4 * t : 4 * t + 4].to_numpy()
+        moved = [
+            {group_of[c] for c in np.array(list("abcde"))[rows[k + 1] != rows[k]]} for k in range(3)
+        ]
+        assert all(len(m) == 1 for m in moved)
+        assert set().union(*moved) == {"g1", "g2", "g3"}
+
+
+def test_latin_hypercube_fills_every_stratum():
+    items = [unknown(i) for i in "abc"]
+    _, unit = sampling_plan(items, design(["A", "B", "C"], "latin", members=7))
+    for column in unit:
+        assert sorted(np.floor(unit[column] * 7).astype(int)) == list(range(7))
+
+
+def test_too_few_members_for_two_trajectories():
+    with pytest.raises(ManifestError, match=r"envelope.members: 5 members .* at least 8"):
+        sampling_plan(
+            [unknown(i) for i in "abc"], design({"a": ["a"], "b": ["b"], "c": ["c"]}, members=5)
+        )
+
+
+def test_groups_vary_what_can_vary(shipped):
+    _, _, unknowns = shipped
+    varied = varied_unknowns(unknowns, design(["creep", "noise realisation"]))
+    assert [u.id for u in varied] == [
+        "creep_c_fast",
+        "creep_c_slow",
+        "creep_tau_fast",
+        "creep_tau_slow",
+        "seed_pi_p885",
+    ]
+    held = {u.id for u in held_unknowns(unknowns, design(["creep"]))}
+    assert "adc_bits" in held and "bench_zeta" in held and "creep_c_fast" not in held
+    assert "bender_capacitance" not in held  # another dataset's
+    for groups in (["no such group"], ["signal chain"], ["bender creep"]):  # none, model:, other
+        with pytest.raises(ManifestError, match="is no group of pi_p885's unknowns that can vary"):
+            varied_unknowns(unknowns, design(groups))
+
+
+# --- members --------------------------------------------------------------------------------------
+
+
+def test_member_manifest_sets_files_and_protocols(shipped):
+    config, manifests, unknowns = shipped
+    chosen = {u.id: u for u in unknowns}
+    varied = [chosen[i] for i in ("bench_zeta", "creep_c_slow", "p1_level_b", "seed_pi_p885")]
+    values = {"bench_zeta": 0.1, "creep_c_slow": 1.5e-7, "p1_level_b": 6.0, "seed_pi_p885": 7.0}
+    base = manifests["pi_p885"]
+    member = member_manifest(base, varied, values, "pi_p885~03", ["ripple", "ch3"])
+    validate_document(member, "dataset.schema.yaml", "member")
+    assert member["twin"]["stack"]["zeta"] == 0.1
+    assert member["twin"]["creep"]["C"][1] == 1.5e-7
+    assert member["seed"] == 7 and isinstance(member["seed"], int)
+    assert base["twin"]["stack"]["zeta"] != 0.1  # the nominal manifest is not touched
+    experiments = catalogue(member, "thesis")
+    for run in ("ch6_p1_open", "ch6_p1_closed"):
+        assert experiments[run].protocol["segments"][1]["hi"] == 6.0
+    assert catalogue(base, "thesis")["ch6_p1_open"].protocol["segments"][1]["hi"] == 5
+    plan = stages.plan_stages(member, experiments)
+    assert plan.running() == ["ripple", "ch3"]
+    assert "stages: list" in plan.lacks["identify"][0]
+
+
+def test_protocol_override_must_name_a_number(shipped):
+    _, manifests, _ = shipped
+    base = manifests["pi_p885"]
+    for key, said in (
+        ("ch6:experiments.ch6_p1_open.segments.0.nope", "holds no number there"),
+        ("ch6:experiments.nope.segments.0.hi", "has no such key"),
+        ("ch9:experiments.x", "not <protocol>:<dotted key> of a protocol the dataset runs"),
+    ):
+        with pytest.raises(ManifestError, match=said):
+            catalogue(base | {"protocol_overrides": {key: 1.0}}, "thesis", "m.yaml")
+
+
+def test_shipped_envelope_is_drawn_and_valid(shipped):
+    config, manifests, unknowns = shipped
+    drawn = envelope(config["envelope"], manifests, unknowns)
+    groups = len(config["envelope"]["groups"])
+    assert len(drawn.manifests) == config["envelope"]["members"] // (groups + 1) * (groups + 1)
+    assert not {u.id for u in drawn.varied} & {u.id for u in drawn.held}
+    for u in drawn.varied:  # every draw inside its declared range
+        assert drawn.plan[u.id].between(u.low, u.high).all()
+    again = envelope(config["envelope"], manifests, unknowns)  # the plan is the seed's
+    pd.testing.assert_frame_equal(drawn.plan, again.plan)
+
+
+# --- Morris's screening ---------------------------------------------------------------------------
+
+
+def test_morris_recovers_known_effects():
+    """y = 3a + b² + 0·c: μ* of a is 3 per unit range, of c 0; b's σ > 0 (non-linear)."""
+    items = [unknown(i) for i in "abc"]
+    the_design = design(["A", "B", "C"], members=40, levels=4)
+    _, unit = sampling_plan(items, the_design)
+    outputs = pd.DataFrame({"y": 3 * unit["a"] + unit["b"] ** 2}, index=unit.index)
+    screened = morris_screening(items, the_design, unit, outputs).set_index("factor")
+    assert screened.loc["A", "mu_star"] == pytest.approx(3.0)
+    assert screened.loc["A", "sigma"] == pytest.approx(0.0, abs=1e-9)
+    assert screened.loc["C", "mu_star"] == pytest.approx(0.0, abs=1e-12)
+    assert 0 < screened.loc["B", "mu_star"] < 2 and screened.loc["B", "sigma"] > 0
+
+
+def test_screening_skips_an_output_a_member_lacks():
+    items = [unknown(i) for i in "ab"]
+    the_design = design(["A", "B"], members=6)
+    _, unit = sampling_plan(items, the_design)
+    y = unit["a"].to_numpy().copy()
+    y[2] = np.nan
+    screened = morris_screening(items, the_design, unit, pd.DataFrame({"y": y}, index=unit.index))
+    assert screened.empty
+
+
+# --- verdicts -------------------------------------------------------------------------------------
+
+
+def test_judge_analytic():
+    assert judge(1.0, 0.5, 1.5, 0.0, None).verdict == "consistent"
+    outside = judge(2.0, 0.5, 1.5, 0.0, None)
+    assert outside.verdict == "inconsistent" and outside.distance == pytest.approx(0.5)
+    # the printed precision widens the published value: 1.6 ± 0.15 reaches 1.5, ± 0.04 misses it
+    assert judge(1.6, 0.5, 1.5, 0.15, None).verdict == "consistent"
+    assert judge(1.6, 0.5, 1.5, 0.04, None).distance == pytest.approx(0.06)
+    # a published upper bound is met when some of the envelope is below it
+    assert judge(1.0, 0.9, 5.0, 0.0, "upper").verdict == "consistent"
+    assert judge(1.0, 1.2, 5.0, 0.0, "upper").distance == pytest.approx(0.2 / 3.8)
+    assert judge(1.0, 0.1, 0.5, 0.0, "lower").distance == pytest.approx(0.5 / 0.4)
+    assert math.isinf(judge(2.0, 1.0, 1.0, 0.0, None).distance)
+
+
+def card(rows):
+    return pd.DataFrame(
+        [
+            {
+                "kind": "emergent",
+                "chapter": "6",
+                "source": s,
+                "quantity": q,
+                "unit": "µm",
+                "published": p,
+                "reproduced": r,
+                "verdict": "within band",
+            }
+            for s, q, p, r in rows
+        ]
+    )
+
+
+def test_envelope_scorecard_verdicts():
+    nominal = card(
+        [
+            ("T", "narrow", 1.0, 1.0),
+            ("T", "wide", 1.0, 1.0),
+            ("T", "far", 10.0, 1.0),
+            ("T", "few", 1.0, 1.0),
+        ]
+    )
+    members = {}
+    for k, (narrow, wide, far) in enumerate(
+        [(0.9, 0.2, 1.0), (1.0, 1.0, 1.1), (1.1, 3.0, 0.9), (1.05, 2.0, 1.0)]
+    ):
+        member = card(
+            [("T", "narrow", 1.0, narrow), ("T", "wide", 1.0, wide), ("T", "far", 10.0, far)]
+        )
+        if k == 0:
+            member = pd.concat([member, card([("T", "few", 1.0, 1.0)])])
+        members[f"m~{k + 1:02d}"] = member
+    keys = [row_key("T", q) for q in ("narrow", "wide", "far", "few")]
+    values = member_values(members, keys)
+    assert values[row_key("T", "few")].notna().sum() == 1
+    out = envelope_scorecard(nominal, values, pd.DataFrame(), []).set_index("quantity")
+    assert out.loc["narrow", "envelope verdict"] == "consistent"
+    assert out.loc["narrow", "p50"] == pytest.approx(np.percentile([0.9, 1.0, 1.1, 1.05], 50))
+    assert out.loc["wide", "envelope verdict"] == "consistent (uninformative)"
+    assert out.loc["far", "envelope verdict"] == "inconsistent"
+    assert out.loc["few", "envelope verdict"] == "no envelope"
+    assert envelope_counts(out.reset_index()) == {
+        "consistent": 1,
+        "consistent (uninformative)": 1,
+        "inconsistent": 1,
+        "no envelope": 1,
+        "rows": 4,
+    }

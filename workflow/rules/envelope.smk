@@ -1,0 +1,90 @@
+# The reproduction envelope (docs/envelope.md): the twin across the declared range of what the
+# sources leave open (workflow/unknowns.yaml). Not part of rule all: `snakemake envelope`. The
+# members, <dataset>~NN (ENVELOPE in common.smk), are datasets run by the same rules as the
+# nominal one; here only what makes them and what reads them all.
+
+
+rule envelope_member:
+    """A member's manifest, raw/<member>/dataset.yaml: the envelope dataset's with the member's
+    draw of every varied unknown (a protocol's values as protocol_overrides), running only the
+    envelope's stages."""
+    input:
+        base=lambda w: RAW / ENVELOPE.design.dataset / "dataset.yaml",
+        unknowns=UNKNOWNS,
+        library=library_sources("envelope_member"),
+    output:
+        manifest=RAW / "{dataset}" / "dataset.yaml",
+    params:
+        manifest=lambda w: ENVELOPE.manifests[w.dataset],
+    wildcard_constraints:
+        dataset="|".join(ENVELOPE.manifests) or "^$",
+    log:
+        "logs/{dataset}/envelope_member.log",
+    benchmark:
+        "benchmarks/out/{dataset}/envelope_member.tsv"
+    threads: 1
+    resources:
+        **resources_for("small"),
+    script:
+        "../scripts/envelope_member.py"
+
+
+rule envelope_plan:
+    """The sampling plan: every member's value of every varied unknown, and the same draws in the
+    unit hypercube as SALib drew them (what Morris's screening reads)."""
+    input:
+        base=lambda w: RAW / w.dataset / "dataset.yaml",
+        unknowns=UNKNOWNS,
+        library=library_sources("envelope_plan"),
+    output:
+        plan=report("results/envelope/{dataset}/plan.csv", caption="../report/envelope_plan.rst",
+                    category="Envelope", subcategory="{dataset}"),
+        unit="results/envelope/{dataset}/unit.csv",
+    params:
+        envelope=config["envelope"],
+        raw_dir=config["raw_dir"],
+    wildcard_constraints:
+        dataset=ENVELOPE.design.dataset,
+    log:
+        "logs/envelope/{dataset}/plan.log",
+    benchmark:
+        "benchmarks/out/envelope/{dataset}/plan.tsv"
+    threads: 1
+    resources:
+        **resources_for("small"),
+    script:
+        "../scripts/envelope_plan.py"
+
+
+rule envelope:
+    """Every emergent number of the nominal scorecard against its envelope over the members:
+    percentiles, half-width, verdict (consistent, consistent (uninformative), inconsistent) and
+    the Morris groups that drive it; the forest and tornado figures; the opening's counts."""
+    input:
+        unpack(envelope_inputs),
+        registry=SCORECARD_REGISTRY,
+        unknowns=UNKNOWNS,
+        library=library_sources("envelope"),
+    output:
+        card=report(f"{ENVELOPE_FOLDER}/scorecard.csv", caption="../report/envelope.rst",
+                    category="Envelope", subcategory="Scorecard"),
+        sensitivity=report(f"{ENVELOPE_FOLDER}/sensitivity.csv", caption="../report/envelope_sensitivity.rst",
+                           category="Envelope", subcategory="Scorecard"),
+        forest=report(f"{ENVELOPE_FOLDER}/forest.png", caption="../report/envelope_forest.rst",
+                      category="Envelope", subcategory="Figures"),
+        tornado=report(f"{ENVELOPE_FOLDER}/tornado.png", caption="../report/envelope_tornado.rst",
+                       category="Envelope", subcategory="Figures"),
+        summary=f"{ENVELOPE_FOLDER}/summary.rst",
+    params:
+        envelope=config["envelope"],
+        members=list(ENVELOPE.manifests),
+        raw_dir=config["raw_dir"],
+    log:
+        "logs/envelope/envelope.log",
+    benchmark:
+        "benchmarks/out/envelope/envelope.tsv"
+    threads: 1
+    resources:
+        **resources_for("medium"),
+    script:
+        "../scripts/envelope.py"
