@@ -74,7 +74,8 @@ rule envelope:
                       category="Envelope", subcategory="Figures"),
         tornado=report(f"{ENVELOPE_FOLDER}/tornado.png", caption="../report/envelope_tornado.rst",
                        category="Envelope", subcategory="Figures"),
-        summary=f"{ENVELOPE_FOLDER}/summary.rst",
+        summary=report(f"{ENVELOPE_FOLDER}/envelope_summary.rst", caption="../report/envelope_summary.rst",
+                       category="Envelope", subcategory="Scorecard"),
     params:
         envelope=config["envelope"],
         members=list(ENVELOPE.manifests),

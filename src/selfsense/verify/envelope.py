@@ -25,10 +25,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import yaml
-from SALib.analyze import morris as morris_analysis
 from SALib.sample import latin
 from SALib.sample import morris as morris_sampling
-from scipy import stats
 
 from selfsense.io.manifest import ManifestError, validate_document
 from selfsense.io.provenance import atomic_path
@@ -158,6 +156,8 @@ def physical(u: np.ndarray, unknown: Unknown) -> np.ndarray:
     if unknown.kind == "integer":
         return np.minimum(low + np.floor(u * (high - low + 1)), high)
     if unknown.kind == "normal":
+        from scipy import stats  # here: the workflow draws its plan when parsed, rarely normals
+
         a, b = (low - unknown.mean) / unknown.sd, (high - unknown.mean) / unknown.sd
         return stats.truncnorm.ppf(u, a, b, loc=unknown.mean, scale=unknown.sd)
     raise ManifestError(f"workflow/unknowns.yaml: {unknown.id}: no draw for kind {unknown.kind}")
@@ -239,6 +239,9 @@ def morris_screening(
     group: rows (output, factor, mu_star, sigma), in the outputs' units per unit of the
     group's declared range. An output a member did not give (NaN) is screened on none: its
     trajectories would be broken."""
+    # here, not at the top: SALib's analysis imports scipy.stats, a second of every workflow parse
+    from SALib.analyze import morris as morris_analysis
+
     spec = problem(varied, design)
     rows = []
     x = unit.loc[outputs.index].to_numpy()
