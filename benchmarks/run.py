@@ -1,7 +1,7 @@
 """Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
-                                       [--keep-results DIR]]
+                                       [--keep-results DIR]] [--envelope]
                                        [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
@@ -16,6 +16,9 @@ Prints, in three parts that can be skipped one by one:
   the rules' own figures from their `benchmark:` files (summed and per rule: seconds,
   max_rss), the share of the time per cause (simulating, writing captures, analysis, per-job
   start-up, idle cores), and without --fresh a no-op `snakemake -n` on the up-to-date tree;
+- with --envelope, the DAG part is the reproduction envelope, `snakemake envelope --cores 2`, in
+  a new clone: one member alone (a member's cost on 2 cores), then the rest, and each member's
+  jobs' own seconds;
 - streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
   `thermal_extract` for a capture of --seconds and one 10× longer (each in a fresh process, so
   peaks do not mix).
@@ -406,28 +409,32 @@ def bench_dag(config):
         noop_dry_run(snakemake, repo)
 
 
+def new_clone(folder):
+    """A new clone of the committed HEAD in folder with a new venv and the pinned packages (the
+    README's install): (repo, its python, install seconds)."""
+    repo = Path(folder) / "repo"
+    subprocess.run(["git", "clone", "--quiet", str(ROOT), str(repo)], check=True)
+    python = repo / ".venv" / "bin" / "python"
+    t0 = time.perf_counter()
+    subprocess.run(
+        [shutil.which("python3.11") or sys.executable, "-m", "venv", ".venv"], cwd=repo, check=True
+    )
+    subprocess.run(
+        [str(python), "-m", "pip", "install", "-q", "-c", "constraints.txt", "-e", "."],
+        cwd=repo,
+        check=True,
+        capture_output=True,
+    )
+    return repo, python, time.perf_counter() - t0
+
+
 def bench_fresh_clone(config, keep_results=None, warm=True):
     """The README's first command as a new user runs it: a new clone of the committed HEAD, a new
     venv with the pinned packages, `snakemake --cores 2` (no bytecode, no numba cache); then the
     same clone again from nothing but with its venv and caches (warm). ``keep_results``: a folder
     that gets the fresh run's results/ (for compare_results.py)."""
     with tempfile.TemporaryDirectory() as tmp:
-        repo = Path(tmp) / "repo"
-        subprocess.run(["git", "clone", "--quiet", str(ROOT), str(repo)], check=True)
-        python = repo / ".venv" / "bin" / "python"
-        t0 = time.perf_counter()
-        subprocess.run(
-            [shutil.which("python3.11") or sys.executable, "-m", "venv", ".venv"],
-            cwd=repo,
-            check=True,
-        )
-        subprocess.run(
-            [str(python), "-m", "pip", "install", "-q", "-c", "constraints.txt", "-e", "."],
-            cwd=repo,
-            check=True,
-            capture_output=True,
-        )
-        install = time.perf_counter() - t0
+        repo, python, install = new_clone(tmp)
         snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
         fresh, peak, cpu = run_sampled(snakemake, repo)
         report_dag("fresh clone", repo, python, config, fresh, peak, cpu)
@@ -451,6 +458,38 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
             f"fresh clone ({config}): install {install:.0f} s, `snakemake --cores 2` {fresh:.0f} s "
             f"(README's first command {install + fresh:.0f} s); warm {warm:.0f} s"
         )
+
+
+def bench_envelope(config, keep_results=None):
+    """`snakemake envelope --cores 2` in a new clone of HEAD with a new venv: first one member
+    alone (its own jobs only: what a member costs on 2 cores), then the envelope (the nominal
+    dataset's scorecard and the other members); per member, its jobs' own seconds."""
+    from selfsense.io.manifest import load_config
+
+    dataset = load_config(ROOT / config)["envelope"]["dataset"]
+    with tempfile.TemporaryDirectory() as tmp:
+        repo, python, install = new_clone(tmp)
+        snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
+        first = f"results/{dataset}~01/scorecard.csv"
+        one, peak, _ = run_sampled([*snakemake, first], repo)
+        print(
+            f"envelope ({config}): install {install:.0f} s; one member alone ({first}) {one:.0f} s"
+        )
+        rest, peak, cpu = run_sampled([*snakemake, "envelope"], repo)
+        out = repo / "benchmarks" / "out"
+        members = sorted(p for p in out.iterdir() if p.name.startswith(f"{dataset}~"))
+        job_s = [sum(sum(j[0] for j in js) for js in job_rows(m).values()) for m in members]
+        print(
+            f"  then `snakemake envelope`: {rest:.0f} s (the nominal {dataset} and "
+            f"{len(members) - 1} more members), CPU {cpu:.0f} s, peak RSS {peak:.0f} MB; "
+            f"whole envelope {one + rest:.0f} s, with the install {install + one + rest:.0f} s"
+        )
+        print(
+            f"  a member's jobs' own time: mean {np.mean(job_s):.0f} s, largest {max(job_s):.0f} s "
+            f"(÷ 2 cores: {np.mean(job_s) / 2:.0f} s)"
+        )
+        if keep_results:
+            shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
 
 
 def main():
@@ -480,6 +519,12 @@ def main():
     cli.add_argument(
         "--keep-results", metavar="DIR", help="with --fresh: copy the fresh run's results/ to DIR"
     )
+    cli.add_argument(
+        "--envelope",
+        action="store_true",
+        help="the DAG part is `snakemake envelope`, in a new clone of HEAD (one member alone, "
+        "then the rest)",
+    )
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
     print(
@@ -493,7 +538,9 @@ def main():
             bench_ripple_and_hpo(path)
     if not args.skip_dag:
         for config in args.configs:
-            if args.fresh:
+            if args.envelope:
+                bench_envelope(config, args.keep_results)
+            elif args.fresh:
                 bench_fresh_clone(config, args.keep_results, not args.no_warm)
             else:
                 bench_dag(config)

@@ -7,7 +7,11 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
 - ``counts`` (README.md): the published numbers within band per dataset, chapter and kind;
 - ``deviations`` (docs/deviations.md): every emergent number out of band;
 - ``calibration`` (docs/twin.md): the signatures the twin's free parameters are set to;
-- ``recovery`` (docs/twin.md): what the analyses give back of the twin's truth.
+- ``recovery`` (docs/twin.md): what the analyses give back of the twin's truth;
+- ``envelope`` (README.md) and ``envelope_rows`` (docs/envelope.md): the reproduction envelope's
+  counts and every inconsistent number, from docs/snapshot/envelope/ (``--envelope``: the
+  results/envelope/<dataset>/ folder of a `snakemake envelope` run, copied there with its
+  provenance: commit, workflow/unknowns.yaml's sha256, members).
 """
 
 import argparse
@@ -19,7 +23,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.scorecard.render import counts_markdown, deviations_markdown, replace_block
+from selfsense.scorecard.render import (
+    counts_markdown,
+    deviations_markdown,
+    envelope_markdown,
+    envelope_rows_markdown,
+    replace_block,
+)
 
 SNAPSHOT = Path("docs/snapshot")
 PAGES = {
@@ -27,7 +37,18 @@ PAGES = {
     "deviations": Path("docs/deviations.md"),
     "calibration": Path("docs/twin.md"),
     "recovery": Path("docs/twin.md"),
+    "envelope": Path("README.md"),
+    "envelope_rows": Path("docs/envelope.md"),
 }
+#: what an envelope's snapshot keeps of results/envelope/<dataset>/
+ENVELOPE_FILES = (
+    "scorecard.csv",
+    "sensitivity.csv",
+    "plan.csv",
+    "forest.png",
+    "tornado.png",
+    "envelope_summary.rst",
+)
 
 
 def _number(value) -> str:
@@ -100,18 +121,46 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         for p in sorted(snapshot.glob("scorecard_*.csv"))
         if p.name != "scorecard_counts.csv"
     }
+    envelope = snapshot / "envelope"
+    card = pd.read_csv(envelope / "scorecard.csv")
+    provenance = json.loads((envelope / "provenance.json").read_text())
     return {
         "counts": counts_markdown(counts, campaign),
         "deviations": deviations_markdown(cards),
         "calibration": calibration_markdown(cards, campaign),
         "recovery": recovery_markdown(cards, campaign),
+        "envelope": envelope_markdown(card, provenance),
+        "envelope_rows": envelope_rows_markdown(card),
     }
 
 
-def main(results: Path, snapshot: Path = SNAPSHOT):
+def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> None:
+    """Copy an envelope's results into snapshot/envelope/ with their provenance: the commit, the
+    unknowns' sha256, the design, the members (and the run's wall time, if given)."""
+    target = snapshot / "envelope"
+    target.mkdir(parents=True, exist_ok=True)
+    for name in ENVELOPE_FILES:
+        shutil.copy(folder / name, target / name)
+    sidecar = json.loads((folder / "scorecard.csv.json").read_text())
+    plan = json.loads((folder / "plan.csv.json").read_text())
+    record = {
+        "code": sidecar["code"]["git_describe"],
+        "unknowns_sha256": sidecar["unknowns_sha256"],
+        "design": sidecar["design"],
+        "members": sidecar["members"],
+        "varied": plan["varied"],
+        "held": plan["held"],
+        "campaign": json.loads((snapshot / "campaign.json").read_text())["campaign"],
+        "wall_s": wall_s,
+    }
+    (target / "provenance.json").write_text(json.dumps(record, indent=1) + "\n")
+
+
+def main(results: Path, snapshot: Path = SNAPSHOT, envelope: Path | None = None, wall_s=None):
     snapshot.mkdir(exist_ok=True)
     shutil.copy(results / "scorecard_counts.csv", snapshot / "scorecard_counts.csv")
-    for card in sorted(results.glob("*/scorecard.csv")):
+    # the run's datasets: an envelope member's (pi_p885~07) is not one
+    for card in sorted(c for c in results.glob("*/scorecard.csv") if "~" not in c.parent.name):
         shutil.copy(card, snapshot / f"scorecard_{card.parent.name}.csv")
     sidecar = json.loads((results / "scorecard_counts.csv.json").read_text())
     (snapshot / "campaign.json").write_text(
@@ -121,6 +170,8 @@ def main(results: Path, snapshot: Path = SNAPSHOT):
         )
         + "\n"
     )
+    if envelope is not None:
+        snapshot_envelope(envelope, snapshot, wall_s)
     for name, body in render(snapshot).items():
         PAGES[name].write_text(
             replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8"
@@ -130,4 +181,7 @@ def main(results: Path, snapshot: Path = SNAPSHOT):
 if __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("--results", type=Path, default=Path("results"))
-    main(cli.parse_args().results)
+    cli.add_argument("--envelope", type=Path, help="results/envelope/<dataset>/ of an envelope")
+    cli.add_argument("--envelope-wall-s", type=float, help="the envelope run's wall time [s]")
+    args = cli.parse_args()
+    main(args.results, envelope=args.envelope, wall_s=args.envelope_wall_s)

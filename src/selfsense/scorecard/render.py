@@ -13,6 +13,7 @@ from typing import Any
 
 import pandas as pd
 
+from selfsense.scorecard.envelope import VERDICTS as ENVELOPE_VERDICTS
 from selfsense.scorecard.registry import (
     BIAS,
     CAUSE_MARK,
@@ -755,3 +756,45 @@ def replace_block(text: str, name: str, body: str) -> str:
     if not (sep and sep2):
         raise ValueError(f"no block {name!r} ({begin} … {end})")
     return f"{head}{begin}\n{body}\n{end}{tail}"
+
+
+def envelope_markdown(card: pd.DataFrame, provenance: Mapping[str, Any]) -> str:
+    """The README's envelope counts: per chapter, the emergent numbers consistent (informative),
+    consistent (uninformative), inconsistent and without an envelope, the nominal twin's within
+    band beside them (``card``: an envelope scorecard; ``provenance``: its design and members)."""
+    design = provenance["design"]
+    lines = [
+        f"The reproduction envelope of `{design['dataset']}` on the `{provenance['campaign']}` "
+        f"campaign ({len(provenance['members'])} members, {design['method']}; "
+        f"`docs/snapshot/envelope/`, code {provenance['code']}):",
+        "",
+        "| chapter | emergent | consistent | consistent (uninformative) | inconsistent "
+        "| no envelope | nominal: within band |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    parts = [(str(c), p) for c, p in card.groupby("chapter", sort=False)] + [("total", card)]
+    for chapter, part in parts:
+        tally = part["envelope verdict"].value_counts()
+        name = "**total**" if chapter == "total" else _chapter(chapter)
+        cells = [str(int(tally.get(v, 0))) for v in ENVELOPE_VERDICTS]
+        within = int((part["verdict"] == "within band").sum())
+        lines.append(f"| {name} | {len(part)} | " + " | ".join(cells) + f" | {within} |")
+    return "\n".join(lines)
+
+
+def envelope_rows_markdown(card: pd.DataFrame) -> str:
+    """docs/envelope.md's list: every inconsistent number with its envelope, distance and
+    drivers, per chapter."""
+    out = card[card["envelope verdict"] == "inconsistent"]
+    lines = [f"{len(out)} emergent numbers are inconsistent with the envelope.", ""]
+    for chapter, part in out.groupby("chapter", sort=False):
+        lines.append(f"- {_chapter(chapter)}:")
+        for _, row in part.iterrows():
+            unit = f" {row['unit']}" if isinstance(row["unit"], str) and row["unit"] else ""
+            drivers = row["driven by"] if isinstance(row["driven by"], str) else ""
+            lines.append(
+                f"  - {row['source']}, {row['quantity']}: published {row['published']:.4g}, "
+                f"envelope {row['p2.5']:.4g} to {row['p97.5']:.4g}{unit} "
+                f"({row['distance [widths]']:.2g} widths); driven by {drivers or '–'}"
+            )
+    return "\n".join(lines)
