@@ -10,6 +10,8 @@ import pytest
 from matplotlib import cbook
 from matplotlib.image import imread
 
+from selfsense.scorecard.envelope import COLUMNS as ENVELOPE_COLUMNS
+from selfsense.scorecard.envelope import NOMINAL_COLUMNS
 from selfsense.scorecard.envelope_figures import (
     EMPTY_SENSITIVITY,
     beyond,
@@ -27,22 +29,8 @@ from selfsense.scorecard.envelope_figures import (
 )
 
 NAN = math.nan
-COLUMNS = [
-    "chapter",
-    "source",
-    "quantity",
-    "unit",
-    "published",
-    "reproduced",
-    "members",
-    "p2.5",
-    "p50",
-    "p97.5",
-    "half-width [%]",
-    "envelope verdict",
-    "distance [widths]",
-    "driven by",
-]
+# the envelope scorecard's columns, as selfsense.scorecard.envelope writes them (verdict aside)
+COLUMNS = [c for c in NOMINAL_COLUMNS if c != "verdict"] + ENVELOPE_COLUMNS
 
 
 def _card() -> pd.DataFrame:

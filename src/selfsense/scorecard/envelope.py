@@ -43,6 +43,9 @@ VERDICTS = ("consistent", "consistent (uninformative)", "inconsistent", "no enve
 #: drivers named per row
 DRIVERS = 3
 
+#: the nominal scorecard's columns an envelope scorecard keeps, before its own (:data:`COLUMNS`)
+NOMINAL_COLUMNS = ["chapter", "source", "quantity", "unit", "published", "reproduced", "verdict"]
+
 COLUMNS = [
     "members",
     "p2.5",
@@ -160,8 +163,7 @@ def envelope_scorecard(
         }
         out.append(row)
     extra = pd.DataFrame(out, index=card.index, columns=COLUMNS)
-    keep = ["chapter", "source", "quantity", "unit", "published", "reproduced", "verdict"]
-    return pd.concat([card[keep], extra], axis=1).reset_index(drop=True)
+    return pd.concat([card[NOMINAL_COLUMNS], extra], axis=1).reset_index(drop=True)
 
 
 def sensitivity_table(screening: pd.DataFrame, card: pd.DataFrame) -> pd.DataFrame:
