@@ -7,6 +7,9 @@ import nothing (every job's start-up pays for what a package's __init__ imports)
 """
 
 import ast
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 import grimp
@@ -63,3 +66,27 @@ def test_subpackage_inits_import_nothing_and_map_their_subpackage():
         modules = {p.stem for p in init.parent.glob("*.py")} - {"__init__"}
         unnamed = sorted(m for m in modules if f"``{m}``" not in doc)
         assert not unnamed, f"{init}'s docstring does not map {', '.join(unnamed)}"
+
+
+#: what the workflow's parse must not import: every `snakemake` start (a dry run, each SLURM job's
+#: two starts) parses it, and these cost seconds; the jobs that need them import them
+HEAVY = ("matplotlib", "numba", "scipy", "SALib", "xarray")
+
+
+def test_parsing_the_workflow_imports_no_plotting_compiler_or_solver():
+    common = (PACKAGE.parents[1] / "workflow" / "rules" / "common.smk").read_text()
+    modules = sorted(
+        {
+            m[0] or f"selfsense.{m[1]}"
+            for m in re.findall(
+                r"^from (selfsense\.[\w.]+) import|^from selfsense import (\w+)", common, re.M
+            )
+        }
+    )
+    assert "selfsense.verify.envelope" in modules, modules
+    probe = (
+        f"import sys, {', '.join(modules)}; "
+        f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY})))"
+    )
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert run.stdout.strip() == "[]", run.stdout

@@ -1,16 +1,16 @@
-"""The small configuration through SLURM (profiles/slurm) on a real single-node cluster: its
-tables must be byte-identical to the local run's.
+"""The smoke envelope's members through SLURM (profiles/slurm) on a real single-node cluster:
+their tables must be byte-identical to a local run's.
 
 The cluster is the one scripts/slurm_local.sh brings up (installing Debian's munge, slurmctld and
 slurmd where they are missing), or finds running. Where it cannot (not root, no apt, no network,
 daemons that will not start), the test skips and says why; `pytest -m "not slurm"` leaves it out.
 
-Chapter 3 only (9 SLURM jobs: 3 captures simulated and checked, their ripple extracted, the
-Ch. 3 tables and the twin's C_e recovery, ≈ 50 s on 2 cores): every SLURM job starts Snakemake
-twice (the batch script, then the job step), ≈ 7 s of extra core time per job, so the whole smoke
-DAG (≈ 130 jobs) would take ≈ 15 minutes and Chapters 3 and 4 (26 jobs) ≈ 2½, where this subset
-already goes every way a job can (a capture written and checked, read by the next job through the
-shared filesystem, tables compared byte for byte).
+Two members of Chapter 3 (stages ripple and ch3), about 20 SLURM jobs: every SLURM job starts
+Snakemake twice (the batch script, then the job step), a few seconds of core time each, so the
+whole smoke DAG (≈ 140 jobs) would take ≈ 15 minutes, where these already go every way a job can:
+a manifest written from the plan, captures simulated and checked, read by the next job through
+the shared filesystem, tables compared byte for byte with the same member run locally, and the
+verdicts that read every member.
 """
 
 import json
@@ -25,15 +25,11 @@ import yaml
 from selfsense.io.manifest import load_yaml
 from selfsense.io.unknowns import unknowns_hash
 
-from ..helpers import ROOT, SMOKE_CONFIG, copy_repo, run_snakemake
+from ..helpers import ROOT, SMOKE_CONFIG, run_snakemake
 
 pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
 SCRIPT = str(ROOT / "scripts" / "slurm_local.sh")
-TABLES = [
-    f"results/pi_p885/{t}.csv"
-    for t in ("ch3/table_3_1", "ch3/table_3_2", "ch3/hysteresis", "ch3/phases", "twin/ce_recovery")
-]
 # A bare cluster has no accounting database, so job states come from squeue (finished jobs stay
 # there for slurm.conf's MinJobAge); the first status check after 1 s, not the default 40 s,
 # because these jobs take seconds. No account is given: the plugin then submits without one.
@@ -61,35 +57,31 @@ def slurm_cluster():
         subprocess.run(["bash", SCRIPT, "stop"], capture_output=True, check=True, timeout=120)
 
 
-def test_chapter_3_tables_via_slurm_equal_the_local_run(slurm_cluster, smoke_run, tmp_path):
-    repo = copy_repo(tmp_path / "repo")
-    run = run_snakemake(repo, "--workflow-profile", "profiles/slurm", *BARE_CLUSTER, *TABLES)
-    assert run.returncode == 0, run.stderr[-3000:]
-    done = re.search(r"(\d+) of \1 steps \(100%\) done", run.stderr)
-    assert done and run.stderr.count("has been submitted with SLURM jobid") == int(done[1]), (
-        run.stderr[-3000:]
-    )
-    made = sorted(str(p.relative_to(repo)) for p in (repo / "results").rglob("*.csv"))
-    assert made == sorted(TABLES)
-    for table in TABLES:
-        assert (repo / table).read_bytes() == (smoke_run / table).read_bytes(), table
-
-
 #: a two-member smoke envelope of Chapter 3 (stages ripple and ch3), its members drawn by a Latin
-#: hypercube: 12 jobs (per member its manifest, the captures, ripple and tables its scorecard
-#: reads, the scorecard; the plan and the verdicts)
+#: hypercube: per member its manifest, the captures simulated and checked, their ripple, the
+#: tables its scorecard reads and the scorecard; the plan and the verdicts
 ENVELOPE = {"members": 2, "method": "latin", "seed": 5, "stages": ["ripple", "ch3"]}
 
 
-def test_a_two_member_envelope_via_slurm(slurm_cluster, smoke_run, tmp_path):
-    """The envelope's members are jobs like any dataset's: through SLURM, on the shared
-    filesystem, each member's manifest holds its row of the plan and its Chapter 3 table moves
-    with its draws; the verdicts' table has every emergent row (with 2 members, none has the 3
-    an envelope needs)."""
-    repo = tmp_path / "repo"
-    shutil.copytree(smoke_run, repo, symlinks=True)  # the nominal scorecard, up to date
+def envelope_tree(smoke_run, folder):
+    """A copy of the smoke tree (its nominal scorecard up to date) with the envelope's config."""
+    repo = folder / "repo"
+    shutil.copytree(smoke_run, repo, symlinks=True)
     config = yaml.safe_load((ROOT / SMOKE_CONFIG).read_text()) | {"envelope": ENVELOPE}
     (repo / "envelope.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    return repo
+
+
+def test_a_two_member_envelope_via_slurm_equals_the_local_run(slurm_cluster, smoke_run, tmp_path):
+    """The envelope's members are jobs like any dataset's: through SLURM, on the shared
+    filesystem, each member's manifest holds its row of the plan, its tables are those of the
+    same member run locally, and its Chapter 3 table moves with its draws; the verdicts' table
+    has every emergent row (with 2 members, none has the 3 an envelope needs)."""
+    local = envelope_tree(smoke_run, tmp_path / "local")
+    first = "results/pi_p885~01/scorecard.csv"
+    alone = run_snakemake(local, first, config="envelope.yaml")
+    assert alone.returncode == 0, alone.stderr[-3000:]
+    repo = envelope_tree(smoke_run, tmp_path / "slurm")
     run = run_snakemake(
         repo,
         "--workflow-profile",
@@ -103,6 +95,16 @@ def test_a_two_member_envelope_via_slurm(slurm_cluster, smoke_run, tmp_path):
     assert done and run.stderr.count("has been submitted with SLURM jobid") == int(done[1]), (
         run.stderr[-3000:]
     )
+    # the member's manifest, capture, ripple and tables (not the sidecars: they name the host)
+    made = [
+        p.relative_to(local)
+        for folder in ("raw", "results")
+        for p in sorted((local / folder / "pi_p885~01").rglob("*"))
+        if p.is_file() and p.suffix != ".json"
+    ]
+    assert {p.suffix for p in made} >= {".yaml", ".nc", ".csv"}, made
+    for path in made:
+        assert (repo / path).read_bytes() == (local / path).read_bytes(), path
     plan = pd.read_csv(repo / "results" / "envelope" / "pi_p885" / "plan.csv", index_col="member")
     assert list(plan.index) == ["pi_p885~01", "pi_p885~02"]
     phases = []

@@ -67,9 +67,7 @@ def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
     """Validate ``doc`` against the schema <schema_name>; raise ManifestError on the first
     problem."""
     _check_finite(doc, source)
-    schema = load_yaml(SCHEMAS / schema_name)
-    validator = jsonschema.Draft202012Validator(schema)
-    error = jsonschema.exceptions.best_match(validator.iter_errors(doc))
+    error = jsonschema.exceptions.best_match(_validator(schema_name).iter_errors(doc))
     if error is None:
         return
     if error.validator == "additionalProperties":
@@ -82,6 +80,13 @@ def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
     if error.validator == "required":
         raise ManifestError(f"{source}: {_where(error)}: {error.message}", _where(error))
     raise ManifestError(f"{source}: key {_where(error)}: {error.message}", _where(error))
+
+
+@lru_cache(maxsize=None)
+def _validator(schema_name: str) -> jsonschema.Draft202012Validator:
+    """The validator of a schema of the package, built once: the workflow's parse validates every
+    manifest and protocol against the same few."""
+    return jsonschema.Draft202012Validator(load_yaml(SCHEMAS / schema_name))
 
 
 def _check_finite(doc: Any, source: str | Path, where: str = "") -> None:

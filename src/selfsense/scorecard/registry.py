@@ -13,7 +13,6 @@ import numpy as np
 import pandas as pd
 
 from selfsense.io.manifest import ManifestError, validate_document
-from selfsense.verify.error_budget import AT_MAX, AT_MAX_SPREAD
 
 WITHIN = "within band"
 OUT = "out of band"
@@ -222,6 +221,10 @@ class Cause:
             return f"{CAUSE_MARK} ({self.table}, {selector}): " + ", ".join(
                 f"{c} = {_quoted(row[c])}" for c in self.quote
             )
+        # imported here: the workflow reads the registry when it is parsed, and the budget's module
+        # brings numba with it
+        from selfsense.verify.error_budget import AT_MAX, AT_MAX_SPREAD
+
         if self.statistic == "σ":
             suffix, style = AT_MAX_SPREAD, ".3f"
             head = (

@@ -25,8 +25,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import yaml
-from SALib.sample import latin
-from SALib.sample import morris as morris_sampling
 
 from selfsense.io.manifest import ManifestError, validate_document
 from selfsense.io.provenance import atomic_path
@@ -126,8 +124,12 @@ def unit_design(varied: Sequence[Unknown], design: Design) -> np.ndarray:
     Morris: r = members // (groups + 1) trajectories (at least 2 for σ), each moving one group at
     a time by Δ on a ``levels``-level grid; a Latin hypercube: ``members`` rows, one per
     stratum of every unknown."""
+    # SALib's samplers imported where they are used: the workflow draws the plan when it is
+    # parsed, and Morris's brings scipy.spatial with it
     spec = problem(varied, design)
     if design.method == "morris":
+        from SALib.sample import morris as morris_sampling
+
         r = trajectories(design)
         if r < 2:
             need = 2 * (len(design.groups) + 1)
@@ -137,6 +139,8 @@ def unit_design(varied: Sequence[Unknown], design: Design) -> np.ndarray:
             )
         return morris_sampling.sample(spec, r, num_levels=design.levels, seed=design.seed)
     if design.method == "latin":
+        from SALib.sample import latin
+
         return latin.sample(spec, design.members, seed=design.seed)
     raise ManifestError(
         f"config.yaml: key envelope.method: {design.method!r} is not one of {', '.join(METHODS)}"
