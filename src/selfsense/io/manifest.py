@@ -15,7 +15,7 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -82,7 +82,7 @@ def validate_document(doc: Any, schema_name: str, source: str | Path) -> None:
     raise ManifestError(f"{source}: key {_where(error)}: {error.message}", _where(error))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _validator(schema_name: str) -> jsonschema.Draft202012Validator:
     """The validator of a schema of the package, built once: the workflow's parse validates every
     manifest and protocol against the same few."""
