@@ -469,13 +469,14 @@ def bench_envelope(config, keep_results=None):
     dataset = load_config(ROOT / config)["envelope"]["dataset"]
     with tempfile.TemporaryDirectory() as tmp:
         repo, python, install = new_clone(tmp)
-        snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
+        snakemake = [str(python), "-m", "snakemake", "--cores", "2"]
+        # the targets before --configfile, which takes several values
         first = f"results/{dataset}~01/scorecard.csv"
-        one, peak, _ = run_sampled([*snakemake, first], repo)
+        one, peak, _ = run_sampled([*snakemake, first, "--configfile", config], repo)
         print(
             f"envelope ({config}): install {install:.0f} s; one member alone ({first}) {one:.0f} s"
         )
-        rest, peak, cpu = run_sampled([*snakemake, "envelope"], repo)
+        rest, peak, cpu = run_sampled([*snakemake, "envelope", "--configfile", config], repo)
         out = repo / "benchmarks" / "out"
         members = sorted(p for p in out.iterdir() if p.name.startswith(f"{dataset}~"))
         job_s = [sum(sum(j[0] for j in js) for js in job_rows(m).values()) for m in members]
