@@ -24,6 +24,7 @@ from selfsense.scorecard.envelope import (
     envelope_counts,
     envelope_scorecard,
     judge,
+    judge_envelope,
     member_values,
     row_key,
 )
@@ -49,7 +50,7 @@ def unknown(uid, low=0.0, high=1.0, kind="uniform", nominal=None, group=None, **
 
 
 def design(groups, method="morris", members=8, levels=4, seed=1):
-    return Design("pi_p885", members, method, seed, levels, groups, ["ripple"])
+    return Design("pi_p885", members, method, seed, levels, groups, ["ripple"], "pi_p885")
 
 
 @pytest.fixture(scope="module")
@@ -189,6 +190,32 @@ def test_shipped_envelope_is_drawn_and_valid(shipped):
     pd.testing.assert_frame_equal(drawn.plan, again.plan)
 
 
+#: Chapter 7's own design (docs/envelope.md): only what its rows depend on varies, and its thermal
+#: stage needs the observer and identify stages (stages.py)
+CH7 = {
+    "name": "pi_p885_ch7",
+    "chapters": ["7"],
+    "members": 8,
+    "groups": ["thermal", "thermometer", "chapter 7 records"],
+    "stages": ["ripple", "identify", "gamma", "observer", "thermal"],
+}
+
+
+def test_a_named_design_keeps_its_members_apart(shipped):
+    config, manifests, unknowns = shipped
+    section = config["envelope"] | CH7
+    drawn = envelope(section, manifests, unknowns)
+    assert list(drawn.manifests) == [f"pi_p885_ch7~{k:02d}" for k in range(1, 9)]  # 2 × (3 + 1)
+    assert {u.group for u in drawn.varied} == set(CH7["groups"])
+    assert not {u.id for u in drawn.varied} & {
+        u.id for u in envelope(config["envelope"], manifests, unknowns).varied
+    }
+    member = drawn.manifests["pi_p885_ch7~01"]
+    plan = stages.plan_stages(member, catalogue(member, "thesis"))
+    assert plan.running() == CH7["stages"]
+    assert Design.from_config(section).chapters == ["7"]
+
+
 # --- Morris's screening ---------------------------------------------------------------------------
 
 
@@ -285,3 +312,22 @@ def test_envelope_scorecard_verdicts():
         "no envelope": 1,
         "rows": 4,
     }
+
+
+def test_a_design_judges_its_own_chapters_only():
+    # chapter 6's rows vary, chapter 7's are held at their nominal: a design of chapter 6 judges
+    # its own rows alone
+    nominal = pd.concat(
+        [card([("T", "a", 1.0, 1.0)]), card([("U", "b", 1.0, 1.0)]).assign(chapter="7")]
+    )
+    members = {
+        f"m~{k:02d}": pd.concat(
+            [card([("T", "a", 1.0, v)]), card([("U", "b", 1.0, 1.0)]).assign(chapter="7")]
+        )
+        for k, v in enumerate((0.9, 1.0, 1.1), 1)
+    }
+    unit = pd.DataFrame({"x": [0.0, 0.5, 1.0]}, index=list(members))
+    every = design(["X"], method="latin", members=3)
+    own = Design(**{**every.__dict__, "chapters": ["6"]})
+    judged = [judge_envelope(nominal, members, unit, [], d, [])[0] for d in (every, own)]
+    assert list(judged[0]["quantity"]) == ["a", "b"] and list(judged[1]["quantity"]) == ["a"]

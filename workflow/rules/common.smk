@@ -154,7 +154,7 @@ ENVELOPE = envelope(config["envelope"], DATASETS, load_unknowns(UNKNOWNS, raw_di
 DATASETS |= ENVELOPE.manifests
 
 
-ENVELOPE_FOLDER = f"results/envelope/{ENVELOPE.design.dataset}"
+ENVELOPE_FOLDER = f"results/envelope/{ENVELOPE.design.name}"
 
 
 def envelope_inputs(wildcards):
@@ -533,8 +533,10 @@ def scorecard_tables(dataset):
     (what the envelope reads)."""
     entries = applicable(SCORECARD, DATASETS[dataset])
     if dataset in ENVELOPE.manifests:  # the numbers' own tables, not those explaining them
+        judged = ENVELOPE.design.chapters
         read = list(dict.fromkeys(e.locate.table for e in entries
-                                  if e.kind in ("emergent", "calibration") and e.locate))
+                                  if e.kind in ("emergent", "calibration") and e.locate
+                                  and (not judged or str(e.chapter) in judged)))
     else:
         read = tables_read(entries) + reference_tables(DATASETS[dataset])
     return [t for t in (f"results/{dataset}/{t}" for t in read) if t in stage_outputs()]

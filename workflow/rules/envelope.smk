@@ -33,22 +33,20 @@ rule envelope_plan:
     """The sampling plan: every member's value of every varied unknown, and the same draws in the
     unit hypercube as SALib drew them (what Morris's screening reads)."""
     input:
-        base=lambda w: RAW / w.dataset / "dataset.yaml",
+        base=RAW / ENVELOPE.design.dataset / "dataset.yaml",
         unknowns=UNKNOWNS,
         library=library_sources("envelope_plan"),
     output:
-        plan=report("results/envelope/{dataset}/plan.csv", caption="../report/envelope_plan.rst",
-                    category="Envelope", subcategory="{dataset}"),
-        unit="results/envelope/{dataset}/unit.csv",
+        plan=report(f"{ENVELOPE_FOLDER}/plan.csv", caption="../report/envelope_plan.rst",
+                    category="Envelope", subcategory="Plan"),
+        unit=f"{ENVELOPE_FOLDER}/unit.csv",
     params:
         envelope=config["envelope"],
         raw_dir=config["raw_dir"],
-    wildcard_constraints:
-        dataset=ENVELOPE.design.dataset,
     log:
-        "logs/envelope/{dataset}/plan.log",
+        f"logs/envelope/{ENVELOPE.design.name}/plan.log",
     benchmark:
-        "benchmarks/out/envelope/{dataset}/plan.tsv"
+        f"benchmarks/out/envelope/{ENVELOPE.design.name}/plan.tsv"
     threads: 1
     resources:
         **resources_for("small"),
@@ -81,9 +79,9 @@ rule envelope:
         members=list(ENVELOPE.manifests),
         raw_dir=config["raw_dir"],
     log:
-        "logs/envelope/envelope.log",
+        f"logs/envelope/{ENVELOPE.design.name}/envelope.log",
     benchmark:
-        "benchmarks/out/envelope/envelope.tsv"
+        f"benchmarks/out/envelope/{ENVELOPE.design.name}/envelope.tsv"
     threads: 1
     resources:
         **resources_for("medium"),

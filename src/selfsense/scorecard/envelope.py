@@ -196,7 +196,11 @@ def judge_envelope(
     entries: Sequence[Entry],
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(envelope scorecard, sensitivity table) of a nominal scorecard and its members' cards
-    ({member: card}; ``unit``: the members' draws in the unit hypercube, as SALib drew them)."""
+    ({member: card}; ``unit``: the members' draws in the unit hypercube, as SALib drew them).
+    Only the design's chapters are judged: a chapter whose unknowns it holds would get an
+    envelope of the noise alone."""
+    if design.chapters:
+        nominal = nominal[nominal["chapter"].astype(str).isin(design.chapters)]
     emergent = nominal[nominal["kind"] == EMERGENT]
     keys = [row_key(s, q) for s, q in zip(emergent["source"], emergent["quantity"])]
     values = member_values(members, keys)

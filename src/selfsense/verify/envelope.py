@@ -49,10 +49,15 @@ class Design:
     groups: Sequence[str]
     #: the stages a member runs (the nominal run's others are not varied)
     stages: Sequence[str]
+    #: what its members (<name>~NN) and its outputs (results/envelope/<name>/) are named after
+    name: str
+    #: the chapters whose emergent rows it judges (empty: every chapter)
+    chapters: Sequence[str] = ()
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any]) -> Design:
         return cls(
+            name=section.get("name", section["dataset"]),
             dataset=section["dataset"],
             members=int(section["members"]),
             method=section["method"],
@@ -60,6 +65,7 @@ class Design:
             levels=int(section["levels"]),
             groups=list(section["groups"]),
             stages=list(section["stages"]),
+            chapters=[str(c) for c in section.get("chapters", ())],
         )
 
 
@@ -171,7 +177,7 @@ def sampling_plan(varied: Sequence[Unknown], design: Design) -> tuple[pd.DataFra
     """(plan, unit): the members' values of every varied unknown, and the same draws in the unit
     hypercube (what Morris's analysis reads), indexed by member name."""
     unit = unit_design(varied, design)
-    names = [member_name(design.dataset, k + 1) for k in range(len(unit))]
+    names = [member_name(design.name, k + 1) for k in range(len(unit))]
     ids = [u.id for u in varied]
     unit_frame = pd.DataFrame(unit, index=pd.Index(names, name="member"), columns=ids)
     # 12 significant digits: a protocol's 0.5 s, not 0.49999999999999994, in a member's manifest
