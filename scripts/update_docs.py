@@ -10,7 +10,7 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
 - ``recovery`` (docs/twin.md): what the analyses give back of the twin's truth;
 - ``envelope`` (README.md) and ``envelope_rows`` (docs/envelope.md): the reproduction envelope's
   counts and every inconsistent number, from docs/snapshot/envelope/ (``--envelope``: the
-  results/envelope/<dataset>/ folder of a `snakemake envelope` run, copied there with its
+  results/envelope/<name>/ folder of a `snakemake envelope` run, copied there with its
   provenance: commit, workflow/unknowns.yaml's sha256, members).
 """
 
@@ -40,7 +40,7 @@ PAGES = {
     "envelope": Path("README.md"),
     "envelope_rows": Path("docs/envelope.md"),
 }
-#: what an envelope's snapshot keeps of results/envelope/<dataset>/
+#: what an envelope's snapshot keeps of results/envelope/<name>/
 ENVELOPE_FILES = (
     "scorecard.csv",
     "sensitivity.csv",
@@ -181,7 +181,7 @@ def main(results: Path, snapshot: Path = SNAPSHOT, envelope: Path | None = None,
 if __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__)
     cli.add_argument("--results", type=Path, default=Path("results"))
-    cli.add_argument("--envelope", type=Path, help="results/envelope/<dataset>/ of an envelope")
+    cli.add_argument("--envelope", type=Path, help="results/envelope/<name>/ of an envelope")
     cli.add_argument("--envelope-wall-s", type=float, help="the envelope run's wall time [s]")
     args = cli.parse_args()
     main(args.results, envelope=args.envelope, wall_s=args.envelope_wall_s)

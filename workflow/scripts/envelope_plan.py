@@ -1,5 +1,5 @@
 """Rule `envelope_plan`: the envelope's sampling plan (selfsense.verify.envelope.envelope):
-results/envelope/<dataset>/plan.csv (each member's values) and unit.csv (the same draws in the
+results/envelope/<name>/plan.csv (each member's values) and unit.csv (the same draws in the
 unit hypercube, as SALib drew them)."""
 
 from pathlib import Path
