@@ -5,12 +5,13 @@ The cluster is the one scripts/slurm_local.sh brings up (installing Debian's mun
 slurmd where they are missing), or finds running. Where it cannot (not root, no apt, no network,
 daemons that will not start), the test skips and says why; `pytest -m "not slurm"` leaves it out.
 
-Two members of Chapter 3 (stages ripple and ch3), about 20 SLURM jobs: every SLURM job starts
-Snakemake twice (the batch script, then the job step), a few seconds of core time each, so the
-whole smoke DAG (≈ 140 jobs) would take ≈ 15 minutes, where these already go every way a job can:
-a manifest written from the plan, captures simulated and checked, read by the next job through
-the shared filesystem, tables compared byte for byte with the same member run locally, and the
-verdicts that read every member.
+Two members of Chapter 3 (stages ripple and ch3), 12 SLURM jobs: each member's manifest, capture,
+ripple, table and scorecard, then the plan and the verdicts. Every SLURM job starts Snakemake
+twice (the batch script, then the job step), a few seconds of core time each, so the whole smoke
+DAG (≈ 140 jobs) would take ≈ 15 minutes, where these already go every way a job can: a manifest
+written from the plan, a capture simulated and checked, read by the next job through the shared
+filesystem, tables compared byte for byte with the same member run locally, and the verdicts
+that read every member.
 """
 
 import json
