@@ -104,8 +104,8 @@ LIBRARY_SOURCES = Path(".snakemake/selfsense/library_sources.json")
 
 @cache
 def _library_sources():
-    stamp = [[str(f), f.stat().st_mtime_ns, f.stat().st_size]
-             for f in sorted([*LIBRARY.rglob("*.py"), *SCRIPTS.glob("*.py")])]
+    files = sorted([*LIBRARY.rglob("*.py"), *SCRIPTS.glob("*.py")])
+    stamp = [[str(f), s.st_mtime_ns, s.st_size] for f, s in zip(files, map(Path.stat, files))]
     try:
         kept = json.loads(LIBRARY_SOURCES.read_text())
         if kept["stamp"] == stamp:
@@ -533,10 +533,9 @@ def scorecard_tables(dataset):
     (what the envelope reads)."""
     entries = applicable(SCORECARD, DATASETS[dataset])
     if dataset in ENVELOPE.manifests:  # the numbers' own tables, not those explaining them
-        judged = ENVELOPE.design.chapters
         read = list(dict.fromkeys(e.locate.table for e in entries
                                   if e.kind in ("emergent", "calibration") and e.locate
-                                  and (not judged or str(e.chapter) in judged)))
+                                  and ENVELOPE.design.judges(e.chapter)))
     else:
         read = tables_read(entries) + reference_tables(DATASETS[dataset])
     return [t for t in (f"results/{dataset}/{t}" for t in read) if t in stage_outputs()]

@@ -199,8 +199,7 @@ def judge_envelope(
     ({member: card}; ``unit``: the members' draws in the unit hypercube, as SALib drew them).
     Only the design's chapters are judged: a chapter whose unknowns it holds would get an
     envelope of the noise alone."""
-    if design.chapters:
-        nominal = nominal[nominal["chapter"].astype(str).isin(design.chapters)]
+    nominal = nominal[nominal["chapter"].map(design.judges)]
     emergent = nominal[nominal["kind"] == EMERGENT]
     keys = [row_key(s, q) for s, q in zip(emergent["source"], emergent["quantity"])]
     values = member_values(members, keys)

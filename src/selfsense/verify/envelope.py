@@ -57,7 +57,7 @@ class Design:
     @classmethod
     def from_config(cls, section: Mapping[str, Any]) -> Design:
         return cls(
-            name=section.get("name", section["dataset"]),
+            name=section.get("name") or section["dataset"],
             dataset=section["dataset"],
             members=int(section["members"]),
             method=section["method"],
@@ -67,6 +67,11 @@ class Design:
             stages=list(section["stages"]),
             chapters=[str(c) for c in section.get("chapters", ())],
         )
+
+    def judges(self, chapter: Any) -> bool:
+        """Whether the design judges the emergent rows of ``chapter`` (every chapter's when it
+        names none)."""
+        return not self.chapters or str(chapter) in self.chapters
 
 
 def member_name(dataset: str, number: int) -> str:
