@@ -33,19 +33,50 @@ def stack_daq(stack_manifest):
 #: module-scoped fixtures that run a DAG of their own (or copy the smoke tree): a worker builds its
 #: own instance of a module's fixture, so the tests sharing one go to one worker (split over two,
 #: the DAG ran twice)
-OWN_DAGS = ("bench", "lab_csv", "config_tree")
+OWN_DAGS = ("bench", "lab_csv", "config_tree", "batches", "lab_examples", "hostile")
+
+#: the group of every test that does not need the smoke DAG: the first group, so that one worker
+#: runs it while the other runs the smoke DAG that every other test waits for
+BESIDE_THE_SMOKE_DAG = "beside_the_smoke_dag"
+
+#: the groups and tests that come next, in this order: the long ones start first, so that they do
+#: not end the run alone while the other worker idles; a worker takes the next one when it starts
+#: its last test but one, so the first two go to the worker that is done first (the SLURM test
+#: waits for the cluster's queue, beside the dry runs of config_tree on the same worker)
+LONG_FIRST = (
+    "test_slurm.py::",
+    "@config_tree",
+    "test_a_measured_ripple_bench_runs_every_analysis_to_the_end",
+    "@bench",
+)
 
 
 @pytest.hookimpl(tryfirst=True)  # before xdist reads the groups off the markers
 def pytest_collection_modifyitems(items):
-    """The suite runs on pytest-xdist workers (addopts): the tests that run Snakemake inside the
-    shared smoke tree, edit it or copy it whole (``smoke_tree``) go to one worker, one after
-    another, and so do those that share a fixture of :data:`OWN_DAGS`; the tests that only read the
-    smoke tree's captures and tables run on any."""
+    """The suite runs on pytest-xdist workers (addopts, which keep the scopes in the order of
+    collection): the tests that do not need the smoke DAG go to one worker together
+    (:data:`BESIDE_THE_SMOKE_DAG`), first; the tests that run Snakemake inside the shared smoke
+    tree, edit it or copy it whole (``smoke_tree``) go to one worker, one after another, next,
+    and so do those that share a fixture of :data:`OWN_DAGS`; the long ones follow
+    (:data:`LONG_FIRST`), and the tests that only read the smoke tree's captures and tables fill
+    the gaps at the end."""
+    groups = {}
     for item in items:
         group = next((f for f in ("smoke_tree", *OWN_DAGS) if f in item.fixturenames), None)
+        if "smoke_run" not in item.fixturenames:
+            group = BESIDE_THE_SMOKE_DAG  # a module's own fixture included: one worker runs both
         if group:
             item.add_marker(pytest.mark.xdist_group(group))
+        groups[item] = group
+
+    def order(item):
+        name = f"{item.nodeid}@{groups[item]}"
+        if groups[item] in (BESIDE_THE_SMOKE_DAG, "smoke_tree"):
+            return (0, groups[item] != BESIDE_THE_SMOKE_DAG)
+        long = [i for i, key in enumerate(LONG_FIRST) if key in name]
+        return (1, long[0]) if long else (2, 0)
+
+    items.sort(key=order)
 
 
 @pytest.fixture(scope="session")

@@ -201,6 +201,9 @@ def test_forest_figure_writes_a_png_that_grows_with_rows(tmp_path):
     assert (tmp_path / "forest.pdf").stat().st_size > 0
     assert (tmp_path / "forest.png.json").exists()
     assert not plt.get_fignums()  # saved figures are closed
+    # figures.pdf false: the PNG alone, and the PDF of an earlier run is gone
+    forest_figure(card, tmp_path / "forest.png", "envelope", pdf=False)
+    assert (tmp_path / "forest.png").exists() and not (tmp_path / "forest.pdf").exists()
 
 
 def test_tornado_panels_per_table_largest_on_top():

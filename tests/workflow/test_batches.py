@@ -20,7 +20,7 @@ from selfsense.io.audit import report as audit
 
 from ..helpers import copy_repo, imported, run_snakemake, write_config, write_csv
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("batches")]
+pytestmark = pytest.mark.slow
 
 GROWS, OTHER = "lab_batch", "lab_other"
 FIRST, NEW = ["sine_a", "sine_b"], "sine_c"

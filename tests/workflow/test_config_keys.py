@@ -67,6 +67,28 @@ USES = {
     "powerloss.velocity_window_s": (1.0, {"powerloss_identify", "powerloss_figures"}),
     "powerloss.drift_duration_s": (60.0, {"powerloss_performance", "powerloss_truth"}),
     "characterise.cycles.full_tolerance": (0.1, {"characterise_page"}),
+    # every rule that draws a figure (the envelope's only under `snakemake envelope`)
+    "figures.pdf": (
+        True,
+        {
+            "characterise_page",
+            "ch3_figures",
+            "ch3_model_figure",
+            "ch4_figures",
+            "ch5_figures",
+            "observer_study",
+            "frequency_response",
+            "ch6_results",
+            "ce_np_study",
+            "error_budget",
+            "thermal_identify",
+            "gamma_t_fit",
+            "frequency_effect",
+            "estimator_diagram",
+            "ch7_summary",
+            "powerloss_figures",
+        },
+    ),
     "characterise.hysteresis.max_order": (8, {"characterise_page"}),
     # the envelope's rules take the section whole, and only `snakemake envelope` runs them: a
     # change reruns nothing of the default run

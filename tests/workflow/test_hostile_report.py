@@ -20,7 +20,7 @@ from selfsense.io.manifest import load_yaml
 
 from ..helpers import add_measured, copy_repo, run_snakemake, write_config
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("hostile_report")]
+pytestmark = pytest.mark.slow
 
 SCRIPT = "x\n\n.. raw:: html\n\n   <script>alert(1)</script>"
 PASSWD = ".. include:: /etc/passwd\n   :literal:"

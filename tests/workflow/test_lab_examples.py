@@ -60,7 +60,6 @@ def column(row, start):
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("lab_examples")
 @pytest.mark.parametrize("name", list(DATASETS))
 def test_the_steady_cycles_give_the_twins_stroke_and_loop_width(lab_examples, name):
     """Stroke within 1 % and loop width within 0.5 pp of the steady cycles' truth, whatever the
@@ -80,7 +79,6 @@ def test_the_steady_cycles_give_the_twins_stroke_and_loop_width(lab_examples, na
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("lab_examples")
 @pytest.mark.parametrize("name", list(DATASETS))
 def test_each_recording_has_its_own_hysteresis_model_and_its_held_out_error(lab_examples, name):
     """The fit's errors on cycles neither the fit nor the choice of its order saw, in the table;

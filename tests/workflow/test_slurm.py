@@ -26,7 +26,7 @@ import yaml
 from selfsense.io.manifest import load_yaml
 from selfsense.io.unknowns import unknowns_hash
 
-from ..helpers import ROOT, SMOKE_CONFIG, run_snakemake
+from ..helpers import ROOT, SMOKE_CONFIG, run_snakemake, snakemake_command
 
 pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
@@ -79,9 +79,15 @@ def test_a_two_member_envelope_via_slurm_equals_the_local_run(slurm_cluster, smo
     same member run locally, and its Chapter 3 table moves with its draws; the verdicts' table
     has every emergent row (with 2 members, none has the 3 an envelope needs)."""
     local = envelope_tree(smoke_run, tmp_path / "local")
-    first = "results/pi_p885~01/scorecard.csv"
-    alone = run_snakemake(local, first, config="envelope.yaml")
-    assert alone.returncode == 0, alone.stderr[-3000:]
+    # beside the cluster's run, whose jobs mostly wait in the queue
+    log = tmp_path / "local.log"
+    with log.open("w") as out:
+        alone = subprocess.Popen(
+            snakemake_command("results/pi_p885~01/scorecard.csv", config="envelope.yaml"),
+            cwd=local,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
     repo = envelope_tree(smoke_run, tmp_path / "slurm")
     run = run_snakemake(
         repo,
@@ -91,6 +97,7 @@ def test_a_two_member_envelope_via_slurm_equals_the_local_run(slurm_cluster, smo
         "envelope",
         config="envelope.yaml",
     )
+    assert alone.wait(timeout=1800) == 0, log.read_text()[-3000:]
     assert run.returncode == 0, run.stderr[-3000:]
     done = re.search(r"(\d+) of \1 steps \(100%\) done", run.stderr)
     assert done and run.stderr.count("has been submitted with SLURM jobid") == int(done[1]), (

@@ -75,6 +75,7 @@ rule envelope:
         summary=report(f"{ENVELOPE_FOLDER}/envelope_summary.rst", caption="../report/envelope_summary.rst",
                        category="Envelope", subcategory="Scorecard"),
     params:
+        pdf=config["figures"]["pdf"],
         envelope=config["envelope"],
         members=list(ENVELOPE.manifests),
         raw_dir=config["raw_dir"],

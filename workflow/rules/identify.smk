@@ -54,6 +54,8 @@ rule ch4_figures:
         library=library_sources("ch4_figures"),
     output:
         **{name: report_figure(name, "Chapter 4") for name in CH4_FIGURES},
+    params:
+        pdf=config["figures"]["pdf"],
     log:
         "logs/{dataset}/ch4_figures.log",
     benchmark:

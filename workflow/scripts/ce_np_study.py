@@ -16,6 +16,7 @@ def main(
     wanders=(0, 30, 100, 300),
     drive_hz=100.0,
     log=None,
+    pdf=True,
 ):
     logger = script_logging(log)
     meta = load_manifest(manifest)
@@ -28,10 +29,9 @@ def main(
         seed=meta.get("seed", 0),
     )
     config = {"np": list(nps), "wander_hz": list(wanders), "drive_hz": drive_hz}
-    write_table(result, table, inputs=[manifest], config=config, seed=meta.get("seed", 0))
-    save_figure(
-        figures.np_study(result), figure, inputs=[manifest], config=config, seed=meta.get("seed", 0)
-    )
+    recorded = {"inputs": [manifest], "config": config, "seed": meta.get("seed", 0)}
+    write_table(result, table, **recorded)
+    save_figure(figures.np_study(result), figure, pdf=pdf, **recorded)
     logger.info("\n%s", result.to_string())
 
 
@@ -45,4 +45,5 @@ if "snakemake" in globals():
         p.wanders,
         p.drive_hz,
         snakemake.log[0],
+        pdf=p.pdf,
     )

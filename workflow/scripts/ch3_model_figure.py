@@ -5,16 +5,22 @@ from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import save_figure, script_logging
 
 
-def main(manifest, figure, log=None):
+def main(manifest, figure, log=None, pdf=True):
     logger = script_logging(log)
     twin = load_manifest(manifest)["twin"]
     save_figure(
         figure_3_2(twin["stack"], twin["ripple"]["amplitude"], twin["ripple"]["f_nominal"]),
         figure,
         inputs=[manifest],
+        pdf=pdf,
     )
     logger.info("wrote %s", figure)
 
 
 if "snakemake" in globals():
-    main(snakemake.input.manifest, snakemake.output.figure, snakemake.log[0])
+    main(
+        snakemake.input.manifest,
+        snakemake.output.figure,
+        snakemake.log[0],
+        pdf=snakemake.params.pdf,
+    )

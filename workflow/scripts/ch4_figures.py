@@ -15,14 +15,16 @@ def channel(capture, name):
         return {"t": np.arange(cap.n) / cap.fs, name: cap.read((name,))[name]}
 
 
-def main(series, per_set, force_capture, drive_capture, out, log=None):
+def main(series, per_set, force_capture, drive_capture, out, log=None, pdf=True):
     """out: {figure name: path}."""
     logger = script_logging(log)
     sets = {Path(p).stem: read_series(p) for p in series}
     fits = ch4.fits_from_table(pd.read_csv(per_set))
     built = ch4.figures_ch4(sets, fits, channel(force_capture, "F"), channel(drive_capture, "U"))
     for name, fig in built.items():
-        save_figure(fig, out[name], inputs=[*series, per_set, force_capture, drive_capture])
+        save_figure(
+            fig, out[name], inputs=[*series, per_set, force_capture, drive_capture], pdf=pdf
+        )
     logger.info("wrote %s", ", ".join(sorted(built)))
 
 
@@ -35,4 +37,5 @@ if "snakemake" in globals():
         i.drive,
         dict(snakemake.output.items()),
         snakemake.log[0],
+        pdf=snakemake.params.pdf,
     )

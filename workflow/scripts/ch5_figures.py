@@ -7,7 +7,7 @@ from selfsense.methods.observer import load_gains
 
 
 def main(
-    series, gamma_capture, gamma_series, traces, creep, observer, out, n_periods, orders, log=None
+    series, gamma_capture, gamma_series, traces, creep, observer, out, n_periods, orders, log, pdf
 ):
     """series / traces: {frequency [Hz]: path}; out: {figure name: path}."""
     logger = script_logging(log)
@@ -25,7 +25,7 @@ def main(
     )
     inputs = [*series.values(), *traces.values(), creep, observer]
     for name, fig in built.items():
-        save_figure(fig, out[name], inputs=inputs)
+        save_figure(fig, out[name], inputs=inputs, pdf=pdf)
     logger.info("wrote %s", ", ".join(sorted(built)))
 
 
@@ -42,4 +42,5 @@ if "snakemake" in globals():
         p.n_periods,
         p.orders,
         snakemake.log[0],
+        pdf=p.pdf,
     )

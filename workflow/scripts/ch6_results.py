@@ -11,7 +11,7 @@ from selfsense.io.provenance import save_figure, script_logging, write_table
 from selfsense.methods.electromech import load_k_over_alpha
 
 
-def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
+def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None, pdf=True):
     """out: {table or figure name: path}."""
     logger = script_logging(log)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
@@ -25,7 +25,7 @@ def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
         ch6.p1_window(protocols["ch6_p1_closed"]) if "ch6_p1_closed" in protocols else float("inf")
     )
     for name, fig in ch6.figures_ch6(runs, tables["tracking"], window).items():
-        save_figure(fig, out[name], inputs=inputs)
+        save_figure(fig, out[name], inputs=inputs, pdf=pdf)
     logger.info("%d runs", len(runs))
 
 
@@ -39,4 +39,5 @@ if "snakemake" in globals():
         p.omega_c,
         dict(snakemake.output.items()),
         snakemake.log[0],
+        pdf=p.pdf,
     )

@@ -10,7 +10,7 @@ from selfsense.io.capture import read_series
 from selfsense.io.provenance import save_figure, script_logging, write_table
 
 
-def main(stats, traces, out, log=None):
+def main(stats, traces, out, log=None, pdf=True):
     """stats / traces: {run: path}; out: {"coupled" or figure name: path}."""
     logger = script_logging(log)
     records = {run: json.loads(Path(path).read_text()) for run, path in stats.items()}
@@ -21,6 +21,7 @@ def main(stats, traces, out, log=None):
             ch7.figure_coupled(name, run, read_series(traces[run]), records[run]),
             out[name],
             inputs=[traces[run]],
+            pdf=pdf,
         )
     logger.info("\n%s", coupled.to_string())
 
@@ -32,4 +33,5 @@ if "snakemake" in globals():
         dict(zip(p.runs, i.traces)),
         dict(snakemake.output.items()),
         snakemake.log[0],
+        pdf=p.pdf,
     )

@@ -15,7 +15,9 @@ from selfsense.methods import characterise as ch
 from selfsense.methods.cycles import CycleRules
 
 
-def main(captures, rows_json, figure, title, settle_s=0.1, min_hold_s=1.0, log=None, **options):
+def main(
+    captures, rows_json, figure, title, settle_s=0.1, min_hold_s=1.0, log=None, pdf=True, **options
+):
     logger = script_logging(log)
     rules, rows, loops, model = CycleRules.from_mapping(options.get("cycle_rules")), [], [], []
     periods, scalings = options.get("periods") or {}, options.get("scalings") or None
@@ -27,7 +29,7 @@ def main(captures, rows_json, figure, title, settle_s=0.1, min_hold_s=1.0, log=N
         rows, model = rows + [row], model + parameters
         loops += [panels] if panels else []
         logger.info("%s: %s", capture, row)
-    save_figure(ch.loop_page(loops, title), figure, inputs=captures)
+    save_figure(ch.loop_page(loops, title), figure, inputs=captures, pdf=pdf)
     write_json({"rows": rows, "model": model, "provenance": provenance(captures)}, rows_json)
 
 
@@ -35,4 +37,4 @@ if "snakemake" in globals():
     i, o, p = snakemake.input, snakemake.output, snakemake.params
     options = {k: p.get(k) for k in ("periods", "scalings", "cycle_rules", "hysteresis")}
     args = (o.rows, o.figure, p.title, p.settle_s, p.min_hold_s, snakemake.log[0])
-    main(list(i.capture), *args, **options)
+    main(list(i.capture), *args, pdf=p.pdf, **options)

@@ -14,7 +14,7 @@ from selfsense.scorecard.envelope import envelope_result
 from selfsense.scorecard.registry import applicable, parse_registry
 
 
-def main(section, i, o, member_names, raw_dir, log=None):
+def main(section, i, o, member_names, raw_dir, log=None, pdf=True):
     logger = script_logging(log)
     base = load_manifest(Path(raw_dir) / section["dataset"] / "dataset.yaml")
     entries = applicable(parse_registry(load_yaml(i.registry), i.registry), base)
@@ -28,8 +28,10 @@ def main(section, i, o, member_names, raw_dir, log=None):
     write_table(result.card, o.card, inputs=inputs, **extra)
     write_table(result.sensitivity, o.sensitivity, inputs=inputs, **extra)
     title = f"{section['dataset']}: {len(members)} envelope members"
-    figures.forest_figure(result.card, o.forest, title, inputs=inputs)
-    figures.tornado_figure(result.sensitivity, result.card, o.tornado, title, inputs=inputs)
+    figures.forest_figure(result.card, o.forest, title, inputs=inputs, pdf=pdf)
+    figures.tornado_figure(
+        result.sensitivity, result.card, o.tornado, title, inputs=inputs, pdf=pdf
+    )
     with atomic_path(o.summary) as tmp:
         tmp.write_text(result.summary, encoding="utf-8")
     logger.info("%s", result.summary.splitlines()[2])
@@ -44,4 +46,5 @@ if "snakemake" in globals():
         list(p.members),
         p.raw_dir,
         snakemake.log[0],
+        pdf=p.pdf,
     )

@@ -9,7 +9,7 @@ from selfsense.methods.observer import load_gains
 from selfsense.verify.error_budget import SOURCES, budget_table
 
 
-def main(runs, gamma, observer, table, figure, n_periods, log=None):
+def main(runs, gamma, observer, table, figure, n_periods, log=None, pdf=True):
     """runs: {capture path: (Table 5.4 frequency [Hz] or None, the loop's ω_C for a Chapter 6
     closed-loop run or None, the protocol of a P1 run or None, the creep run's transient [s] or
     None)}."""
@@ -22,7 +22,7 @@ def main(runs, gamma, observer, table, figure, n_periods, log=None):
     }
     provenance = {"inputs": [*runs, gamma, observer], "config": config}
     write_table(result, table, **provenance)
-    save_figure(figures.error_budget(result, SOURCES), figure, **provenance)
+    save_figure(figures.error_budget(result, SOURCES), figure, **provenance, pdf=pdf)
     logger.info("\n%s", result.T.to_string())
 
 
@@ -37,4 +37,5 @@ if "snakemake" in globals():
         snakemake.output.figure,
         p.n_periods,
         snakemake.log[0],
+        pdf=p.pdf,
     )

@@ -13,7 +13,9 @@ from selfsense.methods.observer import load_gains
 from selfsense.methods.ripple import plan_from_fs
 
 
-def main(gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods, log=None):
+def main(
+    gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods, log=None, pdf=True
+):
     logger = script_logging(log)
     fig, shown = ch7.figure_7_9(
         load_gamma(gamma_t),
@@ -22,14 +24,9 @@ def main(gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods,
         load_k_over_alpha(model),
         plan_from_fs(fs, fr, ns, n_periods),
     )
+    inputs = [gamma_t, observer, thermal_model, model]
     # the sidecar records the numbers the diagram shows, for audits that cannot read a PNG
-    save_figure(
-        fig,
-        figure,
-        inputs=[gamma_t, observer, thermal_model, model],
-        config={"n_periods": n_periods},
-        shown=shown,
-    )
+    save_figure(fig, figure, inputs=inputs, config={"n_periods": n_periods}, shown=shown, pdf=pdf)
     logger.info("Figure 7.9 shows %s", shown)
 
 
@@ -46,4 +43,5 @@ if "snakemake" in globals():
         p.ns,
         p.n_periods,
         snakemake.log[0],
+        pdf=p.pdf,
     )

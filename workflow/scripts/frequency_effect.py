@@ -7,19 +7,10 @@ from selfsense.methods.gamma import load_gamma
 
 
 def main(
-    series,
-    captures,
-    frequencies,
-    gamma,
-    gamma_t,
-    reference,
-    table,
-    figure,
-    bins=20,
-    min_windows=10,
-    log=None,
+    series, captures, frequencies, gamma, gamma_t, reference, out, bins, min_windows, log, pdf
 ):
-    """series / captures / frequencies: {run: ripple series / capture / drive frequency [Hz]}."""
+    """series / captures / frequencies: {run: ripple series / capture / drive frequency [Hz]};
+    out: {"table" or "figure": path}."""
     logger = script_logging(log)
     gamma_poly = load_gamma(gamma)
     runs = {run: ch7.frequency_run(series[run], captures[run], frequencies[run]) for run in series}
@@ -28,8 +19,9 @@ def main(
     )
     inputs = [*series.values(), *captures.values(), gamma, gamma_t]
     config = {"bins": bins, "min_windows": min_windows, "reference": reference}
-    write_table(result, table, inputs=inputs, config=config)
-    save_figure(ch7.figure_7_8(curves, gamma_poly), figure, inputs=inputs, config=config)
+    write_table(result, out["table"], inputs=inputs, config=config)
+    figure = ch7.figure_7_8(curves, gamma_poly)
+    save_figure(figure, out["figure"], inputs=inputs, config=config, pdf=pdf)
     logger.info("\n%s", result.to_string())
 
 
@@ -42,9 +34,9 @@ if "snakemake" in globals():
         i.gamma,
         i.gamma_t,
         p.reference,
-        snakemake.output.table,
-        snakemake.output.figure,
+        dict(snakemake.output.items()),
         p.bins,
         p.min_windows,
         snakemake.log[0],
+        pdf=p.pdf,
     )

@@ -12,7 +12,7 @@ from selfsense.methods import frequency_response as fr
 from selfsense.methods.drive import drive_from_protocol
 
 
-def main(capture, model, protocol, settle_s, out, log=None):
+def main(capture, model, protocol, settle_s, out, log=None, pdf=True):
     """protocol: the sweep's catalogue entry (segments, warmup); out: {table, peaks, figure}."""
     logger = script_logging(log)
     params = json.loads(Path(model).read_text())
@@ -28,7 +28,7 @@ def main(capture, model, protocol, settle_s, out, log=None):
     inputs = [capture, model]
     write_table(table, out["table"], inputs=inputs, config=cfg)
     write_table(peaks, out["peaks"], inputs=inputs, config=cfg)
-    save_figure(ch5.figure_5_3(table, peaks, G), out["figure"], inputs=inputs, config=cfg)
+    save_figure(ch5.figure_5_3(table, peaks, G), out["figure"], inputs=inputs, config=cfg, pdf=pdf)
     logger.info(
         "operating position %.2f µm\n%s\n%s",
         measured.operating_position * 1e6,
@@ -45,4 +45,5 @@ if "snakemake" in globals():
         snakemake.params.settle_s,
         dict(snakemake.output.items()),
         snakemake.log[0],
+        pdf=snakemake.params.pdf,
     )

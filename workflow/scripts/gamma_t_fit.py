@@ -8,18 +8,7 @@ from selfsense.io.capture import read_series
 from selfsense.io.provenance import provenance, save_figure, script_logging, write_json, write_table
 
 
-def main(
-    samples,
-    power,
-    val_samples,
-    val_power,
-    out,
-    figure,
-    orders=(4, 5, 6),
-    order=5,
-    candidates=(1, 2, 3, 4, 5, 6),
-    log=None,
-):
+def main(samples, power, val_samples, val_power, out, figure, orders, order, candidates, log, pdf):
     logger = script_logging(log)
     s, p, vs, vp = (read_series(f) for f in (samples, power, val_samples, val_power))
     tables, records = gamma_t_fits(s, p, vs, vp, orders, order, candidates)
@@ -29,7 +18,7 @@ def main(
         write_table(table, out[name], inputs=inputs, config=cfg)
     for name, record in records.items():
         write_json(record | {"provenance": provenance(inputs, cfg)}, out[name])
-    save_figure(figure_7_7(s), figure, inputs=inputs)
+    save_figure(figure_7_7(s), figure, inputs=inputs, pdf=pdf)
     logger.info("\n%s\n%s", tables["table_7_2"].to_string(), tables["order"].to_string())
 
 
@@ -46,4 +35,5 @@ if "snakemake" in globals():
         p.order,
         p.candidates,
         snakemake.log[0],
+        pdf=p.pdf,
     )

@@ -13,7 +13,7 @@ from selfsense.methods.ripple import plan_from_capture
 CHANNELS = ("Ur", "Ir", "I", "x_laser")
 
 
-def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, log=None):
+def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, log=None, pdf=True):
     logger = script_logging(log)
     a0 = load_gains(observer).a0
     with open_capture(capture, require=CHANNELS) as cap:
@@ -26,10 +26,9 @@ def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, lo
 
     result = observer_study(chunks, plan, load_gamma(gamma), a0, fs, settle, omegas, offsets)
     cfg = {"omegas": list(omegas), "offsets": list(offsets), "n_periods": n_periods}
-    write_table(result, table, inputs=[capture, gamma, observer], config=cfg)
-    save_figure(
-        figures.observer_study(result), figure, inputs=[capture, gamma, observer], config=cfg
-    )
+    inputs = [capture, gamma, observer]
+    write_table(result, table, inputs=inputs, config=cfg)
+    save_figure(figures.observer_study(result), figure, inputs=inputs, config=cfg, pdf=pdf)
     logger.info("\n%s", result.to_string())
 
 
@@ -45,4 +44,5 @@ if "snakemake" in globals():
         p.offsets,
         p.n_periods,
         snakemake.log[0],
+        pdf=p.pdf,
     )

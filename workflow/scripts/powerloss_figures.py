@@ -8,16 +8,7 @@ from selfsense.io.provenance import save_figure, script_logging
 
 
 def main(
-    hold,
-    ramps,
-    captures,
-    table_1,
-    table_2,
-    identified,
-    out,
-    drift_start,
-    velocity_window=2.0,
-    log=None,
+    hold, ramps, captures, table_1, table_2, identified, out, drift_start, velocity_window, log, pdf
 ):
     logger = script_logging(log)
     records = ronkanen.read_records([hold, *ramps, *captures.values()])
@@ -29,7 +20,7 @@ def main(
     inputs = [hold, *ramps, *captures.values(), table_1, table_2, identified]
     config = {"velocity_window": velocity_window, "drift_start": drift_start}
     for name, fig in built.items():
-        save_figure(fig, out[name], inputs=inputs, config=config)
+        save_figure(fig, out[name], inputs=inputs, config=config, pdf=pdf)
         ronkanen.plt.close(fig)
     logger.info("wrote %s", ", ".join(out[name] for name in built))
 
@@ -47,4 +38,5 @@ if "snakemake" in globals():
         p.drift_start,
         p.velocity_window,
         snakemake.log[0],
+        pdf=p.pdf,
     )

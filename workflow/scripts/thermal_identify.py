@@ -11,9 +11,8 @@ from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.thermal import ThermalProperties
 
 
-def main(freq_series, volt_series, check_series, manifest, model, volt_segments, out, log=None):
-    """freq_series: {frequency [Hz]: path}; check_series: {run: path} for Figs 7.5–7.6; out: {table,
-    "thermal_model" or figure name: path}."""
+def main(freq_series, volt_series, check_series, manifest, model, volt_segments, out, log, pdf):
+    """freq_series: {frequency [Hz]: path}; check_series: {run: path} (Figs 7.5–7.6)."""
     logger = script_logging(log)
     th = load_manifest(manifest)["actuator"]["thermal"]
     tables, record, built = ch7.thermal_identification(
@@ -30,7 +29,7 @@ def main(freq_series, volt_series, check_series, manifest, model, volt_segments,
         write_table(table, out[key], inputs=inputs)
     write_json(record | {"provenance": provenance(inputs)}, out["thermal_model"])
     for name, fig in built.items():
-        save_figure(fig, out[name], inputs=inputs)
+        save_figure(fig, out[name], inputs=inputs, pdf=pdf)
     if not record["identified"]:  # e.g. the smoke campaign's short runs: later stages skip
         logger.warning(record["reason"])
     logger.info("\n%s", tables["per_run"].to_string())
@@ -47,4 +46,5 @@ if "snakemake" in globals():
         p.volt_segments,
         dict(snakemake.output.items()),
         snakemake.log[0],
+        pdf=p.pdf,
     )

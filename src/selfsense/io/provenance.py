@@ -280,11 +280,16 @@ def save_figure(
     path: str | os.PathLike,
     inputs: Iterable[str | os.PathLike] = (),
     config: Mapping[str, Any] | None = None,
+    pdf: bool = True,
     **extra: Any,
 ) -> None:
-    """PNG at ``path`` and a PDF beside it, each atomically, plus the provenance sidecar."""
+    """PNG at ``path`` and, with ``pdf``, a PDF beside it (config.yaml's ``figures.pdf``), each
+    atomically, plus the provenance sidecar. Without ``pdf`` a PDF an earlier run left beside
+    it is removed: it would show another figure than the PNG."""
     path = Path(path)
-    for target in (path, path.with_suffix(".pdf")):
+    if not pdf:
+        path.with_suffix(".pdf").unlink(missing_ok=True)
+    for target in (path, path.with_suffix(".pdf"))[: 2 if pdf else 1]:
         with atomic_path(target) as tmp:
             fig.savefig(
                 tmp,

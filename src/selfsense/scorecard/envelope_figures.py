@@ -317,9 +317,9 @@ def tornado(sensitivity: pd.DataFrame, card: pd.DataFrame, title: str, top: int 
     return fig
 
 
-def _save(fig, path, inputs, config) -> None:
+def _save(fig, path, inputs, config, pdf) -> None:
     try:
-        save_figure(fig, path, inputs=inputs, config=config)
+        save_figure(fig, path, inputs=inputs, config=config, pdf=pdf)
     finally:
         plt.close(fig)  # a long envelope run draws many: pyplot keeps every open figure
 
@@ -331,8 +331,10 @@ def forest_figure(
     *,
     inputs: Iterable[str | os.PathLike] = (),
     config: Mapping[str, Any] | None = None,
+    pdf: bool = True,
 ) -> None:
-    """A forest plot of the envelope scorecard at ``path`` (PNG, PDF beside it, provenance).
+    """A forest plot of the envelope scorecard at ``path`` (PNG, with ``pdf`` a PDF beside it,
+    provenance).
 
     One row per published number other than 0, on a shared axis of deviation from the published
     value in % of |published| (:func:`deviations`), so a reviewer reads every number's agreement
@@ -343,7 +345,7 @@ def forest_figure(
     value is still labelled, so no number drops out unseen. ``inputs``/``config`` go to the
     provenance sidecar.
     """
-    _save(forest(card, title), path, inputs, config)
+    _save(forest(card, title), path, inputs, config, pdf)
 
 
 def tornado_figure(
@@ -355,12 +357,14 @@ def tornado_figure(
     *,
     inputs: Iterable[str | os.PathLike] = (),
     config: Mapping[str, Any] | None = None,
+    pdf: bool = True,
 ) -> None:
-    """A tornado of what drives each table at ``path`` (PNG, PDF beside it, provenance).
+    """A tornado of what drives each table at ``path`` (PNG, with ``pdf`` a PDF beside it,
+    provenance).
 
     One panel per table (``source``) with Morris rows, in the card's order, three to a row: its
     ``top`` factors by the mean over the table's numbers of μ* in % of |published|
     (:func:`drivers`), largest on top, so a reviewer sees which unknown to pin down first for a
     table. Without a Morris screening (a Latin hypercube envelope) a single panel says so.
     """
-    _save(tornado(sensitivity, card, title, top), path, inputs, config)
+    _save(tornado(sensitivity, card, title, top), path, inputs, config, pdf)
