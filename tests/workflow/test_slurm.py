@@ -5,13 +5,14 @@ The cluster is the one scripts/slurm_local.sh brings up (installing Debian's mun
 slurmd where they are missing), or finds running. Where it cannot (not root, no apt, no network,
 daemons that will not start), the test skips and says why; `pytest -m "not slurm"` leaves it out.
 
-Two members of Chapter 3 (stages ripple and ch3), 12 SLURM jobs: each member's manifest, capture,
-ripple, table and scorecard, then the plan and the verdicts. Every SLURM job starts Snakemake
-twice (the batch script, then the job step), a few seconds of core time each, so the whole smoke
-DAG (≈ 140 jobs) would take ≈ 15 minutes, where these already go every way a job can: a manifest
-written from the plan, a capture simulated and checked, read by the next job through the shared
-filesystem, tables compared byte for byte with the same member run locally, and the verdicts
-that read every member.
+Two members of Chapter 3 (stages ripple and ch3), 12 jobs: each member's manifest, capture,
+ripple, table and scorecard, then the plan and the verdicts; the capture, ripple and table of each
+are SLURM jobs (6), the rest local rules. Every SLURM job starts Snakemake twice (the batch
+script, then the job step), a few seconds of core time each, so the whole smoke DAG (≈ 140 jobs)
+would take ≈ 15 minutes, where these already go every way a job can: a manifest written from the
+plan, a capture simulated and checked, read by the next job through the shared filesystem, tables
+compared byte for byte with the same member run locally, and the verdicts that read every
+member.
 """
 
 import json
@@ -100,9 +101,14 @@ def test_a_two_member_envelope_via_slurm_equals_the_local_run(slurm_cluster, smo
     assert alone.wait(timeout=1800) == 0, log.read_text()[-3000:]
     assert run.returncode == 0, run.stderr[-3000:]
     done = re.search(r"(\d+) of \1 steps \(100%\) done", run.stderr)
-    assert done and run.stderr.count("has been submitted with SLURM jobid") == int(done[1]), (
-        run.stderr[-3000:]
-    )
+    # the members' captures and analyses are SLURM jobs; the envelope's bookkeeping (the plan,
+    # the manifests, the scorecards, the verdicts) runs where Snakemake runs (localrule)
+    on_host = re.findall(r"^localrule (\w+):", run.stderr, re.M)
+    submitted = re.findall(r"^rule (\w+):", run.stderr, re.M)
+    assert set(on_host) == {"envelope_plan", "envelope_member", "scorecard", "envelope"}, on_host
+    assert set(submitted) == {"simulate", "extract_ripple", "ch3_hysteresis"}, submitted
+    assert done and len(on_host) + len(submitted) == int(done[1]), run.stderr[-3000:]
+    assert run.stderr.count("has been submitted with SLURM jobid") == len(submitted)
     # the member's manifest, capture, ripple and tables (not the sidecars: they name the host)
     made = [
         p.relative_to(local)

@@ -1,7 +1,8 @@
 # The reproduction envelope (docs/envelope.md): the twin across the declared range of what the
 # sources leave open (workflow/unknowns.yaml). Not part of rule all: `snakemake envelope`. The
 # members, <dataset>~NN (ENVELOPE in common.smk), are datasets run by the same rules as the
-# nominal one; here only what makes them and what reads them all.
+# nominal one; here only what makes them and what reads them all. These three are local rules:
+# they take seconds, and on a cluster a job's turn in the queue would take longer.
 
 
 rule envelope_member:
@@ -22,6 +23,7 @@ rule envelope_member:
         "logs/{dataset}/envelope_member.log",
     benchmark:
         "benchmarks/out/{dataset}/envelope_member.tsv"
+    localrule: True
     threads: 1
     resources:
         **resources_for("small"),
@@ -47,6 +49,7 @@ rule envelope_plan:
         f"logs/envelope/{ENVELOPE.design.name}/plan.log",
     benchmark:
         f"benchmarks/out/envelope/{ENVELOPE.design.name}/plan.tsv"
+    localrule: True
     threads: 1
     resources:
         **resources_for("small"),
@@ -83,6 +86,7 @@ rule envelope:
         f"logs/envelope/{ENVELOPE.design.name}/envelope.log",
     benchmark:
         f"benchmarks/out/envelope/{ENVELOPE.design.name}/envelope.tsv"
+    localrule: True
     threads: 1
     resources:
         **resources_for("medium"),

@@ -37,7 +37,9 @@ rule curve_vs_thesis:
 CURVE_OUTPUTS = [f"results/{d}/{c['folder']}/{fit}_vs_thesis.csv" for fit, c in CURVES.items() for d in c["datasets"]]
 
 rule scorecard:
-    """Published vs reproduced numbers for one dataset: deviation, band, verdict (CSV and a page)."""
+    """Published vs reproduced numbers for one dataset: deviation, band, verdict (CSV and a page).
+    A local rule: it takes a second or two, and on a cluster a job's turn in the queue (an
+    envelope's members each end with one) would take longer."""
     input:
         registry=SCORECARD_REGISTRY,
         manifest=RAW / "{dataset}" / "dataset.yaml",
@@ -58,6 +60,7 @@ rule scorecard:
         "logs/{dataset}/scorecard.log",
     benchmark:
         "benchmarks/out/{dataset}/scorecard.tsv"
+    localrule: True
     threads: 1
     resources:
         **resources_for("small"),
