@@ -23,7 +23,7 @@ rule characterise_page:
                       caption="../report/characterise_loops.rst", category="{dataset}",
                       subcategory="Characterisation"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         title=lambda w: loop_page_title(w.dataset, w.page),
         scalings=lambda w: channel_scalings(DATASETS[w.dataset]),
         periods=lambda w: protocol_periods(w.dataset, LOOP_PAGES[w.dataset][w.page]),

@@ -143,6 +143,8 @@ def resources_for(size):
 
 RAW = Path(config["raw_dir"])
 DATASETS = {name: load_dataset(RAW, name) for name in config["datasets"]}
+# every figure rule's param: a PDF beside each PNG (save_figure)
+FIGURE_PDF = config["figures"]["pdf"]
 
 # ---- The envelope (workflow/rules/envelope.smk): its members are datasets of their own,
 # <dataset>~NN, each the envelope dataset's manifest with one draw of the unknowns, run by the

@@ -71,7 +71,7 @@ rule ch6_results:
                      subcategory="Chapter 6") for t in CH6_TABLES},
         **{name: report_figure(name, "Chapter 6") for name in CH6_FIGURES},
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in CH6_RUNS[w.dataset]},
         controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in CH6_RUNS[w.dataset]},
         omega_c=config["control"]["omega_c"],

@@ -78,7 +78,7 @@ rule envelope:
         summary=report(f"{ENVELOPE_FOLDER}/envelope_summary.rst", caption="../report/envelope_summary.rst",
                        category="Envelope", subcategory="Scorecard"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         envelope=config["envelope"],
         members=list(ENVELOPE.manifests),
         raw_dir=config["raw_dir"],

@@ -55,7 +55,7 @@ rule ch4_figures:
     output:
         **{name: report_figure(name, "Chapter 4") for name in CH4_FIGURES},
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
     log:
         "logs/{dataset}/ch4_figures.log",
     benchmark:

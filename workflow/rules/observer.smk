@@ -90,7 +90,7 @@ rule observer_study:
                      category="{dataset}", subcategory="Chapter 5"),
         figure=report_figure(OBSERVER_STUDY_FIGURE, "Chapter 5"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         omegas=config["observer"]["study_omegas"],
         offsets=config["observer"]["study_offsets"],
         n_periods=config["ripple"]["n_periods"],
@@ -118,7 +118,7 @@ rule ch5_figures:
     output:
         **{name: report_figure(name, "Chapter 5") for name in CH5_FIGURES},
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         series_f=lambda w: list(sines(w.dataset, "ch5_sine_")),
         traces_f=lambda w: list(OBSERVED_SINES[w.dataset]),
         n_periods=config["ripple"]["n_periods"],
@@ -147,7 +147,7 @@ rule frequency_response:
                      category="{dataset}", subcategory="Chapter 5"),
         figure=report_figure(FREQUENCY_RESPONSE_FIGURE, "Chapter 5"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         protocol=lambda w: EXPERIMENTS[w.dataset][SWEEP_RUN].protocol,
         settle_s=config["observer"]["sweep_settle_s"],
     log:

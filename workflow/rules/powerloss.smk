@@ -88,7 +88,7 @@ rule powerloss_figures:
         **{name: report(f"figures/{{dataset}}/{name}.png", caption=f"../report/ronkanen_fig_{n}.rst", **RONKANEN_REPORT)
            for n, name in RONKANEN_FIGURES.items()},
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         velocity_window=config["powerloss"]["velocity_window_s"],
         drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
     log:

@@ -83,7 +83,7 @@ rule ch3_figures:
     output:
         **{name: report_figure(name, "Chapter 3") for name in CH3_FIGURES},
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         labels=list(CH3_SERIES),
         skip_s=config["ripple"]["skip_s"],
     log:
@@ -105,7 +105,7 @@ rule ch3_model_figure:
     output:
         figure=report_figure(CH3_MODEL_FIGURE, "Chapter 3"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
     log:
         "logs/{dataset}/ch3_model_figure.log",
     benchmark:

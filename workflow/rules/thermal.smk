@@ -42,7 +42,7 @@ rule thermal_identify:
         thermal_model="results/{dataset}/ch7/thermal_model.json",
         **{name: report_figure(name, "Chapter 7") for name in THERMAL_FIGURES},
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         freqs=lambda w: list(sines(w.dataset, "ch7_freq_")),
         checks=CH7_CHECKS,
         volt_segments=lambda w: EXPERIMENTS[w.dataset][CH7_VOLTAGE_RUN].protocol["segments"],
@@ -73,7 +73,7 @@ rule gamma_t_fit:
         gamma_t_n5="results/{dataset}/ch7/gamma_t_n5.json",
         figure=report_figure(GAMMA_T_FIGURE, "Chapter 7"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         orders=config["thermal"]["gamma_t_orders"],
         order=config["thermal"]["gamma_t_order"],
         candidates=config["thermal"]["gamma_t_candidates"],
@@ -101,7 +101,7 @@ rule frequency_effect:
                      category="{dataset}", subcategory="Chapter 7"),
         figure=report_figure(FREQUENCY_FIGURE, "Chapter 7"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         runs=lambda w: list(sines(w.dataset, "ch5_sine_").values()),
         frequencies=lambda w: [drive_frequency(w.dataset, e) for e in sines(w.dataset, "ch5_sine_").values()],
         reference=GAMMA_RUN,
@@ -129,7 +129,7 @@ rule estimator_diagram:
     output:
         figure=report_figure(DIAGRAM_FIGURE, "Chapter 7"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
         fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
         ns=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["ns"],
@@ -182,7 +182,7 @@ rule ch7_summary:
                        subcategory="Chapter 7"),
         **{name: report_figure(name, "Chapter 7") for name in COUPLED_FIGURES},
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         runs=CH7_COUPLED,
     log:
         "logs/{dataset}/ch7_summary.log",

@@ -37,7 +37,7 @@ rule ce_np_study:
                      category="{dataset}", subcategory="Twin validation"),
         figure=report_figure("fig_3_np_study", "Twin validation"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         nps=config["ripple"]["np_sweep"],
         wanders=config["ripple"]["np_study_wander_hz"],
         drive_hz=config["ripple"]["np_study_drive_hz"],
@@ -93,7 +93,7 @@ rule error_budget:
                      category="{dataset}", subcategory="Twin validation"),
         figure=report_figure(ERROR_BUDGET_FIGURE, "Twin validation"),
     params:
-        pdf=config["figures"]["pdf"],
+        pdf=FIGURE_PDF,
         frequencies=lambda w: list(BUDGET_RUNS[w.dataset].values()),
         # Chapter 6 counts from the loop's settling on (its ω_C), in P1's segments; Table 5.4 from the warm-up on
         loop_omega_c=lambda w: [config["control"]["omega_c"] if e in CH6_BUDGET_RUNS[w.dataset] else None

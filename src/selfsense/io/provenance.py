@@ -286,10 +286,10 @@ def save_figure(
     """PNG at ``path`` and, with ``pdf``, a PDF beside it (config.yaml's ``figures.pdf``), each
     atomically, plus the provenance sidecar. Without ``pdf`` a PDF an earlier run left beside
     it is removed: it would show another figure than the PNG."""
-    path = Path(path)
+    path, beside = Path(path), Path(path).with_suffix(".pdf")
     if not pdf:
-        path.with_suffix(".pdf").unlink(missing_ok=True)
-    for target in (path, path.with_suffix(".pdf"))[: 2 if pdf else 1]:
+        beside.unlink(missing_ok=True)
+    for target in (path, beside) if pdf else (path,):
         with atomic_path(target) as tmp:
             fig.savefig(
                 tmp,
