@@ -9,9 +9,10 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
 - ``calibration`` (docs/twin.md): the signatures the twin's free parameters are set to;
 - ``recovery`` (docs/twin.md): what the analyses give back of the twin's truth;
 - ``envelope`` (README.md) and ``envelope_rows`` (docs/envelope.md): the reproduction envelope's
-  counts and every inconsistent number, from docs/snapshot/envelope/ (``--envelope``: the
-  results/envelope/<name>/ folder of a `snakemake envelope` run, copied there with its
-  provenance: commit, workflow/unknowns.yaml's sha256, members).
+  counts and every inconsistent number, over the designs under docs/snapshot/envelope/<name>/
+  (``--envelope``: the results/envelope/<name>/ folder of a `snakemake envelope` run, copied
+  there with its provenance: commit, workflow/unknowns.yaml's sha256, members; a design of its
+  own, such as Chapter 7's, judges the rows the others have no envelope for).
 """
 
 import argparse
@@ -24,12 +25,14 @@ from pathlib import Path
 import pandas as pd
 
 from selfsense.scorecard.render import (
+    combined_envelope,
     counts_markdown,
     deviations_markdown,
     envelope_markdown,
     envelope_rows_markdown,
     replace_block,
 )
+from selfsense.verify.envelope import Design
 
 SNAPSHOT = Path("docs/snapshot")
 PAGES = {
@@ -121,27 +124,35 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         for p in sorted(snapshot.glob("scorecard_*.csv"))
         if p.name != "scorecard_counts.csv"
     }
-    envelope = snapshot / "envelope"
-    card = pd.read_csv(envelope / "scorecard.csv")
-    provenance = json.loads((envelope / "provenance.json").read_text())
+    folders = sorted((snapshot / "envelope").iterdir(), key=_dataset_s_own_first)
+    designs = [
+        (pd.read_csv(f / "scorecard.csv"), json.loads((f / "provenance.json").read_text()))
+        for f in folders
+    ]
     return {
         "counts": counts_markdown(counts, campaign),
         "deviations": deviations_markdown(cards),
         "calibration": calibration_markdown(cards, campaign),
         "recovery": recovery_markdown(cards, campaign),
-        "envelope": envelope_markdown(card, provenance),
-        "envelope_rows": envelope_rows_markdown(card),
+        "envelope": envelope_markdown(designs),
+        "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _ in designs])),
     }
 
 
+def _dataset_s_own_first(folder: Path) -> tuple[bool, str]:
+    """The dataset's own design (named after it) first: its card is the one the others fill."""
+    design = json.loads((folder / "provenance.json").read_text())["design"]
+    return Design.from_config(design).name != design["dataset"], folder.name
+
+
 def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> None:
-    """Copy an envelope's results into snapshot/envelope/ with their provenance: the commit, the
-    unknowns' sha256, the design, the members (and the run's wall time, if given)."""
-    target = snapshot / "envelope"
+    """Copy an envelope's results into snapshot/envelope/<name>/ with their provenance: the
+    commit, the unknowns' sha256, the design, the members (and the run's wall time, if given)."""
+    sidecar = json.loads((folder / "scorecard.csv.json").read_text())
+    target = snapshot / "envelope" / Design.from_config(sidecar["design"]).name
     target.mkdir(parents=True, exist_ok=True)
     for name in ENVELOPE_FILES:
         shutil.copy(folder / name, target / name)
-    sidecar = json.loads((folder / "scorecard.csv.json").read_text())
     plan = json.loads((folder / "plan.csv.json").read_text())
     record = {
         "code": sidecar["code"]["git_describe"],

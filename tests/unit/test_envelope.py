@@ -28,6 +28,7 @@ from selfsense.scorecard.envelope import (
     member_values,
     row_key,
 )
+from selfsense.scorecard.render import combined_envelope
 from selfsense.verify.envelope import (
     Design,
     envelope,
@@ -331,3 +332,27 @@ def test_a_design_judges_its_own_chapters_only():
     own = Design(**{**every.__dict__, "chapters": ["6"]})
     judged = [judge_envelope(nominal, members, unit, [], d, [])[0] for d in (every, own)]
     assert list(judged[0]["quantity"]) == ["a", "b"] and list(judged[1]["quantity"]) == ["a"]
+
+
+def test_a_second_design_fills_the_rows_the_first_has_no_envelope_for():
+    def judged(rows):
+        return pd.DataFrame(
+            rows, columns=["chapter", "source", "quantity", "p50", "envelope verdict"]
+        )
+
+    first = judged(
+        [
+            ("6", "T", "a", 1.0, "consistent"),
+            ("7", "U", "b", np.nan, "no envelope"),
+            ("7", "U", "c", np.nan, "no envelope"),
+        ]
+    )
+    chapter_7 = judged([("7", "U", "c", 2.0, "inconsistent"), ("7", "U", "b", 3.0, "consistent")])
+    both = combined_envelope([first, chapter_7])
+    assert list(both["quantity"]) == ["a", "b", "c"] and list(both.columns) == list(first.columns)
+    assert list(both["envelope verdict"]) == ["consistent", "consistent", "inconsistent"]
+    assert list(both["p50"]) == [1.0, 3.0, 2.0]
+    with pytest.raises(ValueError, match="judged by two designs.*'a'"):
+        combined_envelope([first, judged([("6", "T", "a", 1.1, "inconsistent")])])
+    with pytest.raises(ValueError, match="no other design.*'d'"):
+        combined_envelope([first, judged([("7", "U", "d", 1.0, "consistent")])])

@@ -29,6 +29,7 @@ from selfsense.scorecard.registry import (
     WITHIN,
 )
 from selfsense.scorecard.scoring import bias_verdicts, counts
+from selfsense.verify.envelope import Design
 
 #: where a row's note has a measured cause (Cause.note), which comes last: the pages count by it,
 #: and the HTML page shows it apart
@@ -758,15 +759,48 @@ def replace_block(text: str, name: str, body: str) -> str:
     return f"{head}{begin}\n{body}\n{end}{tail}"
 
 
-def envelope_markdown(card: pd.DataFrame, provenance: Mapping[str, Any]) -> str:
+def combined_envelope(cards: Sequence[pd.DataFrame]) -> pd.DataFrame:
+    """One envelope scorecard from several designs' (a design of its own for Chapter 7, whose
+    records are too long to run in the others' members): each emergent row takes its columns from
+    the design that judged it, the first card's where none did. A row two designs judged is an
+    error: which of the two verdicts stands would be a choice nobody declared."""
+    key = ["source", "quantity"]
+    combined = cards[0].set_index(key)
+    judged = combined["envelope verdict"] != "no envelope"
+    for card in cards[1:]:
+        other = card.set_index(key)
+        missing = other.index.difference(combined.index)
+        if len(missing):
+            raise ValueError(f"envelope rows of no other design: {list(missing)}")
+        theirs = other.index[other["envelope verdict"] != "no envelope"]
+        twice = theirs[judged.loc[theirs].to_numpy()]
+        if len(twice):
+            raise ValueError(f"envelope rows judged by two designs: {list(twice)}")
+        combined.loc[theirs, other.columns] = other.loc[theirs]
+        judged.loc[theirs] = True
+    return combined.reset_index()[cards[0].columns]
+
+
+def envelope_markdown(designs: Sequence[tuple[pd.DataFrame, Mapping[str, Any]]]) -> str:
     """The README's envelope counts: per chapter, the emergent numbers consistent (informative),
     consistent (uninformative), inconsistent and without an envelope, the nominal twin's within
-    band beside them (``card``: an envelope scorecard; ``provenance``: its design and members)."""
-    design = provenance["design"]
+    band beside them, over the designs' envelope scorecards (:func:`combined_envelope`); each
+    design named with the chapters it gave verdicts for, its members and its code (``designs``:
+    (scorecard, provenance) of each)."""
+    card = combined_envelope([c for c, _ in designs])
+    named = []
+    for design_card, provenance in designs:
+        design = Design.from_config(provenance["design"])
+        judged = design_card.loc[design_card["envelope verdict"] != "no envelope", "chapter"]
+        chapters = list(dict.fromkeys(str(c) for c in judged))
+        word = "Chapter" if len(chapters) == 1 else "Chapters"
+        named.append(
+            f"{word} {', '.join(chapters)}: {len(provenance['members'])} members, "
+            f"{design.method}, `docs/snapshot/envelope/{design.name}/`, code {provenance['code']}"
+        )
     lines = [
-        f"The reproduction envelope of `{design['dataset']}` on the `{provenance['campaign']}` "
-        f"campaign ({len(provenance['members'])} members, {design['method']}; "
-        f"`docs/snapshot/envelope/`, code {provenance['code']}):",
+        f"The reproduction envelope of `{Design.from_config(designs[0][1]['design']).dataset}` "
+        f"on the `{designs[0][1]['campaign']}` campaign ({'; '.join(named)}):",
         "",
         "| chapter | emergent | consistent | consistent (uninformative) | inconsistent "
         "| no envelope | nominal: within band |",
