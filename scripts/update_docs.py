@@ -167,8 +167,23 @@ def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> Non
     (target / "provenance.json").write_text(json.dumps(record, indent=1) + "\n")
 
 
-def main(results: Path, snapshot: Path = SNAPSHOT, envelope: Path | None = None, wall_s=None):
+def main(
+    results: Path | None, snapshot: Path = SNAPSHOT, envelope: Path | None = None, wall_s=None
+):
+    """Snapshot the run's scorecards (``results``; None: keep the snapshot's) and an envelope's
+    results (``envelope``), then write every page's blocks from the snapshot."""
     snapshot.mkdir(exist_ok=True)
+    if results is not None:
+        _snapshot_scorecards(results, snapshot)
+    if envelope is not None:
+        snapshot_envelope(envelope, snapshot, wall_s)
+    for name, body in render(snapshot).items():
+        PAGES[name].write_text(
+            replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8"
+        )
+
+
+def _snapshot_scorecards(results: Path, snapshot: Path) -> None:
     shutil.copy(results / "scorecard_counts.csv", snapshot / "scorecard_counts.csv")
     # the run's datasets: an envelope member's (pi_p885~07) is not one
     for card in sorted(c for c in results.glob("*/scorecard.csv") if "~" not in c.parent.name):
@@ -181,12 +196,6 @@ def main(results: Path, snapshot: Path = SNAPSHOT, envelope: Path | None = None,
         )
         + "\n"
     )
-    if envelope is not None:
-        snapshot_envelope(envelope, snapshot, wall_s)
-    for name, body in render(snapshot).items():
-        PAGES[name].write_text(
-            replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8"
-        )
 
 
 if __name__ == "__main__":
@@ -194,5 +203,12 @@ if __name__ == "__main__":
     cli.add_argument("--results", type=Path, default=Path("results"))
     cli.add_argument("--envelope", type=Path, help="results/envelope/<name>/ of an envelope")
     cli.add_argument("--envelope-wall-s", type=float, help="the envelope run's wall time [s]")
+    cli.add_argument(
+        "--envelope-only",
+        action="store_true",
+        help="snapshot the envelope alone, keeping the snapshot's scorecards (a design run "
+        "apart from the campaign, such as Chapter 7's)",
+    )
     args = cli.parse_args()
-    main(args.results, envelope=args.envelope, wall_s=args.envelope_wall_s)
+    results = None if args.envelope_only else args.results
+    main(results, envelope=args.envelope, wall_s=args.envelope_wall_s)

@@ -1,6 +1,8 @@
 """The numbers the README and docs/deviations.md quote are the scorecard's, written by
 scripts/update_docs.py from the snapshot docs/snapshot/, never typed by hand."""
 
+import json
+
 import pandas as pd
 
 from selfsense.scorecard.render import BEGIN, END, summary
@@ -36,3 +38,27 @@ def test_the_snapshot_counts_are_the_snapshot_scorecards_counts():
     pd.testing.assert_frame_equal(
         counts.astype({"chapter": str}), expected.astype({"chapter": str}), check_dtype=False
     )
+
+
+def test_an_envelope_design_is_snapshot_in_a_folder_of_its_name(tmp_path):
+    module = update_docs()
+    run = tmp_path / "results" / "envelope" / "pi_p885_ch7"
+    run.mkdir(parents=True)
+    for name in module.ENVELOPE_FILES:
+        (run / name).write_text(name)
+    design = {"dataset": "pi_p885", "name": "pi_p885_ch7", "chapters": ["7"], "members": 8}
+    design |= {"method": "morris", "seed": 1, "levels": 4, "groups": ["thermal"], "stages": []}
+    sidecar = {"code": {"git_describe": "abc1234"}, "unknowns_sha256": "0" * 64}
+    sidecar |= {"design": design, "members": ["pi_p885_ch7~01"]}
+    (run / "scorecard.csv.json").write_text(json.dumps(sidecar))
+    (run / "plan.csv.json").write_text(json.dumps({"varied": ["a"], "held": ["b"]}))
+    snapshot = tmp_path / "snapshot"
+    snapshot.mkdir()
+    (snapshot / "campaign.json").write_text(json.dumps({"campaign": "thesis"}))
+    module.snapshot_envelope(run, snapshot, 12.5)
+    target = snapshot / "envelope" / "pi_p885_ch7"
+    assert sorted(p.name for p in target.iterdir()) == sorted(
+        [*module.ENVELOPE_FILES, "provenance.json"]
+    )
+    record = json.loads((target / "provenance.json").read_text())
+    assert record["code"] == "abc1234" and record["design"] == design and record["wall_s"] == 12.5
