@@ -127,8 +127,9 @@ PI = load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml")
 RANGES = PI["daq"]["ranges"]
 
 
-def synthetic(path, n=9600, channels=("U", "I", "Ur", "Ir", "x_laser")):
-    """A small capture in the contract: a 10 Hz drive and a ripple folded to 4 kHz."""
+def synthetic(path, n=9600, channels=("U", "I", "Ur", "Ir", "x_laser"), thermometers=0.0):
+    """A small capture in the contract: a 10 Hz drive and a ripple folded to 4 kHz; with
+    ``thermometers`` [Hz], the three IR thermometers at that rate reading 23 °C + 10 K/s·t."""
     t = np.arange(n) / FS
     values = {
         "U": 50 - 50 * np.cos(2 * np.pi * 10 * t),
@@ -147,8 +148,15 @@ def synthetic(path, n=9600, channels=("U", "I", "Ur", "Ir", "x_laser")):
         "experiment": Path(path).stem,
         "source": "measured",
     }
-    with CaptureWriter(path, attrs, [channel_spec(c, *RANGES[c]) for c in channels], n) as w:
+    slow = ("T_top", "T_mid", "T_bot") if thermometers else ()
+    n_slow = int(np.ceil(n / FS * thermometers))
+    specs = [channel_spec(c, *RANGES[c]) for c in (*channels, *slow)]
+    with CaptureWriter(path, attrs, specs, n, n_slow, thermometers or None) as w:
         w.write({c: values[c] for c in channels})
+        if slow:
+            w.write(
+                dict.fromkeys(slow, 23.0 + 10.0 * np.arange(n_slow) / thermometers), "time_slow"
+            )
     return Path(path)
 
 

@@ -4,10 +4,12 @@ import numpy as np
 import pytest
 
 from selfsense.chapters import ch7
+from selfsense.io.capture import open_capture
 from selfsense.methods.gamma import GammaPolynomial
 from selfsense.methods.ripple import SamplingPlan
 from selfsense.methods.thermal import ThermalModel, ThermalProperties, predict_temperature
 
+from ..helpers import synthetic
 from ..tolerances import sums
 
 PROPS = ThermalProperties(7800, 350, 740e-9, 640e-6)
@@ -213,3 +215,30 @@ def test_gamma_t_order_is_validated_on_a_hotter_run_and_gives_g_back():
         table["rms error on the validation run [µm]"]
         >= table.loc[table["chosen"], "rms error on the validation run [µm]"].item()
     ).all()
+
+
+@pytest.mark.parametrize("rate", [5.0, 10.0, 20.0, 12.5])
+def test_thermometers_beside_the_power_are_read_at_its_times_whatever_their_rate(tmp_path, rate):
+    """The loss power comes every 0.1 s; the thermometers come at their own rate. Each interval's
+    temperature is the thermometers' at its time (a 10 K/s ramp, exact between samples), never
+    their k-th sample: at 20 Hz that read the ramp at half its time and τ came out doubled."""
+    capture = synthetic(tmp_path / "ramp.nc", n=96_000, thermometers=rate)
+    power, _, _ = ch7.extract_capture(capture, 2.85e6, n_periods=4)
+    with open_capture(capture) as cap:
+        step, last = cap.resolution("T_mid"), (cap.n_slow - 1) / cap.slow_rate
+    assert power["time"][-1] <= last < power["time"][-1] + 0.1
+    for name in ch7.THERMOMETERS:
+        np.testing.assert_allclose(power[name], 23.0 + 10.0 * power["time"], rtol=0, atol=step)
+
+
+def test_the_coupled_traces_meet_the_thermometer_at_their_own_times():
+    """Traces every 0.1 s against a thermometer series every 0.2 s (another power interval in
+    config.yaml): each trace sample meets the ramp at its own time, over the span both cover."""
+    t = np.arange(0, 30, 0.1)
+    traces = {"time": t, "T_SH_HPO": 23.0 + t, "T_SH_PS": 24.0 + t}
+    measured = {"time": np.arange(0, 20, 0.2), "T_mid": 23.0 + np.arange(0, 20, 0.2)}
+    out, stats = ch7.against_measured(traces, {}, measured)
+    assert out["time"][-1] == pytest.approx(19.8)
+    np.testing.assert_allclose(out["T_mid"], 23.0 + out["time"], rtol=1e-12)
+    assert stats["max |T_SH_HPO − T| [K]"] == pytest.approx(0.0, abs=1e-12)
+    assert stats["max |T_SH_PS − T| [K]"] == pytest.approx(1.0)

@@ -7,11 +7,15 @@ import copy
 import hashlib
 import re
 
+import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
 from selfsense.io.unknowns import load_unknowns, unknowns_hash
+from selfsense.verify.envelope import physical
 
 from ..helpers import ROOT
 
@@ -219,3 +223,33 @@ def test_hash_follows_the_bytes(tmp_path):
     assert first == unknowns_hash(UNKNOWNS) == hashlib.sha256(UNKNOWNS.read_bytes()).hexdigest()
     copy_.write_bytes(UNKNOWNS.read_bytes() + b"# a comment is a different declaration\n")
     assert unknowns_hash(copy_) != first
+
+
+def _sections_cut_by_a_draw(unknowns):
+    """(unknown, drive frequency [Hz]) for every drawn duration of a sine segment that another
+    segment follows: where the draw leaves the sine, the next segment starts."""
+    for unknown in unknowns:
+        for location in unknown.paths:
+            match = re.fullmatch(
+                r"protocols/(\w+)\.yaml:experiments\.(\w+)\.segments\.(\d+)\.duration", location
+            )
+            if not match:
+                continue
+            protocol = load_yaml(ROOT / "workflow" / "protocols" / f"{match[1]}.yaml")
+            segments = protocol["experiments"][match[2]]["segments"]
+            i = int(match[3])
+            if segments[i].get("frequency", 0) > 0 and i + 1 < len(segments):
+                yield unknown, float(segments[i]["frequency"])
+
+
+@settings(max_examples=50, deadline=None)
+@given(u=st.floats(0.0, 1.0))
+def test_a_drawn_section_ends_a_whole_number_of_its_drive_s_periods(unknowns, u):
+    """A sine section cut mid-period would hand the next one a voltage step, which rings the
+    stack's resonance: no draw of the envelope may do that (Morris's grid levels nor a Latin
+    hypercube's any quantile)."""
+    cut = list(_sections_cut_by_a_draw(unknowns))
+    assert cut, "the catalogue has drawn sections followed by others (Chapter 7's)"
+    for unknown, frequency in cut:
+        periods = float(physical(np.array([u]), unknown)[0]) * frequency
+        assert periods == pytest.approx(round(periods), abs=1e-9), (unknown.id, frequency, u)

@@ -139,8 +139,9 @@ def extract_capture(
 ):
     """Rule thermal_extract's series of one Chapter 7 capture, streamed (:func:`extract`):
 
-    - the loss power P_PS per ``interval`` [s] (Eq 7.4) beside the capture's IR thermometers, both
-      cut to their common length ({"time", "P_PS", "T_top"?, "T_mid", "T_bot"?});
+    - the loss power P_PS per ``interval`` [s] (Eq 7.4) beside the capture's IR thermometers read
+      at the intervals' times on their own time axis (linear between their samples, whatever
+      their rate), over the span both cover ({"time", "P_PS", "T_top"?, "T_mid", "T_bot"?});
     - the run's peaks {"U_max" [V], "x_max" [m]} (Eq 7.11's k/α from them);
     - Γ_T's samples, one ripple window of ``n_periods`` in ``every`` ({"time", "C_e",
       "x_laser"}).
@@ -152,9 +153,11 @@ def extract_capture(
         )
         slow = [c for c in THERMOMETERS if c in cap.channels]
         temps = cap.read(slow, dim="time_slow")
+        T_time = np.arange(cap.n_slow) / cap.slow_rate
     P = {k: np.concatenate([p[0][k] for p in parts]) for k in ("time", "P_PS")}
-    n = min(len(P["time"]), len(temps["T_mid"]))
-    power = {k: v[:n] for k, v in P.items()} | {c: temps[c][:n] for c in slow}
+    n = int(np.searchsorted(P["time"], T_time[-1], side="right")) if T_time.size else 0
+    power = {k: v[:n] for k, v in P.items()}
+    power |= {c: np.interp(power["time"], T_time, temps[c]) for c in slow}
     peaks = {"U_max": max(p[2][0] for p in parts), "x_max": max(p[2][1] for p in parts)}
     samples = {k: np.concatenate([p[1][k] for p in parts]) for k in ("time", "C_e", "x_laser")}
     return power, peaks, samples
@@ -551,10 +554,12 @@ def against_measured(
     result: Mapping[str, float],
     measured: Mapping[str, np.ndarray],
 ):
-    """:func:`coupled_estimation`'s traces beside the measured middle temperature, cut to their
-    common length, and the result with each estimate's max error against it."""
-    n = min(len(traces["time"]), len(measured["time"]))
-    out = {k: v[:n] for k, v in traces.items()} | {"T_mid": measured["T_mid"][:n]}
+    """:func:`coupled_estimation`'s traces beside the measured middle temperature read at their
+    times (linear between its samples: the two need not share an interval), over the span both
+    cover, and the result with each estimate's max error against it."""
+    n = int(np.searchsorted(traces["time"], measured["time"][-1], side="right"))
+    out = {k: v[:n] for k, v in traces.items()}
+    out["T_mid"] = np.interp(out["time"], measured["time"], measured["T_mid"])
     errors = {
         f"max |{key} − T| [K]": float(np.max(np.abs(out[key] - out["T_mid"])))
         for key in ("T_SH_HPO", "T_SH_PS")
@@ -669,7 +674,7 @@ def frequency_run(series, capture, frequency: float) -> dict[str, np.ndarray | f
     warm-up and the middle thermometer."""
     with open_capture(capture, require=("T_mid",)) as cap:
         T = cap.read(["T_mid"], dim="time_slow")["T_mid"]
-        rate = cap.n_slow / cap.duration  # the thermometers span the capture at their own rate
+        rate = cap.slow_rate
         warmup = float(cap.attribute("warmup_s"))
     return read_series(series) | {
         "frequency": frequency,

@@ -674,6 +674,11 @@ class Capture:
     def duration(self) -> float:
         return self.n / self.fs
 
+    @property
+    def slow_rate(self) -> float:
+        """The thermometers' sampling rate [Hz] (their time axis's, checked on open)."""
+        return float(self._nc["time_slow"].sampling_rate)
+
     def resolution(self, name: str) -> float:
         """One ADC step of a channel, in its units."""
         self._require([name])
