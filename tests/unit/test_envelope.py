@@ -23,6 +23,7 @@ from selfsense.io.unknowns import Unknown, load_unknowns
 from selfsense.scorecard.envelope import (
     envelope_counts,
     envelope_scorecard,
+    envelope_summary,
     judge,
     judge_envelope,
     member_values,
@@ -313,6 +314,8 @@ def test_envelope_scorecard_verdicts():
         "no envelope": 1,
         "rows": 4,
     }
+    summary = envelope_summary(out.reset_index(), design(["X"]), [], [], {}, "0" * 64, 4)
+    assert "Rows fewer than the 4 members gave a value for:\n\n- T, few: 1 of 4\n" in summary
 
 
 def test_a_design_judges_its_own_chapters_only():

@@ -241,7 +241,9 @@ def envelope_summary(
     members: int,
 ) -> str:
     """The envelope's opening (reStructuredText): the verdicts' counts with the nominal band's
-    beside them, what was varied and held, and every inconsistent row with its drivers."""
+    beside them, what was varied and held, every row some members gave no value for (its
+    envelope is over the others: a reviewer reads why in those members' tables), and every
+    inconsistent row with its drivers."""
     counts = envelope_counts(card)
     n = counts["rows"]
     band = card["verdict"].value_counts()
@@ -270,6 +272,13 @@ def envelope_summary(
         "",
         "Held at their nominal: " + (", ".join(u.id for u in held) or "none") + ".",
     ]
+    short = card[card["members"] < members]
+    if len(short):
+        lines += ["", f"Rows fewer than the {members} members gave a value for:", ""]
+        lines += [
+            f"- {row['source']}, {row['quantity']}: {int(row['members'])} of {members}"
+            for _, row in short.iterrows()
+        ]
     out = card[card["envelope verdict"] == "inconsistent"]
     if len(out):
         lines += ["", "Inconsistent rows (distance in envelope widths; driven by):", ""]
