@@ -230,8 +230,13 @@ def _drop_unsafe_links(doctree) -> None:
 def _filled(cards: Mapping[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
     # a scorecard read back from CSV has NaN where a text cell was empty (and one written before
     # the bias columns has none)
-    text = {"unit": "", "note": "", "read from": "", "bias band": "", "bias verdict": ""}
-    return {d: c.fillna({k: text[k] for k in text if k in c.columns}) for d, c in cards.items()}
+    text = ("unit", "note", "read from", "bias band", "bias verdict")
+    return {
+        d: c.astype({k: object for k in text if k in c.columns}).fillna(
+            {k: "" for k in text if k in c.columns}
+        )
+        for d, c in cards.items()
+    }
 
 
 def _table(table: pd.DataFrame, title: str) -> list[str]:

@@ -230,4 +230,4 @@ def bias_verdicts(card: pd.DataFrame) -> pd.Series:
     """Each row's bias verdict ("" where it has none, as in a card made before the column)."""
     if "bias verdict" not in card.columns:
         return pd.Series("", index=card.index, dtype=object)
-    return card["bias verdict"].fillna("").astype(str)
+    return card["bias verdict"].astype(object).fillna("").astype(str)
