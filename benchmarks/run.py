@@ -1,7 +1,7 @@
 """Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
-                                       [--keep-results DIR]] [--envelope]
+                                       [--keep-results DIR]] [--envelope [--members-only]]
                                        [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
@@ -17,7 +17,8 @@ Prints, in three parts that can be skipped one by one:
   max_rss), the share of the time per cause (simulating, writing captures, analysis, per-job
   start-up, idle cores), and without --fresh a no-op `snakemake -n` on the up-to-date tree;
 - with --envelope, the DAG part is the reproduction envelope, `snakemake envelope --cores 2`, in
-  a new clone: one member alone (a member's cost on 2 cores), then the rest, and each member's
+  a new clone: two members alone, one after the other (a member's cost on 2 cores; the first
+  compiles the twin's kernels), then the rest (not with --members-only), and each member's
   jobs' own seconds;
 - streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
   `thermal_extract` for a capture of --seconds and one 10× longer (each in a fresh process, so
@@ -460,29 +461,38 @@ def bench_fresh_clone(config, keep_results=None, warm=True):
         )
 
 
-def bench_envelope(config, keep_results=None):
-    """`snakemake envelope --cores 2` in a new clone of HEAD with a new venv: first one member
-    alone (its own jobs only: what a member costs on 2 cores), then the envelope (the nominal
-    dataset's scorecard and the other members); per member, its jobs' own seconds."""
+def bench_envelope(config, keep_results=None, members_only=False):
+    """`snakemake envelope --cores 2` in a new clone of HEAD with a new venv: first two members
+    alone, one after the other (their own jobs only: what a member costs on 2 cores; the first
+    also compiles the twin's kernels), then the envelope (the nominal dataset's scorecard and the
+    other members; not with ``members_only``); per member, its jobs' own seconds."""
     from selfsense.io.manifest import load_config
 
     dataset = load_config(ROOT / config)["envelope"]["dataset"]
     with tempfile.TemporaryDirectory() as tmp:
         repo, python, install = new_clone(tmp)
         snakemake = [str(python), "-m", "snakemake", "--cores", "2"]
-        # the targets before --configfile, which takes several values
-        first = f"results/{dataset}~01/scorecard.csv"
-        one, peak, _ = run_sampled([*snakemake, first, "--configfile", config], repo)
-        print(
-            f"envelope ({config}): install {install:.0f} s; one member alone ({first}) {one:.0f} s"
-        )
+        alone = []
+        for n in ("01", "02"):
+            # the targets before --configfile, which takes several values
+            target = f"results/{dataset}~{n}/scorecard.csv"
+            wall, peak, cpu = run_sampled([*snakemake, target, "--configfile", config], repo)
+            alone.append(wall)
+            print(
+                f"envelope ({config}): member {n} alone: {wall:.1f} s, CPU {cpu:.0f} s, "
+                f"peak RSS {peak:.0f} MB" + (" (compiles the kernels)" if n == "01" else "")
+            )
+        one = sum(alone)
+        print(f"  install {install:.0f} s; the two members {one:.0f} s")
+        if members_only:
+            return
         rest, peak, cpu = run_sampled([*snakemake, "envelope", "--configfile", config], repo)
         out = repo / "benchmarks" / "out"
         members = sorted(p for p in out.iterdir() if p.name.startswith(f"{dataset}~"))
         job_s = [sum(sum(j[0] for j in js) for js in job_rows(m).values()) for m in members]
         print(
             f"  then `snakemake envelope`: {rest:.0f} s (the nominal {dataset} and "
-            f"{len(members) - 1} more members), CPU {cpu:.0f} s, peak RSS {peak:.0f} MB; "
+            f"{len(members) - 2} more members), CPU {cpu:.0f} s, peak RSS {peak:.0f} MB; "
             f"whole envelope {one + rest:.0f} s, with the install {install + one + rest:.0f} s"
         )
         print(
@@ -526,6 +536,11 @@ def main():
         help="the DAG part is `snakemake envelope`, in a new clone of HEAD (one member alone, "
         "then the rest)",
     )
+    cli.add_argument(
+        "--members-only",
+        action="store_true",
+        help="with --envelope: only the two members alone, not the whole envelope",
+    )
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
     print(
@@ -540,7 +555,7 @@ def main():
     if not args.skip_dag:
         for config in args.configs:
             if args.envelope:
-                bench_envelope(config, args.keep_results)
+                bench_envelope(config, args.keep_results, args.members_only)
             elif args.fresh:
                 bench_fresh_clone(config, args.keep_results, not args.no_warm)
             else:

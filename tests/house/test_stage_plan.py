@@ -120,6 +120,7 @@ STAGE_RULES = {
         "simulate_closed_loop",
         "audit_realtime",
         "ch6_results",
+        "ch6_figures",
         "tracking_budget",
         "loop_leak",
     },

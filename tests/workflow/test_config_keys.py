@@ -78,7 +78,7 @@ USES = {
             "ch5_figures",
             "observer_study",
             "frequency_response",
-            "ch6_results",
+            "ch6_figures",
             "ce_np_study",
             "error_budget",
             "thermal_identify",

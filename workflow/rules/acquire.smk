@@ -32,7 +32,7 @@ if SIMULATED:
         threads: 1
         resources:
             **resources_for("simulate"),
-        priority: lambda w: capture_samples(w.dataset, w.experiment) // 1000
+        priority: longest_first
         script:
             "../scripts/simulate.py"
 

@@ -256,11 +256,12 @@ def drive_frequency(dataset, experiment):
     return run.protocol["segments"][0]["frequency"] if run is not None else experiment_frequency(experiment)
 
 
-def capture_samples(dataset, experiment):
-    """A simulated capture's length in samples. The longest are simulated first (by priority);
-    started last, one of them would keep a core busy alone at the end of the run."""
-    protocol = EXPERIMENTS[dataset][experiment].protocol
-    return int(protocol_duration(protocol) * DATASETS[dataset]["daq"]["fs"])
+def longest_first(wildcards):
+    """A simulation's priority, its capture's length in thousands of samples: the longest are
+    simulated first, open or closed loop; started last, one of them would keep a core busy alone
+    at the end of the run (an envelope member's closed loops run last of all)."""
+    protocol = EXPERIMENTS[wildcards.dataset][wildcards.experiment].protocol
+    return int(protocol_duration(protocol) * DATASETS[wildcards.dataset]["daq"]["fs"]) // 1000
 
 
 # ---- The stage plan (selfsense.stages): which stages run for each dataset and, for the skipped
@@ -399,6 +400,12 @@ CLOSED_LOOP = {d: stages.closed_loop(EXPERIMENTS[d]) for d in DATASETS}
 
 #: the Chapter 6 runs of each dataset, open and closed loop
 CH6_RUNS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch6_")] for d in DATASETS}
+
+
+def ch6_protocols(wildcards):
+    """{experiment: protocol} of the dataset's Chapter 6 runs (their reference, P1's tests)."""
+    return {e: dict(EXPERIMENTS[wildcards.dataset][e].protocol) for e in CH6_RUNS[wildcards.dataset]}
+
 
 #: the runs of Tables 6.1–6.2 whose tracking error the budget splits
 TRACKED_RUNS = {d: [e for e in CH6_RUNS[d] if e.startswith(("ch6_p1_", "ch6_p2"))] for d in DATASETS}

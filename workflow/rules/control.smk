@@ -32,6 +32,7 @@ if SIMULATED:
         threads: 1
         resources:
             **resources_for("simulate_closed_loop"),
+        priority: longest_first
         script:
             "../scripts/simulate_closed_loop.py"
 
@@ -61,7 +62,7 @@ rule audit_realtime:
 
 
 rule ch6_results:
-    """Tables 6.1–6.2, P3, the loop's tracking prediction, Figures 6.2–6.8."""
+    """Tables 6.1–6.2, P3 and the loop's tracking prediction."""
     input:
         unpack(lambda w: captures(w.dataset, captures=CH6_RUNS[w.dataset])),
         model="results/{dataset}/ch4/model.json",
@@ -69,10 +70,8 @@ rule ch6_results:
     output:
         **{t: report(f"results/{{dataset}}/ch6/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
                      subcategory="Chapter 6") for t in CH6_TABLES},
-        **{name: report_figure(name, "Chapter 6") for name in CH6_FIGURES},
     params:
-        pdf=FIGURE_PDF,
-        protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in CH6_RUNS[w.dataset]},
+        protocols=ch6_protocols,
         controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in CH6_RUNS[w.dataset]},
         omega_c=config["control"]["omega_c"],
     log:
@@ -86,5 +85,27 @@ rule ch6_results:
         "../scripts/ch6_results.py"
 
 
+rule ch6_figures:
+    """Figures 6.2–6.8 (a job of its own: an envelope member needs the tables only)."""
+    input:
+        unpack(lambda w: captures(w.dataset, captures=CH6_RUNS[w.dataset])),
+        library=library_sources("ch6_figures"),
+    output:
+        **{name: report_figure(name, "Chapter 6") for name in CH6_FIGURES},
+    params:
+        pdf=FIGURE_PDF,
+        protocols=ch6_protocols,
+    log:
+        "logs/{dataset}/ch6_figures.log",
+    benchmark:
+        "benchmarks/out/{dataset}/ch6_figures.tsv"
+    threads: 1
+    resources:
+        **resources_for("stream"),
+    script:
+        "../scripts/ch6_figures.py"
+
+
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
-CONTROL_OUTPUTS = expand([*rules.ch6_results.output, *rules.audit_realtime.output], dataset=CONTROL_DATASETS)
+CONTROL_OUTPUTS = expand([*rules.ch6_results.output, *rules.ch6_figures.output, *rules.audit_realtime.output],
+                         dataset=CONTROL_DATASETS)

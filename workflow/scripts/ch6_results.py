@@ -1,4 +1,4 @@
-"""Rule `ch6_results`: Tables 6.1–6.2, P3, the loop's tracking prediction and Figures 6.2–6.8.
+"""Rule `ch6_results`: Tables 6.1–6.2, P3 and the loop's tracking prediction.
 
 All errors are evaluated on means over one folded ripple period (the real-time loop's 4 kHz
 rate).
@@ -7,25 +7,22 @@ rate).
 from pathlib import Path
 
 from selfsense.chapters import ch6
-from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.io.provenance import script_logging, write_table
 from selfsense.methods.electromech import load_k_over_alpha
 
 
-def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None, pdf=True):
-    """out: {table or figure name: path}."""
+def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
+    """out: {table name: path}."""
     logger = script_logging(log)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
     tables = ch6.results(runs, protocols, controls, k_over_alpha, omega_c)
-    inputs = list(captures)
     for key, table in tables.items():
         write_table(
-            table, out[key], inputs=inputs, config=None if key == "p3" else {"omega_c": omega_c}
+            table,
+            out[key],
+            inputs=list(captures),
+            config=None if key == "p3" else {"omega_c": omega_c},
         )
-    window = (
-        ch6.p1_window(protocols["ch6_p1_closed"]) if "ch6_p1_closed" in protocols else float("inf")
-    )
-    for name, fig in ch6.figures_ch6(runs, tables["tracking"], window).items():
-        save_figure(fig, out[name], inputs=inputs, pdf=pdf)
     logger.info("%d runs", len(runs))
 
 
@@ -39,5 +36,4 @@ if "snakemake" in globals():
         p.omega_c,
         dict(snakemake.output.items()),
         snakemake.log[0],
-        pdf=p.pdf,
     )

@@ -298,9 +298,7 @@ def p3_summary(
 FIGURES = figure_names.CH6
 
 
-def figures_ch6(
-    runs: Mapping[str, Mapping[str, np.ndarray]], tracking: pd.DataFrame, p1_window: float = np.inf
-) -> dict:
+def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], p1_window: float = np.inf) -> dict:
     """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}}); a
     figure whose runs are missing is left out. P1's figures end at ``p1_window`` [s]."""
     from selfsense.io import figures

@@ -1,0 +1,30 @@
+"""Rule `ch6_figures`: Figures 6.2–6.8 from the Chapter 6 runs' 4 kHz series (means over one
+folded ripple period, as Tables 6.1–6.2 read them)."""
+
+from pathlib import Path
+
+from selfsense.chapters import ch6
+from selfsense.io.provenance import save_figure, script_logging
+
+
+def main(captures, protocols, out, log, pdf):
+    """out: {figure name: path}."""
+    logger = script_logging(log)
+    runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
+    p1 = protocols.get("ch6_p1_closed")
+    window = ch6.p1_window(p1) if p1 is not None else float("inf")
+    built = ch6.figures_ch6(runs, window)
+    for name, fig in built.items():
+        save_figure(fig, out[name], inputs=list(captures), pdf=pdf)
+    logger.info("wrote %s", ", ".join(sorted(built)))
+
+
+if "snakemake" in globals():
+    p = snakemake.params
+    main(
+        list(snakemake.input.captures),
+        p.protocols,
+        dict(snakemake.output.items()),
+        snakemake.log[0],
+        p.pdf,
+    )
