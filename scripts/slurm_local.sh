@@ -60,8 +60,12 @@ install_packages() {
         printf '#!/bin/sh\nexit 101\n' >"$POLICY" && chmod +x "$POLICY"
         trap 'rm -f "$POLICY"' EXIT
     fi
-    { apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
-        "${PACKAGES[@]}"; } >"$STATE/apt.log" 2>&1 || die "apt-get install ${PACKAGES[*]} failed (log: $STATE/apt.log)"
+    # another apt-get (the report's browser test installing Chromium beside this one) holds
+    # dpkg's lock for a while: wait for it instead of failing
+    local wait=(-o DPkg::Lock::Timeout=900)
+    { apt-get "${wait[@]}" update -q && DEBIAN_FRONTEND=noninteractive apt-get "${wait[@]}" install \
+        -y -q --no-install-recommends "${PACKAGES[@]}"; } >"$STATE/apt.log" 2>&1 ||
+        die "apt-get install ${PACKAGES[*]} failed (log: $STATE/apt.log)"
 }
 
 ours() { # true if the default config place is our link

@@ -70,9 +70,11 @@ def chromium():
             "Chromium not available: not on the PATH, and installing it needs root and apt-get"
         )
     env = os.environ | {"DEBIAN_FRONTEND": "noninteractive"}
+    # the SLURM test may be installing its packages at the same time: wait for dpkg's lock
+    wait = ["-o", "DPkg::Lock::Timeout=900"]
     for step in (
-        ["apt-get", "update"],
-        ["apt-get", "install", "-y", "--no-install-recommends", "chromium"],
+        ["apt-get", *wait, "update"],
+        ["apt-get", *wait, "install", "-y", "--no-install-recommends", "chromium"],
     ):
         try:
             done = subprocess.run(step, capture_output=True, text=True, timeout=1200, env=env)
