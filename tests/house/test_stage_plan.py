@@ -281,12 +281,14 @@ def test_a_simulated_dataset_has_its_closed_loops_only_when_the_control_stage_ru
 
 
 def scheduled(dry_run_output):
-    """{dataset: the rules a dry run schedules for it}."""
+    """{dataset: {rule a dry run schedules for it: the outputs of its jobs}}."""
     jobs = {}
     for rule, block in re.findall(r"^(?:local)?rule (\w+):\n((?:    .*\n)+)", dry_run_output, re.M):
-        dataset = re.search(r"wildcards: .*?\bdataset=([\w-]+)", block)
+        dataset = re.search(r"wildcards: .*?\bdataset=([\w~-]+)", block)
         if dataset:
-            jobs.setdefault(dataset[1], set()).add(rule)
+            output = re.search(r"^    output: (.*)$", block, re.M)
+            outputs = jobs.setdefault(dataset[1], {}).setdefault(rule, [])
+            outputs += output[1].split(", ") if output else []
     return jobs
 
 
@@ -302,17 +304,33 @@ def dry_run(tmp_path_factory, stack):
     config = yaml.safe_load((repo / SMOKE_CONFIG).read_text())
     config["datasets"] = [*SHIPPED, *VARIANTS]
     (repo / "plan.yaml").write_text(yaml.safe_dump(config))
-    run = run_snakemake(repo, "-n", config="plan.yaml")
+    # and an envelope member on its own: the run's datasets and one member
+    run = run_snakemake(repo, "-n", "all", f"results/{MEMBER}/scorecard.csv", config="plan.yaml")
     assert run.returncode == 0, run.stderr[-4000:]
     plans = {d: plan(load_dataset(repo / "raw", d)) for d in config["datasets"]}
     return scheduled(run.stdout + run.stderr), plans
 
 
+#: the smoke envelope's first member
+MEMBER = "pi_p885~01"
+
+
 def test_the_workflow_schedules_a_stages_rules_exactly_when_the_plan_runs_it(dry_run):
     jobs, plans = dry_run
-    assert set(jobs) == set(plans)
+    assert set(jobs) - {MEMBER} == set(plans)
     for dataset, result in plans.items():
         for stage, rules in STAGE_RULES.items():
             for rule in rules:
                 runs = any(result.runs(s) for s in SHARED.get(rule, {stage}))
                 assert (rule in jobs[dataset]) == runs, (dataset, stage, rule)
+
+
+def test_an_envelope_member_draws_only_the_figure_that_comes_with_a_table_it_reads(dry_run):
+    """A member's scorecard reads tables only: Chapter 6's figures are a rule apart from its
+    tables, so a member draws none of them; Fig 5.3 is made by the rule of the resonance table."""
+    jobs, _ = dry_run
+    member = jobs[MEMBER]
+    assert {"simulate_closed_loop", "ch6_results", "scorecard"} <= set(member)
+    drawn = [o for made in member.values() for o in made if o.startswith("figures/")]
+    assert drawn == [f"figures/{MEMBER}/fig_5_3.png"]
+    assert "ch6_figures" in jobs["pi_p885"]
