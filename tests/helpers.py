@@ -52,6 +52,19 @@ def copy_repo(dest: Path) -> Path:
     return dest
 
 
+def copy_smoke_tree(smoke_run: Path, dest: Path, attempts: int = 3) -> Path:
+    """A copy of the smoke tree, Snakemake's records included, up to date. A test of the
+    smoke_tree group may be editing the tree while it is copied (a library file with a comment
+    appended, for a moment): a copy with nothing left to do is taken, else it is taken again."""
+    for _ in range(attempts):
+        shutil.rmtree(dest, ignore_errors=True)
+        shutil.copytree(smoke_run, dest, symlinks=True)
+        dry = run_snakemake(dest, "-n", "--quiet", "rules")
+        if dry.returncode == 0 and "Nothing to be done" in dry.stdout + dry.stderr:
+            return dest
+    raise AssertionError(f"the copy of the smoke tree is not up to date:\n{dry.stdout[-2000:]}")
+
+
 def snakemake_command(*args, config=SMOKE_CONFIG, cores=2):
     """The command line of Snakemake with ``args`` (targets and options) and ``config`` (a path
     relative to the repository it runs in; None: the repository's config.yaml alone). The targets

@@ -5,14 +5,13 @@ because its inputs are remade. Dry runs on a copy of the session's up-to-date sm
 (`config_tree`), so that they run beside the tests that use the tree itself, not after them."""
 
 import re
-import shutil
 
 import pytest
 import yaml
 
 from selfsense.io.manifest import load_config
 
-from ..helpers import ROOT, SMOKE_CONFIG, run_snakemake
+from ..helpers import ROOT, SMOKE_CONFIG, copy_smoke_tree, run_snakemake
 
 pytestmark = pytest.mark.slow
 
@@ -143,15 +142,8 @@ def reasons(output):
 
 @pytest.fixture(scope="module")
 def config_tree(smoke_run, tmp_path_factory):
-    """A copy of the smoke tree, Snakemake's records included. A test of the smoke_tree group may
-    be editing the tree while it is copied; a copy that is not up to date is taken again."""
-    for attempt in range(3):
-        copy = tmp_path_factory.mktemp("config_tree") / "repo"
-        shutil.copytree(smoke_run, copy, symlinks=True)
-        dry = run_snakemake(copy, "-n", "--quiet", "rules")
-        if dry.returncode == 0 and "Nothing to be done" in dry.stdout + dry.stderr:
-            return copy
-    raise AssertionError(f"the copy of the smoke tree is not up to date:\n{dry.stdout[-2000:]}")
+    """An up-to-date copy of the smoke tree, Snakemake's records included."""
+    return copy_smoke_tree(smoke_run, tmp_path_factory.mktemp("config_tree") / "repo")
 
 
 def test_every_config_key_is_covered():

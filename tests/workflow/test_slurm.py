@@ -17,7 +17,6 @@ member.
 
 import json
 import re
-import shutil
 import subprocess
 
 import pandas as pd
@@ -27,7 +26,7 @@ import yaml
 from selfsense.io.manifest import load_yaml
 from selfsense.io.unknowns import unknowns_hash
 
-from ..helpers import ROOT, SMOKE_CONFIG, run_snakemake, snakemake_command
+from ..helpers import ROOT, SMOKE_CONFIG, copy_smoke_tree, run_snakemake, snakemake_command
 
 pytestmark = [pytest.mark.slurm, pytest.mark.slow]
 
@@ -66,9 +65,9 @@ ENVELOPE = {"members": 2, "method": "latin", "seed": 5, "stages": ["ripple", "ch
 
 
 def envelope_tree(smoke_run, folder):
-    """A copy of the smoke tree (its nominal scorecard up to date) with the envelope's config."""
-    repo = folder / "repo"
-    shutil.copytree(smoke_run, repo, symlinks=True)
+    """An up-to-date copy of the smoke tree (its nominal scorecard too) with the envelope's
+    config."""
+    repo = copy_smoke_tree(smoke_run, folder / "repo")
     config = yaml.safe_load((ROOT / SMOKE_CONFIG).read_text()) | {"envelope": ENVELOPE}
     (repo / "envelope.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
     return repo
