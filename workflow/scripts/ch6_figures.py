@@ -11,9 +11,7 @@ def main(captures, protocols, out, log, pdf):
     """out: {figure name: path}."""
     logger = script_logging(log)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
-    p1 = protocols.get("ch6_p1_closed")
-    window = ch6.p1_window(p1) if p1 is not None else float("inf")
-    built = ch6.figures_ch6(runs, window)
+    built = ch6.figures_ch6(runs, protocols)
     for name, fig in built.items():
         save_figure(fig, out[name], inputs=list(captures), pdf=pdf)
     logger.info("wrote %s", ", ".join(sorted(built)))

@@ -298,16 +298,19 @@ def p3_summary(
 FIGURES = figure_names.CH6
 
 
-def figures_ch6(runs: Mapping[str, Mapping[str, np.ndarray]], p1_window: float = np.inf) -> dict:
-    """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}}); a
-    figure whose runs are missing is left out. P1's figures end at ``p1_window`` [s]."""
+def figures_ch6(
+    runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str, Mapping]
+) -> dict:
+    """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}})
+    and their protocols; a figure whose runs are missing is left out. P1's figures show the first
+    two of the recording's tests (:func:`p1_window`): fifty would hide the minor loops."""
     from selfsense.io import figures
 
     built = []
     p1o, p1c = runs.get("ch6_p1_open"), runs.get("ch6_p1_closed")
     p1 = p1o is not None and p1c is not None
-    if p1:  # the first two of the recording's tests: fifty would hide the minor loops
-        shown = p1c["t"] < p1_window
+    if p1:
+        shown = p1c["t"] < p1_window(protocols["ch6_p1_closed"])
         p1o, p1c = ({k: None if v is None else v[shown] for k, v in r.items()} for r in (p1o, p1c))
     built.append(
         figures.time_traces(
