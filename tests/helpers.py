@@ -6,6 +6,7 @@ Test modules import these from here, never from one another.
 """
 
 import contextlib
+import fcntl
 import hashlib
 import importlib.util
 import io
@@ -52,17 +53,25 @@ def copy_repo(dest: Path) -> Path:
     return dest
 
 
-def copy_smoke_tree(smoke_run: Path, dest: Path, attempts: int = 3) -> Path:
-    """A copy of the smoke tree, Snakemake's records included, up to date. A test of the
-    smoke_tree group may be editing the tree while it is copied (a library file with a comment
-    appended, for a moment): a copy with nothing left to do is taken, else it is taken again."""
-    for _ in range(attempts):
-        shutil.rmtree(dest, ignore_errors=True)
+@contextlib.contextmanager
+def smoke_tree_held(repo: Path):
+    """The shared smoke tree held by this test alone, across pytest-xdist workers (a file lock
+    beside the tree): a test that edits the tree for a moment holds it, and so does a copy of
+    it, so that no copy takes the edit."""
+    with open(Path(repo).parent / "smoke_tree.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        yield
+
+
+def copy_smoke_tree(smoke_run: Path, dest: Path) -> Path:
+    """A copy of the smoke tree, Snakemake's records included, checked to have nothing to do."""
+    with smoke_tree_held(smoke_run):
         shutil.copytree(smoke_run, dest, symlinks=True)
-        dry = run_snakemake(dest, "-n", "--quiet", "rules")
-        if dry.returncode == 0 and "Nothing to be done" in dry.stdout + dry.stderr:
-            return dest
-    raise AssertionError(f"the copy of the smoke tree is not up to date:\n{dry.stdout[-2000:]}")
+    dry = run_snakemake(dest, "-n", "--quiet", "rules")
+    assert dry.returncode == 0 and "Nothing to be done" in dry.stdout + dry.stderr, (
+        f"the copy of the smoke tree is not up to date:\n{dry.stdout[-2000:]}"
+    )
+    return dest
 
 
 def snakemake_command(*args, config=SMOKE_CONFIG, cores=2):

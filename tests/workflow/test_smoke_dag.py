@@ -9,7 +9,7 @@ import pytest
 
 from selfsense.io.capture import read_series
 
-from ..helpers import copy_repo, run_snakemake
+from ..helpers import copy_repo, run_snakemake, smoke_tree_held
 
 pytestmark = pytest.mark.slow
 
@@ -46,12 +46,13 @@ def _jobs_after_editing(repo, module):
     file's bytes and mtime are put back afterwards, so the shared tree stays up to date."""
     path = repo / "src" / "selfsense" / module
     text, stat = path.read_bytes(), path.stat()
-    try:
-        path.write_bytes(text + b"# an edit\n")
-        dry = run_snakemake(repo, "-n", "--quiet", "rules")
-    finally:
-        path.write_bytes(text)
-        os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    with smoke_tree_held(repo):  # a copy of the tree taken meanwhile would have the edit
+        try:
+            path.write_bytes(text + b"# an edit\n")
+            dry = run_snakemake(repo, "-n", "--quiet", "rules")
+        finally:
+            path.write_bytes(text)
+            os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
     assert dry.returncode == 0, dry.stderr[-2000:]
     return set(re.findall(r"^(\w+)\s+\d+$", dry.stdout + dry.stderr, re.M)) - {
         "all",
