@@ -27,6 +27,7 @@ from selfsense.scorecard.envelope import (
     judge,
     judge_envelope,
     member_values,
+    nominal_outside,
     row_key,
 )
 from selfsense.scorecard.render import combined_envelope
@@ -35,6 +36,7 @@ from selfsense.verify.envelope import (
     envelope,
     held_unknowns,
     member_manifest,
+    member_roles,
     morris_screening,
     physical,
     sampling_plan,
@@ -51,8 +53,10 @@ def unknown(uid, low=0.0, high=1.0, kind="uniform", nominal=None, group=None, **
     return Unknown(uid, "pi_p885", group, path, nominal, low, high, kind, "1", (), "s", **kw)
 
 
-def design(groups, method="morris", members=8, levels=4, seed=1):
-    return Design("pi_p885", members, method, seed, levels, groups, ["ripple"], "pi_p885")
+def design(groups, method="morris", members=8, levels=4, seed=1, spread=0):
+    return Design(
+        "pi_p885", members, method, seed, levels, groups, ["ripple"], "pi_p885", spread=spread
+    )
 
 
 @pytest.fixture(scope="module")
@@ -117,6 +121,46 @@ def test_latin_hypercube_fills_every_stratum():
     _, unit = sampling_plan(items, design(["A", "B", "C"], "latin", members=7))
     for column in unit:
         assert sorted(np.floor(unit[column] * 7).astype(int)) == list(range(7))
+
+
+def test_spread_members_follow_the_trajectories_and_fill_every_stratum():
+    group_of = {"a": "g1", "b": "g1", "c": "g2"}
+    items = [unknown(i, group=group_of[i]) for i in "abc"]
+    the_design = design(["g1", "g2"], members=6, spread=5)
+    plan, unit = sampling_plan(items, the_design)
+    assert len(plan) == 11 and plan.index[-1] == "pi_p885~11"
+    screened, spread = member_roles(the_design, list(unit.index))
+    assert screened == list(unit.index[:6]) and spread == list(unit.index[6:])
+    alone, _ = sampling_plan(items, design(["g1", "g2"], members=6))
+    pd.testing.assert_frame_equal(unit.iloc[:6], alone)  # the trajectories are unchanged
+    for column in unit:  # the Latin hypercube's members: one in each fifth of every range
+        assert sorted(np.floor(unit[column].iloc[6:] * 5).astype(int)) == list(range(5))
+    # a design without spread: every member does both; a Latin hypercube screens none
+    assert member_roles(design(["g1"]), ["m1", "m2"]) == (["m1", "m2"], ["m1", "m2"])
+    assert member_roles(design(["g1"], "latin", spread=3), ["m1"]) == ([], ["m1"])
+
+
+def test_percentiles_come_from_the_spread_members_and_drivers_from_the_trajectories():
+    """Morris's grid holds a row's extremes (0 and 10 at its range's ends); the Latin hypercube's
+    members, between, alone make the envelope, and the nominal lies inside it."""
+    items = [unknown("a", group="A")]
+    the_design = design(["A"], members=4, spread=4)
+    _, unit = sampling_plan(items, the_design)
+    y = 10 * unit["a"]
+    nominal = card([("T", "y", 5.0, 5.0)])
+    members = {m: card([("T", "y", 5.0, v)]) for m, v in y.items()}
+    out, sensitivity = judge_envelope(nominal, members, unit, items, the_design, [])
+    spread_values = y.iloc[4:].to_numpy()
+    assert out.loc[0, "members"] == 4
+    assert out.loc[0, "p2.5"] == pytest.approx(np.percentile(spread_values, 2.5))
+    assert out.loc[0, "p97.5"] == pytest.approx(np.percentile(spread_values, 97.5))
+    assert sensitivity.loc[0, "mu_star"] == pytest.approx(10.0)  # per unit of a's range
+    summary = envelope_summary(out, the_design, [], items, {}, "0" * 64, 8)
+    assert "8 members (Morris, 2 trajectories of 1 groups, the drivers; a Latin" in summary
+    assert "lies outside its envelope in 0 of the 1 rows" in summary
+    low_nominal = card([("T", "y", 5.0, -1.0)])
+    out, _ = judge_envelope(low_nominal, members, unit, items, the_design, [])
+    assert len(nominal_outside(out)) == 1
 
 
 def test_too_few_members_for_two_trajectories():
@@ -184,7 +228,8 @@ def test_shipped_envelope_is_drawn_and_valid(shipped):
     config, manifests, unknowns = shipped
     drawn = envelope(config["envelope"], manifests, unknowns)
     groups = len(config["envelope"]["groups"])
-    assert len(drawn.manifests) == config["envelope"]["members"] // (groups + 1) * (groups + 1)
+    morris = config["envelope"]["members"] // (groups + 1) * (groups + 1)
+    assert len(drawn.manifests) == morris + config["envelope"]["spread"]
     assert not {u.id for u in drawn.varied} & {u.id for u in drawn.held}
     for u in drawn.varied:  # every draw inside its declared range
         assert drawn.plan[u.id].between(u.low, u.high).all()
@@ -198,6 +243,7 @@ CH7 = {
     "name": "pi_p885_ch7",
     "chapters": ["7"],
     "members": 8,
+    "spread": 0,
     "groups": ["thermal", "thermometer", "chapter 7 records"],
     "stages": ["ripple", "identify", "gamma", "observer", "thermal"],
 }
@@ -315,7 +361,7 @@ def test_envelope_scorecard_verdicts():
         "rows": 4,
     }
     summary = envelope_summary(out.reset_index(), design(["X"]), [], [], {}, "0" * 64, 4)
-    assert "Rows fewer than the 4 members gave a value for:\n\n- T, few: 1 of 4\n" in summary
+    assert "the 4 members behind the percentiles gave a value for:\n\n- T, few: 1 of 4\n" in summary
 
 
 def test_a_design_judges_its_own_chapters_only():

@@ -2,13 +2,14 @@
 the same number over the envelope's members (selfsense.verify.envelope).
 
 A published number is ``consistent`` when it lies inside the members' 2.5–97.5 percentile
-envelope, the envelope widened by half a unit of the number's last printed digit (the source's
-own precision; no source prints a spread of these numbers); a published bound ("< 1 µm") is
-consistent when some of the envelope meets it. Else ``inconsistent``, with the distance from the
-envelope's nearer edge in envelope widths. A consistent number whose envelope's half-width
-exceeds ``INFORMATIVE`` % of the published value says little (any bench would do) and is
-``consistent (uninformative)``, counted apart. With fewer than ``MIN_MEMBERS`` members giving the
-number it has ``no envelope``. ``driven by``: the Morris groups with the largest μ* for the row.
+envelope (a Morris design's Latin hypercube members when it draws them: ``Design.spread``), the
+envelope widened by half a unit of the number's last printed digit (the source's own precision;
+no source prints a spread of these numbers); a published bound ("< 1 µm") is consistent when
+some of the envelope meets it. Else ``inconsistent``, with the distance from the envelope's
+nearer edge in envelope widths. A consistent number whose envelope's half-width exceeds
+``INFORMATIVE`` % of the published value says little (any bench would do) and is ``consistent
+(uninformative)``, counted apart. With fewer than ``MIN_MEMBERS`` members giving the number it
+has ``no envelope``. ``driven by``: the Morris groups with the largest μ* for the row.
 
 Pure: frames in, frames out.
 """
@@ -27,6 +28,7 @@ from selfsense.scorecard.registry import EMERGENT, Entry, last_digit
 from selfsense.verify.envelope import (
     Design,
     held_unknowns,
+    member_roles,
     morris_screening,
     trajectories,
     varied_unknowns,
@@ -203,13 +205,21 @@ def judge_envelope(
     emergent = nominal[nominal["kind"] == EMERGENT]
     keys = [row_key(s, q) for s, q in zip(emergent["source"], emergent["quantity"])]
     values = member_values(members, keys)
+    screened, spread = member_roles(design, [m for m in unit.index if m in members])
     screening = (
-        morris_screening(varied, design, unit, values)
-        if design.method == "morris"
+        morris_screening(varied, design, unit, values.loc[screened])
+        if screened
         else pd.DataFrame(columns=["output", "factor", "mu_star", "sigma"])
     )
-    card = envelope_scorecard(nominal, values, screening, entries)
+    card = envelope_scorecard(nominal, values.loc[spread], screening, entries)
     return card, sensitivity_table(screening, card)
+
+
+def nominal_outside(card: pd.DataFrame) -> pd.DataFrame:
+    """The rows whose nominal twin's value lies outside its own envelope: the nominal is one
+    bench of the declared ranges, so many such rows say the members do not cover them."""
+    reproduced = pd.to_numeric(card["reproduced"], errors="coerce")
+    return card[(reproduced < card["p2.5"]) | (reproduced > card["p97.5"])]
 
 
 def envelope_counts(card: pd.DataFrame) -> dict[str, int]:
@@ -256,6 +266,10 @@ def envelope_summary(
         if design.method == "morris"
         else "Latin hypercube"
     )
+    if design.spread:
+        method += f", the drivers; a Latin hypercube of {design.spread}, the percentiles"
+    spread = design.spread or members
+    judged = card[card["envelope verdict"] != "no envelope"]
     lines = [
         f"Envelope of {design.dataset}: {members} members "
         f"({method}; seed {design.seed}); {len(varied)} unknowns varied, {len(held)} held at "
@@ -268,15 +282,22 @@ def envelope_summary(
         f"The nominal twin's bands beside them: {int(band.get('within band', 0))} within, "
         f"{int(band.get('out of band', 0))} out of band.",
         "",
+        f"The nominal twin's own value lies outside its envelope in "
+        f"{len(nominal_outside(judged))} of the {len(judged)} rows with an envelope.",
+        "",
         f"Members with a calibration row out of its band: {len(misses)} of {members}.",
         "",
         "Held at their nominal: " + (", ".join(u.id for u in held) or "none") + ".",
     ]
-    short = card[card["members"] < members]
+    short = card[card["members"] < spread]
     if len(short):
-        lines += ["", f"Rows fewer than the {members} members gave a value for:", ""]
         lines += [
-            f"- {row['source']}, {row['quantity']}: {int(row['members'])} of {members}"
+            "",
+            f"Rows fewer than the {spread} members behind the percentiles gave a value for:",
+            "",
+        ]
+        lines += [
+            f"- {row['source']}, {row['quantity']}: {int(row['members'])} of {spread}"
             for _, row in short.iterrows()
         ]
     out = card[card["envelope verdict"] == "inconsistent"]

@@ -799,9 +799,10 @@ def envelope_markdown(designs: Sequence[tuple[pd.DataFrame, Mapping[str, Any]]])
         judged = design_card.loc[design_card["envelope verdict"] != "no envelope", "chapter"]
         chapters = list(dict.fromkeys(str(c) for c in judged))
         word = "Chapter" if len(chapters) == 1 else "Chapters"
+        method = design.method + (f" and {design.spread} latin" if design.spread else "")
         named.append(
             f"{word} {', '.join(chapters)}: {len(provenance['members'])} members, "
-            f"{design.method}, `docs/snapshot/envelope/{design.name}/`, code {provenance['code']}"
+            f"{method}, `docs/snapshot/envelope/{design.name}/`, code {provenance['code']}"
         )
     lines = [
         f"The reproduction envelope of `{Design.from_config(designs[0][1]['design']).dataset}` "

@@ -53,6 +53,9 @@ class Design:
     name: str
     #: the chapters whose emergent rows it judges (empty: every chapter)
     chapters: Sequence[str] = ()
+    #: Morris only: Latin hypercube members drawn after the trajectories, whose values alone
+    #: give the percentiles (0: the trajectories' members give them)
+    spread: int = 0
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any]) -> Design:
@@ -66,6 +69,7 @@ class Design:
             groups=list(section["groups"]),
             stages=list(section["stages"]),
             chapters=[str(c) for c in section.get("chapters", ())],
+            spread=int(section.get("spread", 0)) if section["method"] == "morris" else 0,
         )
 
     def judges(self, chapter: Any) -> bool:
@@ -129,12 +133,25 @@ def trajectories(design: Design) -> int:
     return design.members // (len(design.groups) + 1)
 
 
+def member_roles(design: Design, names: Sequence[str]) -> tuple[list[str], list[str]]:
+    """(screened, spread): of the members ``names`` (in the plan's order), those Morris's
+    screening reads (its trajectories; none for a Latin hypercube) and those whose values give
+    the percentiles (a Morris design's ``spread`` members when it has them, else every member)."""
+    names = list(names)
+    if design.method != "morris":
+        return [], names
+    if not design.spread:
+        return names, names
+    n = trajectories(design) * (len(design.groups) + 1)
+    return names[:n], names[n:]
+
+
 def unit_design(varied: Sequence[Unknown], design: Design) -> np.ndarray:
     """The members' draws in the unit hypercube (members × unknowns), from SALib.
 
     Morris: r = members // (groups + 1) trajectories (at least 2 for σ), each moving one group at
-    a time by Δ on a ``levels``-level grid; a Latin hypercube: ``members`` rows, one per
-    stratum of every unknown."""
+    a time by Δ on a ``levels``-level grid, then the design's ``spread`` rows of a Latin
+    hypercube; a Latin hypercube: ``members`` rows, one per stratum of every unknown."""
     # SALib's samplers imported where they are used: the workflow draws the plan when it is
     # parsed, and Morris's brings scipy.spatial with it
     spec = problem(varied, design)
@@ -148,7 +165,13 @@ def unit_design(varied: Sequence[Unknown], design: Design) -> np.ndarray:
                 f"config.yaml: key envelope.members: {design.members} members are fewer than "
                 f"two Morris trajectories of {len(design.groups)} groups: at least {need}"
             )
-        return morris_sampling.sample(spec, r, num_levels=design.levels, seed=design.seed)
+        grid = morris_sampling.sample(spec, r, num_levels=design.levels, seed=design.seed)
+        if not design.spread:
+            return grid
+        from SALib.sample import latin
+
+        spec = {k: v for k, v in spec.items() if k != "groups"}
+        return np.vstack([grid, latin.sample(spec, design.spread, seed=design.seed)])
     if design.method == "latin":
         from SALib.sample import latin
 
