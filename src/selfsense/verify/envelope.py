@@ -146,6 +146,14 @@ def member_roles(design: Design, names: Sequence[str]) -> tuple[list[str], list[
     return names[:n], names[n:]
 
 
+def _latin_hypercube(spec: Mapping[str, Any], n: int, seed: int) -> np.ndarray:
+    """``n`` rows of SALib's Latin hypercube over ``spec``'s unknowns (its Morris groups, if any,
+    do not apply)."""
+    from SALib.sample import latin
+
+    return latin.sample({k: v for k, v in spec.items() if k != "groups"}, n, seed=seed)
+
+
 def unit_design(varied: Sequence[Unknown], design: Design) -> np.ndarray:
     """The members' draws in the unit hypercube (members × unknowns), from SALib.
 
@@ -168,14 +176,9 @@ def unit_design(varied: Sequence[Unknown], design: Design) -> np.ndarray:
         grid = morris_sampling.sample(spec, r, num_levels=design.levels, seed=design.seed)
         if not design.spread:
             return grid
-        from SALib.sample import latin
-
-        spec = {k: v for k, v in spec.items() if k != "groups"}
-        return np.vstack([grid, latin.sample(spec, design.spread, seed=design.seed)])
+        return np.vstack([grid, _latin_hypercube(spec, design.spread, design.seed)])
     if design.method == "latin":
-        from SALib.sample import latin
-
-        return latin.sample(spec, design.members, seed=design.seed)
+        return _latin_hypercube(spec, design.members, design.seed)
     raise ManifestError(
         f"config.yaml: key envelope.method: {design.method!r} is not one of {', '.join(METHODS)}"
     )
