@@ -46,10 +46,10 @@ USES = {
     "observer.study_omegas": ([1.0, 6.283], {"observer_study"}),
     "observer.study_offsets": ([0.0], {"observer_study"}),
     "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results", "tracking_budget"}),
-    "capture.chunk_len": (32768, {"simulate", "simulate_closed_loop"}),
-    "capture.compression": ("zlib", {"simulate", "simulate_closed_loop"}),
-    "capture.complevel": (2, {"simulate", "simulate_closed_loop"}),
-    "capture.truth_decimation": (6, {"simulate", "simulate_closed_loop"}),
+    "capture.chunk_len": (32768, {"simulate", "simulate_ch4", "simulate_closed_loop"}),
+    "capture.compression": ("zlib", {"simulate", "simulate_ch4", "simulate_closed_loop"}),
+    "capture.complevel": (2, {"simulate", "simulate_ch4", "simulate_closed_loop"}),
+    "capture.truth_decimation": (6, {"simulate", "simulate_ch4", "simulate_closed_loop"}),
     "characterise.settle_s": (0.2, {"characterise_page"}),
     "characterise.min_hold_s": (2.0, {"characterise_page"}),
     "ripple.skip_s": (0.2, {"ch3_hysteresis", "ch3_figures"}),
@@ -110,6 +110,7 @@ STRUCTURAL = {
     "raw_dir",
     "characterise.captures_per_job.simulated",
     "characterise.captures_per_job.measured",
+    "twin.together",  # which runs share a job: the same captures, made by fewer jobs
 }
 
 

@@ -127,6 +127,18 @@ PIPELINE_FAULTS = [  # config changes, the file the line must name, what it must
         {"campain": "smoke"}, "fault.yaml", ["unknown key campain"], id="unknown config key"
     ),
     pytest.param(
+        {"twin": {"together": ["ch6"]}},
+        "fault.yaml",
+        ["key twin.together: protocol ch6's run ch6_p1_closed needs identified values"],
+        id="a closed loop simulated together",
+    ),
+    pytest.param(
+        {"twin": {"together": ["ch44"]}},
+        "fault.yaml",
+        ["key twin.together: 'ch44' is no protocol of workflow/protocols"],
+        id="no such protocol simulated together",
+    ),
+    pytest.param(
         {"ripple": {"n_periods": "four"}},
         "fault.yaml",
         ["key ripple.n_periods", "not of type 'integer'"],

@@ -23,8 +23,11 @@ if SIMULATED:
             capture=config["capture"],
         wildcard_constraints:
             dataset="|".join(SIMULATED),
-            # closed-loop runs need the identified model: rule simulate_closed_loop
-            experiment=r"(?![A-Za-z0-9_]*_closed)[A-Za-z0-9_]+",
+            # closed-loop runs need the identified model: rule simulate_closed_loop; the runs of
+            # a protocol simulated together: its own rule, below
+            experiment=r"(?![A-Za-z0-9_]*_closed)"
+            + "".join(f"(?!{e}(?![A-Za-z0-9_]))" for e in SIMULATED_TOGETHER)
+            + r"[A-Za-z0-9_]+",
         log:
             "logs/{dataset}/simulate/{experiment}.log",
         benchmark:
@@ -35,6 +38,37 @@ if SIMULATED:
         priority: longest_first
         script:
             "../scripts/simulate.py"
+
+    for _name, (_protocol, _runs, _datasets) in TOGETHER.items():
+
+        rule:
+            """Run every experiment of one protocol on the digital twin in one job (config
+            twin.together); validate and report each capture, as rule simulate does."""
+            name:
+                _name
+            input:
+                manifest=RAW / "{dataset}" / "dataset.yaml",
+                protocol=str(PROTOCOLS / f"{_protocol}.yaml"),
+                library=library_sources("simulate"),
+            output:
+                capture=[RAW / "{dataset}" / f"{e}.nc" for e in _runs],
+                report=[f"results/{{dataset}}/qc/{e}.json" for e in _runs],
+            params:
+                campaign=config["campaign"],
+                capture=config["capture"],
+                experiments=list(_runs),
+            wildcard_constraints:
+                dataset="|".join(re.escape(d) for d in _datasets),
+            log:
+                f"logs/{{dataset}}/{_name}.log",
+            benchmark:
+                f"benchmarks/out/{{dataset}}/{_name}.tsv"
+            threads: 1
+            resources:
+                **resources_for("simulate"),
+            priority: lambda w, runs=_runs: sum(samples(w.dataset, e) for e in runs) // 1000
+            script:
+                "../scripts/simulate.py"
 
 
 if MEASURED:

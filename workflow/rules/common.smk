@@ -26,8 +26,8 @@ from selfsense import stages
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
 # defaults. --configfile files override config.yaml; Snakemake lists them before it in
 # workflow.configfiles
-validate_config(config, " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config",
-                dict(workflow.config_settings.config))  # --config alone (overwrite_config has the files too)
+CONFIG_SOURCE = " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config"
+validate_config(config, CONFIG_SOURCE, dict(workflow.config_settings.config))  # --config alone (overwrite_config has the files too)
 validate(config, str(SCHEMAS / "config.schema.yaml"))
 
 
@@ -260,8 +260,44 @@ def longest_first(wildcards):
     """A simulation's priority, its capture's length in thousands of samples: the longest are
     simulated first, open or closed loop; started last, one of them would keep a core busy alone
     at the end of the run (an envelope member's closed loops run last of all)."""
-    protocol = EXPERIMENTS[wildcards.dataset][wildcards.experiment].protocol
-    return int(protocol_duration(protocol) * DATASETS[wildcards.dataset]["daq"]["fs"]) // 1000
+    return samples(wildcards.dataset, wildcards.experiment) // 1000
+
+
+def samples(dataset, experiment):
+    """How many samples an experiment's capture holds (its fast channels)."""
+    protocol = EXPERIMENTS[dataset][experiment].protocol
+    return int(protocol_duration(protocol) * DATASETS[dataset]["daq"]["fs"])
+
+
+def simulated_together(protocols):
+    """{rule name: (protocol, its runs, the simulated datasets they are made for)}: the runs of a
+    protocol of config twin.together are one job, since each costs the twin's start-up (numba's
+    compiled kernels loaded, about a second) many times over its simulation (Chapter 4's 22
+    half-second sets: 2.5 s in one job, 24 s in 22). Datasets whose catalogues name different runs
+    of it (another campaign's sets) get a rule each."""
+    rules = {}
+    for protocol in protocols:
+        if not (PROTOCOLS / f"{protocol}.yaml").is_file():
+            raise ValueError(f"{CONFIG_SOURCE}: key twin.together: {protocol!r} is no protocol of "
+                             f"{PROTOCOLS}")
+        by_runs = {}
+        for d in SIMULATED:
+            runs = tuple(e for e, run in EXPERIMENTS[d].items() if run.chapter == protocol)
+            if runs:
+                by_runs.setdefault(runs, []).append(d)
+        for k, (runs, datasets) in enumerate(by_runs.items()):
+            apart = [e for e in runs if e.endswith("_closed") or EXPERIMENTS[datasets[0]][e].compensation]
+            if apart:
+                raise ValueError(f"{CONFIG_SOURCE}: key twin.together: protocol {protocol}'s run {apart[0]} "
+                                 "needs identified values (a closed loop, a compensation): it is "
+                                 "simulated on its own")
+            rules[f"simulate_{protocol}" + (f"_{k + 1}" if k else "")] = (protocol, runs, datasets)
+    return rules
+
+
+TOGETHER = simulated_together(config["twin"]["together"])
+#: the runs simulated together: rule simulate leaves them to those rules
+SIMULATED_TOGETHER = sorted({e for _, runs, _ in TOGETHER.values() for e in runs})
 
 
 # ---- The stage plan (selfsense.stages): which stages run for each dataset and, for the skipped

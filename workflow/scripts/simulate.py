@@ -1,5 +1,6 @@
-"""Rule `simulate`: one experiment on the digital twin → raw/<dataset>/<experiment>.nc and its QC
-report results/<dataset>/qc/<experiment>.json (the capture is validated as it is written).
+"""Rules `simulate` and `simulate_<protocol>`: experiments on the digital twin → raw/<dataset>/
+<experiment>.nc and their QC reports results/<dataset>/qc/<experiment>.json (each capture is
+validated as it is written); one experiment, or every run of a protocol simulated together.
 
 A Ronkanen run compensated with ``{R: identified, c: identified}`` (Eq 15) also has the
 identification's tables as inputs, results/<dataset>/powerloss/identified.csv (R, from the static
@@ -13,32 +14,24 @@ from selfsense.io.provenance import script_logging
 from selfsense.twin.experiment import simulate_experiment
 
 
-def main(
-    raw_dir,
-    dataset,
-    experiment,
-    campaign,
-    capture,
-    output=None,
-    report=None,
-    log=None,
-    identified_tables=None,
-):
+def main(raw_dir, dataset, experiments, campaign, capture, outputs, reports, log=None, tables=None):
     logger = script_logging(log)
     config = {"campaign": campaign, "capture": capture}
-    scan = simulate_experiment(
-        raw_dir, dataset, experiment, config, output, identified_tables=identified_tables
-    )
-    write_scan_report(scan, report or f"results/{dataset}/qc/{experiment}.json")
-    logger.info(
-        "wrote %s (campaign %s), clipped %d", scan.path, campaign, sum(scan.clipped.values())
-    )
+    for experiment, output, report in zip(experiments, outputs, reports, strict=True):
+        scan = simulate_experiment(
+            raw_dir, dataset, experiment, config, output, identified_tables=tables
+        )
+        write_scan_report(scan, report)
+        logger.info(
+            "wrote %s (campaign %s), clipped %d", scan.path, campaign, sum(scan.clipped.values())
+        )
 
 
 if "snakemake" in globals():
-    i, p, o = snakemake.input, snakemake.params, snakemake.output
+    i, p, o, w = snakemake.input, snakemake.params, snakemake.output, snakemake.wildcards
     tables = (i.identified, i.table_2) if hasattr(i, "identified") else None
+    experiments = p.experiments if hasattr(p, "experiments") else [w.experiment]
     # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
-    raw, w = Path(i.manifest).parents[1], snakemake.wildcards
-    args = (p.campaign, p.capture, o.capture, o.report, snakemake.log[0], tables)
-    main(raw, w.dataset, w.experiment, *args)
+    raw, outputs = Path(i.manifest).parents[1], (o.capture, o.report)
+    outputs = [[x] if isinstance(x, str) else list(x) for x in outputs]
+    main(raw, w.dataset, experiments, p.campaign, p.capture, *outputs, snakemake.log[0], tables)
