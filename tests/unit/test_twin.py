@@ -462,3 +462,22 @@ def test_a_capture_blosc_cannot_store_is_written_again_with_zlib(tmp_path, monke
     with netCDF4.Dataset(scan.path) as nc:
         assert compression_of(nc["U"]) == "zlib"
     assert scan.n_samples > 0 and list(tmp_path.iterdir()) == [tmp_path / "c.nc"]
+
+
+def test_a_run_simulated_after_others_in_one_process_equals_it_simulated_alone(tmp_path):
+    """Rule simulate_ch4 simulates a protocol's runs one after another in one process: a run's
+    capture must not depend on what ran before it (each draws from its own seed)."""
+    import netCDF4
+
+    import selfsense.twin.experiment as twin
+    from selfsense.io.manifest import load_config
+
+    config = load_config(ROOT / "tests" / "config" / "smoke.yaml")
+    raw, run = ROOT / "raw", "ch4_sine_20hz_s1"
+    alone = twin.simulate_experiment(raw, "pi_p885", run, config, tmp_path / "alone.nc")
+    twin.simulate_experiment(raw, "pi_p885", "ch4_sine_10hz_s1", config, tmp_path / "before.nc")
+    after = twin.simulate_experiment(raw, "pi_p885", run, config, tmp_path / "after.nc")
+    with netCDF4.Dataset(alone.path) as a, netCDF4.Dataset(after.path) as b:
+        for group_a, group_b in ((a, b), (a["truth"], b["truth"])):
+            for name, variable in group_a.variables.items():
+                assert np.array_equal(variable[:], group_b[name][:]), name
