@@ -44,6 +44,7 @@ IGNORE = shutil.ignore_patterns(
     ".hypothesis",
     ".pytest_cache",
     "report.html",
+    "*~[0-9]*",  # an envelope member's folders under raw/ (its manifest is made by the workflow)
 )
 
 

@@ -17,6 +17,11 @@ pytestmark = pytest.mark.slow
 
 SMOKE = ROOT / SMOKE_CONFIG
 
+#: the rules that simulate a capture: one a run, a protocol's runs together, a closed loop
+SIMULATE = {"simulate", "simulate_closed_loop"} | {
+    f"simulate_{p}" for p in yaml.safe_load(SMOKE.read_text())["twin"]["together"]
+}
+
 #: config key: (a changed value, the rules whose params declare it; see workflow/rules/*.smk)
 USES = {
     "ripple.n_periods": (
@@ -46,10 +51,10 @@ USES = {
     "observer.study_omegas": ([1.0, 6.283], {"observer_study"}),
     "observer.study_offsets": ([0.0], {"observer_study"}),
     "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results", "tracking_budget"}),
-    "capture.chunk_len": (32768, {"simulate", "simulate_ch4", "simulate_closed_loop"}),
-    "capture.compression": ("zlib", {"simulate", "simulate_ch4", "simulate_closed_loop"}),
-    "capture.complevel": (2, {"simulate", "simulate_ch4", "simulate_closed_loop"}),
-    "capture.truth_decimation": (6, {"simulate", "simulate_ch4", "simulate_closed_loop"}),
+    "capture.chunk_len": (32768, SIMULATE),
+    "capture.compression": ("zlib", SIMULATE),
+    "capture.complevel": (2, SIMULATE),
+    "capture.truth_decimation": (6, SIMULATE),
     "characterise.settle_s": (0.2, {"characterise_page"}),
     "characterise.min_hold_s": (2.0, {"characterise_page"}),
     "ripple.skip_s": (0.2, {"ch3_hysteresis", "ch3_figures"}),
