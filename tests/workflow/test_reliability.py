@@ -32,6 +32,7 @@ from selfsense.io.manifest import load_yaml
 from ..helpers import (
     CH3,
     PI,
+    ROOT,
     add_measured,
     assert_same_capture,
     copy_repo,
@@ -157,6 +158,25 @@ def test_bad_config_or_manifest_stops_snakemake_with_one_line(parse_repo, change
     line = error_line(run, *problem)
     assert not (parse_repo / "results").exists()
     assert f"{source}: " in line, line
+
+
+@pytest.mark.slow
+def test_datasets_whose_protocol_has_other_runs_get_a_rule_each(parse_repo):
+    """Chapter 4's runs are simulated in one job (config twin.together). A second simulated
+    dataset with three sets of one sine, not two, gets a rule of its own: every run of each
+    dataset is simulated once, by its dataset's rule."""
+    doc = load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml")
+    doc |= {"name": "pi_p885_sets"}
+    doc["protocol_overrides"] = {"ch4:experiments.ch4_sine_10hz.smoke.sets": 3}
+    (parse_repo / "raw" / "pi_p885_sets").mkdir()
+    (parse_repo / "raw" / "pi_p885_sets" / "dataset.yaml").write_text(yaml.safe_dump(doc))
+    config = write_config(parse_repo, "sets", ["pi_p885", "pi_p885_sets"])
+    run = run_snakemake(parse_repo, "-n", "-p", config=config)
+    assert run.returncode == 0, run.stderr[-3000:]
+    stats = dict(re.findall(r"^(simulate_ch4\w*)\s+(\d+)$", run.stdout, re.M))
+    assert stats == {"simulate_ch4": "1", "simulate_ch4_2": "1"}, stats
+    assert "raw/pi_p885_sets/ch4_sine_10hz_s3.nc" in run.stdout
+    assert "raw/pi_p885/ch4_sine_10hz_s3.nc" not in run.stdout
 
 
 # -- measured datasets, end to end (slow) --------------------------------------------------------
