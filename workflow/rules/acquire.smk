@@ -56,7 +56,6 @@ if SIMULATED:
             params:
                 campaign=config["campaign"],
                 capture=config["capture"],
-                experiments=list(_runs),
             wildcard_constraints:
                 dataset="|".join(re.escape(d) for d in _datasets),
             log:

@@ -269,37 +269,6 @@ def samples(dataset, experiment):
     return int(protocol_duration(protocol) * DATASETS[dataset]["daq"]["fs"])
 
 
-def simulated_together(protocols):
-    """{rule name: (protocol, its runs, the simulated datasets they are made for)}: the runs of a
-    protocol of config twin.together are one job, since each costs the twin's start-up (numba's
-    compiled kernels loaded, about a second) many times over its simulation (Chapter 4's 22
-    half-second sets: 2.5 s in one job, 24 s in 22). Datasets whose catalogues name different runs
-    of it (another campaign's sets) get a rule each."""
-    rules = {}
-    for protocol in protocols:
-        if not (PROTOCOLS / f"{protocol}.yaml").is_file():
-            raise ValueError(f"{CONFIG_SOURCE}: key twin.together: {protocol!r} is no protocol of "
-                             f"{PROTOCOLS}")
-        by_runs = {}
-        for d in SIMULATED:
-            runs = tuple(e for e, run in EXPERIMENTS[d].items() if run.chapter == protocol)
-            if runs:
-                by_runs.setdefault(runs, []).append(d)
-        for k, (runs, datasets) in enumerate(by_runs.items()):
-            apart = [e for e in runs if e.endswith("_closed") or EXPERIMENTS[datasets[0]][e].compensation]
-            if apart:
-                raise ValueError(f"{CONFIG_SOURCE}: key twin.together: protocol {protocol}'s run {apart[0]} "
-                                 "needs identified values (a closed loop, a compensation): it is "
-                                 "simulated on its own")
-            rules[f"simulate_{protocol}" + (f"_{k + 1}" if k else "")] = (protocol, runs, datasets)
-    return rules
-
-
-TOGETHER = simulated_together(config["twin"]["together"])
-#: the runs simulated together: rule simulate leaves them to those rules
-SIMULATED_TOGETHER = sorted({e for _, runs, _ in TOGETHER.values() for e in runs})
-
-
 # ---- The stage plan (selfsense.stages): which stages run for each dataset and, for the skipped
 # ones, what the dataset lacks. Rule stage_plan writes it (results/<dataset>/stages.csv), and the
 # *_DATASETS lists below, which gate every rule file, are derived from it and from nothing else.
@@ -508,6 +477,37 @@ def uses_identification(dataset, experiment):
     c: identified}, Eq 15)."""
     run = EXPERIMENTS[dataset].get(experiment)
     return run is not None and needs_identification(run.compensation)
+
+
+def simulated_together(protocols):
+    """{rule name: (protocol, its runs, the simulated datasets they are made for)}: the runs of a
+    protocol of config twin.together are one job, since each costs the twin's start-up (numba's
+    compiled kernels loaded, about a second) many times over its simulation (Chapter 4's 22
+    half-second sets: 2.5 s in one job, 24 s in 22). Datasets whose catalogues name different runs
+    of it (another campaign's sets) get a rule each."""
+    rules = {}
+    for protocol in protocols:
+        if not (PROTOCOLS / f"{protocol}.yaml").is_file():
+            raise ValueError(f"{CONFIG_SOURCE}: key twin.together: {protocol!r} is no protocol of "
+                             f"{PROTOCOLS}")
+        by_runs = {}
+        for d in SIMULATED:
+            runs = tuple(e for e, run in EXPERIMENTS[d].items() if run.chapter == protocol)
+            if runs:
+                by_runs.setdefault(runs, []).append(d)
+        for k, (runs, datasets) in enumerate(by_runs.items()):
+            apart = [e for e in runs if any(e in CLOSED_LOOP[d] or uses_identification(d, e) for d in datasets)]
+            if apart:
+                raise ValueError(f"{CONFIG_SOURCE}: key twin.together: protocol {protocol}'s run {apart[0]} "
+                                 "needs identified values (a closed loop, a compensation): it is "
+                                 "simulated on its own")
+            rules[f"simulate_{protocol}" + (f"_{k + 1}" if k else "")] = (protocol, runs, datasets)
+    return rules
+
+
+TOGETHER = simulated_together(config["twin"]["together"])
+#: the runs simulated together: rule simulate leaves them to those rules
+SIMULATED_TOGETHER = sorted({e for _, runs, _ in TOGETHER.values() for e in runs})
 
 
 def identified_compensation(dataset, experiment):

@@ -28,10 +28,12 @@ def main(raw_dir, dataset, experiments, campaign, capture, outputs, reports, log
 
 
 if "snakemake" in globals():
-    i, p, o, w = snakemake.input, snakemake.params, snakemake.output, snakemake.wildcards
+    i, p, o = snakemake.input, snakemake.params, snakemake.output
     tables = (i.identified, i.table_2) if hasattr(i, "identified") else None
-    experiments = p.experiments if hasattr(p, "experiments") else [w.experiment]
     # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
-    raw, outputs = Path(i.manifest).parents[1], (o.capture, o.report)
-    outputs = [[x] if isinstance(x, str) else list(x) for x in outputs]
-    main(raw, w.dataset, experiments, p.campaign, p.capture, *outputs, snakemake.log[0], tables)
+    raw = Path(i.manifest).parents[1]
+    captures, reports = ([x] if isinstance(x, str) else list(x) for x in (o.capture, o.report))
+    # each capture is raw/<dataset>/<experiment>.nc
+    experiments = [Path(c).stem for c in captures]
+    args = (p.campaign, p.capture, captures, reports, snakemake.log[0], tables)
+    main(raw, snakemake.wildcards.dataset, experiments, *args)
