@@ -3,6 +3,7 @@ design's one-group-at-a-time steps and the Latin hypercube's strata, a member's 
 protocol overrides (and what the stage plan makes of its stages: list), Morris's μ* recovered on
 a function with known effects, and the verdicts of a published number against an envelope."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -183,9 +184,16 @@ def test_groups_vary_what_can_vary(shipped):
     held = {u.id for u in held_unknowns(unknowns, design(["creep"]))}
     assert "adc_bits" in held and "bench_zeta" in held and "creep_c_fast" not in held
     assert "bender_capacitance" not in held  # another dataset's
-    for groups in (["no such group"], ["signal chain"], ["bender creep"]):  # none, model:, other
+    # a value the twin's code fixes (model:) is held, and a group of nothing else cannot vary
+    fixed = dataclasses.replace(
+        unknown("in_code", group="code"), paths=("model:stack.in_code",), where="bench.py"
+    )
+    chosen = varied_unknowns([*unknowns, fixed], design(["creep", "noise realisation"]))
+    assert chosen == varied
+    assert "in_code" in {u.id for u in held_unknowns([*unknowns, fixed], design(["creep"]))}
+    for groups in (["no such group"], ["code"], ["bender creep"]):  # none, model:, other
         with pytest.raises(ManifestError, match="is no group of pi_p885's unknowns that can vary"):
-            varied_unknowns(unknowns, design(groups))
+            varied_unknowns([*unknowns, fixed], design(groups))
 
 
 # --- members --------------------------------------------------------------------------------------

@@ -8,7 +8,7 @@ import scipy.signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.methods.lti import bilinear, butterworth_highpass2, filter_run, tustin
+from selfsense.methods.lti import bilinear, highpass2, filter_run, tustin
 from selfsense.methods.observer import HPOGains, _state_matrices
 
 from ..tolerances import CLOSED_FORM, assert_close, sums
@@ -29,7 +29,7 @@ def test_tustin_is_cont2discrete_bilinear(gains, fs):
 
 @pytest.mark.parametrize("cutoff", [33.3, 1e3, 18e3])
 def test_butterworth_and_bilinear_are_scipys(cutoff):
-    b, a = butterworth_highpass2(cutoff)
+    b, a = highpass2(cutoff)
     b_ref, a_ref = scipy.signal.butter(2, 2 * np.pi * cutoff, btype="high", analog=True)
     assert_close(b, b_ref, CLOSED_FORM, atol=1e-300)
     assert_close(a, a_ref, CLOSED_FORM)
@@ -38,9 +38,19 @@ def test_butterworth_and_bilinear_are_scipys(cutoff):
 
 
 @settings(max_examples=30, deadline=None)
+@given(cutoff=st.floats(10.0, 20e3), q=st.floats(0.3, 2.0))
+def test_a_second_order_high_pass_passes_q_at_its_cutoff(cutoff, q):
+    """|H(jω_c)| = Q for s²/(s² + (ω_c/Q)s + ω_c²), and the high frequencies pass whole."""
+    b, a = highpass2(cutoff, q)
+    _, (at_cutoff, far) = scipy.signal.freqs(b, a, 2 * np.pi * np.array([cutoff, 1e4 * cutoff]))
+    assert_close(abs(at_cutoff), q, CLOSED_FORM)
+    assert_close(abs(far), 1.0, 1e-7)  # 1 − |H| ≈ (1/Q² − 2)/2·(ω_c/ω)² ≤ 1e-8 here
+
+
+@settings(max_examples=30, deadline=None)
 @given(split=st.integers(0, 2000), seed=st.integers(0, 2**32 - 1))
 def test_filter_run_is_lfilter_and_carries_its_state(split, seed):
-    b, a = bilinear(*butterworth_highpass2(18e3), 48e3)
+    b, a = bilinear(*highpass2(18e3), 48e3)
     x = np.random.default_rng(seed).normal(size=2000) + 50.0
     y_ref, z_ref = scipy.signal.lfilter(b, a, x, zi=np.zeros(2))
     y, z = np.empty_like(x), np.zeros(2)

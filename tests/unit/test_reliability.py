@@ -194,6 +194,11 @@ def _manifest_dir(tmp_path, **changes):
         pytest.param(
             {"source": "measurd"}, ["key source", "is not one of"], id="value not allowed"
         ),
+        pytest.param(
+            {"twin": {"instruments": {"adc_bits": 20}}},
+            ["key twin.instruments.adc_bits", "20 is greater than the maximum of 16"],
+            id="twin value out of bounds",
+        ),
     ],
 )
 def test_bad_manifest_is_one_line_naming_file_and_key(tmp_path, change, fragments):

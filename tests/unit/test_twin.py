@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.io.capture import open_capture
+from selfsense.io.capture import SLOW_CHANNELS, open_capture
 from selfsense.methods.drive import Drive, Segment
 from selfsense.methods.ripple import SamplingPlan, extract_impedance
 from selfsense.scorecard.calibration import load_targets
@@ -223,23 +223,46 @@ def test_capture_carries_truth_and_contract_attributes(tmp_path, stack_params, s
         assert cap.n_slow == 1  # 0.1 s at 10 Hz
 
 
+#: the signal chain's values the twin's nominal holds (the ideal amplifier, a probe as flat at the
+#: ripple as at DC, a 16-bit ADC, a Butterworth high-pass) and values of their declared ranges
+SIGNAL_CHAIN = st.fixed_dictionaries(
+    {
+        "amplifier_gain_at_folded_ripple": st.sampled_from([1.0, 0.3, 0.75]),
+        "I_probe_gain_at_ripple": st.floats(0.97, 1.03),
+        "adc_bits": st.integers(12, 16),
+        "highpass_q": st.floats(0.5, 0.9),
+    }
+)
+
+
+def with_signal_chain(params, chain):
+    """``params`` with the signal chain's values ``chain`` (the high-pass's Q is the ripple's)."""
+    chain = dict(chain)
+    ripple = dataclasses.replace(params.ripple, highpass_q=chain.pop("highpass_q"))
+    instruments = dataclasses.replace(params.instruments, **chain)
+    return dataclasses.replace(params, ripple=ripple, instruments=instruments)
+
+
 @settings(max_examples=20, deadline=None)
 @given(
     n=st.integers(1, 3000),
     every=st.integers(1, 30),
     first=st.integers(0, 29),
     seed=st.integers(0, 2**32 - 1),
+    chain=SIGNAL_CHAIN,
 )
 def test_compiled_instruments_follow_the_numpy_reference(
-    stack_params, stack_daq, n, every, first, seed
+    stack_params, stack_daq, n, every, first, seed, chain
 ):
-    """record.record_block against Bench._instruments, over two chunks (the high-pass states carry).
+    """record.record_block against Bench._instruments, over two chunks (the high-pass states carry),
+    for signal chains across their declared ranges.
 
     Both do the same IEEE operations in the same order; a rounding-level difference (another
     complex-division algorithm) could move a value across one ADC boundary, so the measured
     channels agree to one ADC step and the truth to the rounding of a few dozen operations."""
     first = first % every
-    benches = [Bench(stack_params, stack_daq, experiment_seed(seed, "ref")) for _ in range(2)]
+    params = with_signal_chain(stack_params, chain)
+    benches = [Bench(params, stack_daq, experiment_seed(seed, "ref")) for _ in range(2)]
     for chunk in range(2):
         t = (chunk * n + np.arange(n)) / FS
         U = 50 - 50 * np.cos(2 * np.pi * 230 * t) + 20 * (t > 0.01)  # a step: the high-pass leaks
@@ -248,7 +271,7 @@ def test_compiled_instruments_follow_the_numpy_reference(
             for b, compiled in zip(benches, (True, False))
         )
         for c, values in ref.items():
-            step = benches[1].adc[c].scale_factor if c in benches[1].adc else 0.0
+            step = benches[1].adc[c].step if c in benches[1].adc else 0.0
             np.testing.assert_allclose(fast[c], values, rtol=0, atol=step, err_msg=c)
         for k, values in ref_truth.items():
             np.testing.assert_allclose(
@@ -377,9 +400,25 @@ def test_drive_in_short_blocks_equals_the_whole_span(durations, levels, block):
     np.testing.assert_array_equal(blocks, drive(t))
 
 
-def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_params, stack_daq):
+@pytest.mark.parametrize(
+    "chain",
+    [
+        {},
+        {
+            "amplifier_gain_at_folded_ripple": 0.3,
+            "I_probe_gain_at_ripple": 0.97,
+            "adc_bits": 12,
+            "highpass_q": 0.5,
+        },
+    ],
+    ids=["nominal", "signal chain at its ranges' ends"],
+)
+def test_compiled_closed_loop_follows_the_python_reference(
+    tmp_path, stack_params, stack_daq, chain
+):
     """The numba loop (twin.realtime) against the per-block Python chain and controller it replaces,
-    from a warm-up (loop open, the observer learning) through engaged chunks that start mid-period.
+    from a warm-up (loop open, the observer learning) through engaged chunks that start mid-period,
+    with the nominal signal chain and one at its declared ranges' ends.
 
     A rounding-level difference can move an ADC value across one rounding boundary: the measured
     channels agree to one ADC step. The logged estimate agrees to the rounding of the window sums
@@ -390,6 +429,7 @@ def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_param
     from selfsense.methods.ripple import plan_from_capture
     from selfsense.twin.closed_loop import realtime_controller
 
+    params = with_signal_chain(stack_params, {"highpass_q": stack_params.ripple.highpass_q} | chain)
     s = stack_params.stack
     gamma = GammaPolynomial((-1e6 * s.C_P0 / s.dC_x, 1.0 / s.dC_x))  # C_P0 + dC_x·x, inverted
     drive = Drive("position", (Segment(0.05), Segment(0.3, 10.0, 0.0, 15e-6)))
@@ -407,7 +447,7 @@ def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_param
         )
         path = simulate_capture(
             tmp_path / f"{compiled}.nc",
-            stack_params,
+            params,
             stack_daq,
             drive,
             {},
@@ -418,7 +458,11 @@ def test_compiled_closed_loop_follows_the_python_reference(tmp_path, stack_param
         ).path  # 1000: chunks start mid-period
         with open_capture(path) as cap:
             runs[compiled] = cap.read([*stack_daq.channels, "x_ref", "x_hpo_rt", "u_cmd"])
-            steps = {c: cap.resolution(c) for c in stack_daq.channels}
+            adc_step = 2 ** (16 - params.instruments.adc_bits)  # the ADC's step in int16 codes
+            steps = {
+                c: cap.resolution(c) * (1 if c in SLOW_CHANNELS else adc_step)
+                for c in stack_daq.channels
+            }
             plan = plan_from_capture(cap, 4)
     ref, fast = runs[False], runs[True]
     for c, step in steps.items():

@@ -107,10 +107,21 @@ class ChannelSpec:
     lo: float
     hi: float
     dim: str = "time"
+    bits: int = 16  # the ADC's resolution; its codes are stored as int16 all the same
 
     @property
     def scale_factor(self) -> float:
         return (self.hi - self.lo) / (2 * INT16_FULL)
+
+    @property
+    def step(self) -> float:
+        """The ADC's quantisation step: 2^(16 − bits) int16 codes."""
+        return self.scale_factor * 2 ** (16 - self.bits)
+
+    @property
+    def full_code(self) -> int:
+        """The ADC's largest code, in its steps."""
+        return INT16_FULL >> (16 - self.bits)
 
     @property
     def add_offset(self) -> float:
@@ -131,15 +142,16 @@ class ChannelSpec:
         return np.clip(codes, -INT16_FULL, INT16_FULL, out=codes).astype(np.int16), clipped
 
     def quantize(self, values: np.ndarray) -> np.ndarray:
-        """The values as the ADC reports them: on the int16 grid, clipped to range, NaN kept.
+        """The values as the ADC reports them: on its grid of :attr:`step`, clipped to range,
+        NaN kept.
 
-        Equal to unpacking :meth:`pack`'s codes, without the int16 round trip: the closed-loop
-        twin calls it for every 12-sample block (hence two ufuncs rather than np.clip, whose
-        dispatch costs more than the arithmetic on 12 samples; both keep NaN).
+        For a 16-bit ADC equal to unpacking :meth:`pack`'s codes, without the int16 round trip:
+        the closed-loop twin calls it for every 12-sample block (hence two ufuncs rather than
+        np.clip, whose dispatch costs more than the arithmetic on 12 samples; both keep NaN).
         """
-        scale, offset = self.scale_factor, self.add_offset
-        codes = np.rint((np.asarray(values, dtype=np.float64) - offset) / scale)
-        return np.minimum(np.maximum(codes, -INT16_FULL), INT16_FULL) * scale + offset
+        step, offset, full = self.step, self.add_offset, self.full_code
+        codes = np.rint((np.asarray(values, dtype=np.float64) - offset) / step)
+        return np.minimum(np.maximum(codes, -full), full) * step + offset
 
 
 #: Units and meaning of every channel the bench can record (docs/design.md). Ranges are the
@@ -165,10 +177,10 @@ SLOW_CHANNELS = frozenset({"T_top", "T_mid", "T_bot"})
 DISPLACEMENT = ("x_laser", "x_disp")
 
 
-def channel_spec(name: str, lo: float, hi: float) -> ChannelSpec:
+def channel_spec(name: str, lo: float, hi: float, bits: int = 16) -> ChannelSpec:
     units, long_name = CHANNEL_UNITS[name]
     return ChannelSpec(
-        name, units, long_name, lo, hi, "time_slow" if name in SLOW_CHANNELS else "time"
+        name, units, long_name, lo, hi, "time_slow" if name in SLOW_CHANNELS else "time", bits
     )
 
 

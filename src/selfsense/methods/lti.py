@@ -30,11 +30,19 @@ def tustin(
     return Ad, Bd, Cd, D + 0.5 * np.dot(C, Bd)
 
 
-def butterworth_highpass2(cutoff_hz: float) -> tuple[np.ndarray, np.ndarray]:
-    """Analogue 2nd-order Butterworth high-pass s²/(s² + √2 ω_c s + ω_c²), ω_c = 2π·cutoff: the
-    coefficients ``scipy.signal.butter(2, ω_c, "high", analog=True)`` returns."""
+#: the quality factor of a 2nd-order Butterworth filter, 1/√2
+BUTTERWORTH_Q = 0.7071067811865476
+
+
+def highpass2(cutoff_hz: float, q: float = BUTTERWORTH_Q) -> tuple[np.ndarray, np.ndarray]:
+    """Analogue 2nd-order high-pass s²/(s² + (ω_c/Q) s + ω_c²), ω_c = 2π·cutoff, |H(jω_c)| = Q:
+    for Q = 1/√2 the Butterworth whose coefficients ``scipy.signal.butter(2, ω_c, "high",
+    analog=True)`` returns (a Sallen-Key's Q is set by its components' ratios)."""
     wc = 2 * np.pi * cutoff_hz
-    return np.array([1.0, 0.0, 0.0]), np.array([1.0, math.sqrt(2) * wc, wc * wc])
+    # ω_c/Q as √2·ω_c·(Q_B/Q): the Butterworth's coefficients to the last bit
+    return np.array([1.0, 0.0, 0.0]), np.array(
+        [1.0, math.sqrt(2) * wc * (BUTTERWORTH_Q / q), wc * wc]
+    )
 
 
 def bilinear(b: np.ndarray, a: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:

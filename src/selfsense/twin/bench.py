@@ -34,7 +34,14 @@ from selfsense.io.capture import (
 )
 from selfsense.methods.drive import Drive
 from selfsense.twin import kernel
-from selfsense.twin.instruments import HighPass, RippleSource, SlowProcess, resolve, small_signal
+from selfsense.twin.instruments import (
+    Amplifier,
+    HighPass,
+    RippleSource,
+    SlowProcess,
+    resolve,
+    small_signal,
+)
 from selfsense.twin.params import TwinParams
 from selfsense.twin.record import NOISY, TRUTH, record
 
@@ -94,19 +101,23 @@ class Bench:
         self.state = kernel.initial_state(self.kc, self.T_amb)
         self.load_stiffness = load_stiffness
         # the real-time loop and the capture both see the ADC's quantised values
-        self.adc = {
-            c: channel_spec(c, *daq.ranges[c]) for c in daq.channels if c not in SLOW_CHANNELS
-        }
         ins = params.instruments
+        self.adc = {
+            c: channel_spec(c, *daq.ranges[c], bits=ins.adc_bits)
+            for c in daq.channels
+            if c not in SLOW_CHANNELS
+        }
         self.ripple = RippleSource(params.ripple, daq.fs, rng)
-        self.hp_u = HighPass(params.ripple.highpass_hz, daq.fs)
-        self.hp_i = HighPass(params.ripple.highpass_hz, daq.fs)
+        rp = params.ripple
+        self.hp_u = HighPass(rp.highpass_hz, daq.fs, rp.highpass_q)
+        self.hp_i = HighPass(rp.highpass_hz, daq.fs, rp.highpass_q)
         # a what-if for studies (selfsense.verify.loop_leak): the ripple channels see the
         # ripple alone
         if not drive_leak:
             self.hp_u.b = self.hp_i.b = np.zeros_like(self.hp_u.b)
-        self.offset_drift = SlowProcess(rng, ins.I_offset_drift, 0.05)
-        self.laser_drift = SlowProcess(rng, ins.laser_drift, 0.005)
+        self.amplifier = Amplifier(ins.amplifier_gain_at_folded_ripple, daq.fs, daq.ns)
+        self.offset_drift = SlowProcess(rng, ins.I_offset_drift, ins.I_offset_drift_bandwidth)
+        self.laser_drift = SlowProcess(rng, ins.laser_drift, ins.laser_drift_bandwidth)
 
     def time_signals(self, t: np.ndarray) -> dict[str, np.ndarray]:
         """What the instruments add that depends on time alone: the ripple's frequency and voltage
@@ -146,6 +157,7 @@ class Bench:
         n = len(t)
         F_ext = np.zeros(n) if F_ext is None else F_ext
         sig = self.time_signals(t) if signals is None else signals
+        U = self.amplifier(U)
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         if compiled:
             return record(self, U, out, sig, truth_every, truth_first)
@@ -158,7 +170,7 @@ class Bench:
         x, v, a, q, U_P, U_H, T, I, C_P = out.T
         u, h, ins = sig["u_ripple"], sig["h"], self.p.instruments
         C_e, R_e = small_signal(C_P, U_H, self.p.ripple)
-        i = self.ripple.current(sig["f_r"], u, C_e, R_e)
+        i = self.ripple.current(sig["f_r"], u, C_e, R_e) * ins.I_probe_gain_at_ripple
         measured = {
             "U": U + u.real + sig["noise_U"],
             "I": resolve(I + i.real + sig["I_offset"], ins.I_resolution),

@@ -7,9 +7,11 @@ never simulated at a higher rate and decimated.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from selfsense.methods.lti import bilinear, butterworth_highpass2, filter_run
+from selfsense.methods.lti import BUTTERWORTH_Q, bilinear, highpass2, filter_run
 from selfsense.twin.params import RippleParams
 
 
@@ -44,16 +46,51 @@ class SlowProcess:
         return np.interp(t, grid, self.exact(grid))
 
 
+class Amplifier:
+    """The power amplifier's small-signal response from command to stack: first order, its corner
+    set by its gain ``gain`` at the folded ripple frequency fs/ns; 1 is the ideal amplifier, which
+    passes the command whole.
+
+    The bilinear map is pre-warped at fs/ns, so that the discrete filter's gain there is ``gain``
+    exactly (the analogue corner is f_fold·g/√(1 − g²)). Filter state carries across chunks.
+    """
+
+    def __init__(self, gain: float, fs: float, ns: int | None):
+        self.ideal = gain >= 1.0
+        self.b, self.a = np.array([1.0, 0.0]), np.array([1.0, 0.0])
+        self.z = np.zeros(1)
+        if self.ideal:
+            return
+        if not ns:
+            raise ValueError("an amplifier gain at the folded ripple needs the DAQ's ns")
+        warped = 2 * fs * math.tan(math.pi / ns)  # the analogue ω that fs/ns maps to
+        wc = warped * gain / math.sqrt(1.0 - gain * gain)
+        self.b, self.a = bilinear(np.array([wc]), np.array([1.0, wc]), fs)
+
+    def __call__(self, command: np.ndarray) -> np.ndarray:
+        """The voltage at the stack for ``command`` (the same array when ideal)."""
+        if self.ideal:
+            return command
+        out = np.empty(len(command))
+        filter_run(self.b, self.a, np.ascontiguousarray(command, dtype=float), self.z, out)
+        return out
+
+    def coefficients(self) -> np.ndarray:
+        """[ideal, b0, b1, a0, a1]: the compiled closed loop's copy."""
+        return np.array([float(self.ideal), *self.b, *self.a])
+
+
 class HighPass:
-    """The 2nd-order Sallen-Key (Butterworth) high-pass on a ripple channel.
+    """The 2nd-order Sallen-Key high-pass on a ripple channel (a Butterworth unless its Q says
+    otherwise).
 
     The ripple tone passes through the analogue response at its instantaneous frequency; the
     low-frequency drive that leaks in is filtered by the bilinear discretisation, accurate far
     below fs/2 where the drive lives. Filter state carries across chunks.
     """
 
-    def __init__(self, cutoff_hz: float, fs: float):
-        self.b_analog, self.a_analog = butterworth_highpass2(cutoff_hz)
+    def __init__(self, cutoff_hz: float, fs: float, q: float = BUTTERWORTH_Q):
+        self.b_analog, self.a_analog = highpass2(cutoff_hz, q)
         self.b, self.a = bilinear(self.b_analog, self.a_analog, fs)
         self.zi = np.zeros(len(self.a) - 1)
 

@@ -12,6 +12,8 @@ from typing import Any, get_type_hints
 
 import numpy as np
 
+from selfsense.methods.lti import BUTTERWORTH_Q
+
 
 def _build(cls, values: Mapping[str, Any], where: str):
     names = {f.name for f in fields(cls)}
@@ -119,6 +121,7 @@ class RippleParams:
     R_slope: float  # dR_e/dC_e: R_e falls as C_e rises (Fig 3.14) [Ω/F]
     C_ref: float  # [F]
     highpass_hz: float  # Sallen-Key cut-off on both ripple channels (18 kHz)
+    highpass_q: float = BUTTERWORTH_Q  # the Sallen-Key's quality factor (Butterworth: 1/√2)
     dC_H: float = 0.0  # small-signal capacitance per volt of U_H [F/V]
     dR_H: float = 0.0  # small-signal resistance per volt of U_H [Ω/V]
 
@@ -167,6 +170,11 @@ class InstrumentParams:
     T_rate: float  # IR thermometer sample rate [Hz]
     T_gradient: tuple[float, float, float]  # share of the rise seen at top, mid, bottom
     ranges: Mapping[str, tuple[float, float]]
+    I_offset_drift_bandwidth: float = 0.05  # how fast I_0 drifts [Hz]
+    laser_drift_bandwidth: float = 0.005  # how fast the laser drifts [Hz]
+    I_probe_gain_at_ripple: float = 1.0  # the probe's gain at the ripple frequency over its DC gain
+    adc_bits: int = 16  # the ADC's resolution on the fast channels (stored as int16 codes)
+    amplifier_gain_at_folded_ripple: float = 1.0  # first-order amplifier's gain at fs/ns; 1: ideal
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ import math
 import numba
 import numpy as np
 
+from selfsense.methods.lti import filter_run
 from selfsense.methods.observer import hpo_update
 from selfsense.twin.kernel import N_OUT, run_kernel
 from selfsense.twin.record import MEASURED, TRUTH, bench_arrays, record_block
@@ -46,6 +47,8 @@ def closed_loop_kernel(
     zi_u,
     zi_i,
     adc,
+    amp,
+    amp_z,
     weights,
     tail,
     sums,
@@ -60,7 +63,8 @@ def closed_loop_kernel(
 ):
     """Advance the closed loop over len(t_ref) samples, block by block; see the module docstring.
 
-    sig, bench, adc: as record.record_block. weights: sin and cos rows (ns).
+    sig, bench, adc: as record.record_block. amp: the amplifier's [ideal, b0, b1, 1, a1]
+    (:class:`.instruments.Amplifier`), amp_z its state. weights: sin and cos rows (ns).
     tail: (2, ns) samples of the open period; sums: (4, np − 1) last whole periods' sums, oldest
     first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
     loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np,
@@ -79,6 +83,7 @@ def closed_loop_kernel(
     Ad, Bd, Cd, Dd = hpo[0], hpo[1], hpo[2], hpo[3]
     out = np.empty((b, N_OUT))
     U = np.empty(b)
+    U_stack = U if amp[0] else np.empty(b)
     zeros = np.zeros(b)
     ambient = np.full(b, bench[6])
     window = np.empty(4)
@@ -93,11 +98,35 @@ def closed_loop_kernel(
             U[k] = min(max(u + acc, u_lo), u_hi)
         if nb:
             u = U[nb - 1]
+        if not amp[0]:
+            filter_run(amp[1:3], amp[3:5], U[:nb], amp_z, U_stack[:nb])
         run_kernel(
-            U[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb]
+            U_stack[:nb],
+            zeros[:nb],
+            ambient[:nb],
+            sc,
+            C_h,
+            v_h,
+            creep_decay,
+            creep_R,
+            state,
+            out[:nb],
         )
         record_block(
-            s, U[:nb], out[:nb], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth, 1, 0
+            s,
+            U_stack[:nb],
+            out[:nb],
+            sig,
+            bench,
+            hp_b,
+            hp_a,
+            zi_u,
+            zi_i,
+            adc,
+            measured,
+            truth,
+            1,
+            0,
         )
         for k in range(nb):
             j = s + k
@@ -207,6 +236,8 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
         bench.hp_u.zi,
         bench.hp_i.zi,
         adc,
+        bench.amplifier.coefficients(),
+        bench.amplifier.z,
         np.ascontiguousarray(windows._weights, float),
         tail,
         sums,

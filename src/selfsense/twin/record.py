@@ -30,12 +30,12 @@ TRUTH = ("x", "q", "U_P", "U_H", "T", "C_P", "C_e", "R_e", "I_offset", "U_drive"
 
 
 @numba.njit(cache=True)
-def _quantize(value, scale, offset):
-    """ChannelSpec.quantize for one sample (scale 0: the channel is not recorded by the ADC)."""
-    if scale == 0.0:
+def _quantize(value, step, offset, full):
+    """ChannelSpec.quantize for one sample (step 0: the channel is not recorded by the ADC)."""
+    if step == 0.0:
         return value
-    code = np.rint((value - offset) / scale)
-    return min(max(code, -32767.0), 32767.0) * scale + offset
+    code = np.rint((value - offset) / step)
+    return min(max(code, -full), full) * step + offset
 
 
 @numba.njit(cache=True)
@@ -83,8 +83,8 @@ def record_block(
     sig: the chunk's arrays f_r, u (complex ripple voltage), h (high-pass at f_r), I_offset,
     laser_drift and the noise of each channel of :data:`NOISY`, in its order (U, Ur, Ir, F).
     bench: R_ref, R_slope, C_ref, F_preload, k_spring + load, m, T_amb, dC_H, dR_H, the current
-    probe's and the laser's resolution.
-    adc: (scale, offset) per MEASURED channel.
+    probe's and the laser's resolution, the current probe's gain at the ripple frequency.
+    adc: (step, offset, full code) per MEASURED channel.
     """
     f_r, ur, h, I_off, drift, nU, nUr, nIr, nF = sig
     n = U.size
@@ -97,6 +97,7 @@ def record_block(
         C_e, R_e = _small_signal(out[k, 8], out[k, 5], bench)
         i_r = ur[j] * (1.0 / (R_e + 1.0 / (1j * 2 * np.pi * f_r[j] * C_e)))  # RippleSource.current
         measured[0, j] = U[k] + ur[j].real + nU[j]
+        i_r *= bench[11]  # the current probe's gain at the ripple frequency
         measured[1, j] = _resolve(I + i_r.real + I_off[j], bench[9])
         measured[2, j] = (ur[j] * h[j]).real + measured[2, j] + nUr[j]
         measured[3, j] = (i_r * h[j]).real + measured[3, j] + nIr[j]
@@ -120,9 +121,9 @@ def record_block(
             U[k],
         )
     for c in range(len(MEASURED)):  # a pass per channel: faster than six channels at every sample
-        scale, offset = adc[c, 0], adc[c, 1]
+        step, offset, full = adc[c, 0], adc[c, 1], adc[c, 2]
         for j in range(j0, stop):
-            measured[c, j] = _quantize(measured[c, j], scale, offset)
+            measured[c, j] = _quantize(measured[c, j], step, offset, full)
 
 
 def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
@@ -152,11 +153,14 @@ def bench_arrays(bench, signals) -> tuple[tuple[np.ndarray, ...], np.ndarray, np
             rp.dR_H,
             ins.I_resolution,
             ins.laser_resolution,
+            ins.I_probe_gain_at_ripple,
         ]
     )
     adc = np.array(
         [
-            (bench.adc[c].scale_factor, bench.adc[c].add_offset) if c in bench.adc else (0.0, 0.0)
+            (bench.adc[c].step, bench.adc[c].add_offset, float(bench.adc[c].full_code))
+            if c in bench.adc
+            else (0.0, 0.0, 0.0)
             for c in MEASURED
         ]
     )
