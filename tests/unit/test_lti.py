@@ -8,7 +8,7 @@ import scipy.signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.methods.lti import bilinear, highpass2, filter_run, tustin
+from selfsense.methods.lti import bilinear, filter_run, highpass2, tustin
 from selfsense.methods.observer import HPOGains, _state_matrices
 
 from ..tolerances import CLOSED_FORM, assert_close, sums

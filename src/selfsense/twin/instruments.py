@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from selfsense.methods.lti import BUTTERWORTH_Q, bilinear, highpass2, filter_run
+from selfsense.methods.lti import BUTTERWORTH_Q, bilinear, filter_run, highpass2
 from selfsense.twin.params import RippleParams
 
 
