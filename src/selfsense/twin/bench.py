@@ -146,8 +146,9 @@ class Bench:
         truth_first: int = 0,
         compiled: bool = True,
     ):
-        """Advance over the samples at times t with drive U; returns (measured, truth) dicts, the
-        truth at samples truth_first, truth_first + truth_every, … of these.
+        """Advance over the samples at times t with the command U (the amplifier's output drives
+        the stack and is what the U channel records); returns (measured, truth) dicts, the truth
+        at samples truth_first, truth_first + truth_every, … of these.
 
         ``signals``: :meth:`time_signals` of exactly these samples, made beforehand (by default
         they are made here). ``compiled``: the instruments in one numba pass

@@ -4,7 +4,8 @@ numba loop (Chapter 6).
 :func:`run_blocks` does over a stretch of engaged samples what the Python reference does block by
 block (:func:`.bench._closed_loop_chunk` with
 :class:`selfsense.twin.closed_loop.HPOIntegralController`, whose ``run_blocks`` calls it): the
-controller's command from the errors of the block before (Eq 6.1–6.3), the stack's response
+controller's command from the errors of the block before (Eq 6.1–6.3), the amplifier's
+(:class:`.instruments.Amplifier`, unless ideal), the stack's response
 (:func:`.kernel.run_kernel`), the instruments as :meth:`.bench.Bench.step` makes them
 (:func:`.record.record_block` over the block: ripple current through R_e–C_e, the ripple channels'
 high-pass, the probes' offsets and drifts, the ADC), then, sample by sample, the real-time chain on
