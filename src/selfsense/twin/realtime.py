@@ -84,7 +84,7 @@ def closed_loop_kernel(
     Ad, Bd, Cd, Dd = hpo[0], hpo[1], hpo[2], hpo[3]
     out = np.empty((b, N_OUT))
     U = np.empty(b)
-    U_stack = U if amp[0] else np.empty(b)
+    V = U if amp[0] else np.empty(b)  # the stack's voltage: the amplifier's output
     zeros = np.zeros(b)
     ambient = np.full(b, bench[6])
     window = np.empty(4)
@@ -100,34 +100,12 @@ def closed_loop_kernel(
         if nb:
             u = U[nb - 1]
         if not amp[0]:
-            filter_run(amp[1:3], amp[3:5], U[:nb], amp_z, U_stack[:nb])
+            filter_run(amp[1:3], amp[3:5], U[:nb], amp_z, V[:nb])
         run_kernel(
-            U_stack[:nb],
-            zeros[:nb],
-            ambient[:nb],
-            sc,
-            C_h,
-            v_h,
-            creep_decay,
-            creep_R,
-            state,
-            out[:nb],
+            V[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb]
         )
         record_block(
-            s,
-            U_stack[:nb],
-            out[:nb],
-            sig,
-            bench,
-            hp_b,
-            hp_a,
-            zi_u,
-            zi_i,
-            adc,
-            measured,
-            truth,
-            1,
-            0,
+            s, V[:nb], out[:nb], sig, bench, hp_b, hp_a, zi_u, zi_i, adc, measured, truth, 1, 0
         )
         for k in range(nb):
             j = s + k
