@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.io.capture import SLOW_CHANNELS, open_capture
+from selfsense.io.capture import SLOW_CHANNELS, channel_spec, open_capture
 from selfsense.methods.drive import Drive, Segment
 from selfsense.methods.ripple import SamplingPlan, extract_impedance
 from selfsense.scorecard.calibration import load_targets
@@ -236,9 +236,11 @@ SIGNAL_CHAIN = st.fixed_dictionaries(
 
 
 def with_signal_chain(params, chain):
-    """``params`` with the signal chain's values ``chain`` (the high-pass's Q is the ripple's)."""
+    """``params`` with the signal chain's values ``chain`` (the high-pass's Q is the ripple's; the
+    values ``chain`` leaves out stay as they are)."""
     chain = dict(chain)
-    ripple = dataclasses.replace(params.ripple, highpass_q=chain.pop("highpass_q"))
+    q = chain.pop("highpass_q", params.ripple.highpass_q)
+    ripple = dataclasses.replace(params.ripple, highpass_q=q)
     instruments = dataclasses.replace(params.instruments, **chain)
     return dataclasses.replace(params, ripple=ripple, instruments=instruments)
 
@@ -429,7 +431,7 @@ def test_compiled_closed_loop_follows_the_python_reference(
     from selfsense.methods.ripple import plan_from_capture
     from selfsense.twin.closed_loop import realtime_controller
 
-    params = with_signal_chain(stack_params, {"highpass_q": stack_params.ripple.highpass_q} | chain)
+    params = with_signal_chain(stack_params, chain)
     s = stack_params.stack
     gamma = GammaPolynomial((-1e6 * s.C_P0 / s.dC_x, 1.0 / s.dC_x))  # C_P0 + dC_x·x, inverted
     drive = Drive("position", (Segment(0.05), Segment(0.3, 10.0, 0.0, 15e-6)))
@@ -458,9 +460,11 @@ def test_compiled_closed_loop_follows_the_python_reference(
         ).path  # 1000: chunks start mid-period
         with open_capture(path) as cap:
             runs[compiled] = cap.read([*stack_daq.channels, "x_ref", "x_hpo_rt", "u_cmd"])
-            adc_step = 2 ** (16 - params.instruments.adc_bits)  # the ADC's step in int16 codes
+            bits = params.instruments.adc_bits
             steps = {
-                c: cap.resolution(c) * (1 if c in SLOW_CHANNELS else adc_step)
+                c: cap.resolution(c)
+                if c in SLOW_CHANNELS
+                else channel_spec(c, *stack_daq.ranges[c], bits=bits).step
                 for c in stack_daq.channels
             }
             plan = plan_from_capture(cap, 4)

@@ -488,19 +488,20 @@ def simulated_together(protocols):
     rules = {}
     for protocol in protocols:
         if not (PROTOCOLS / f"{protocol}.yaml").is_file():
-            raise ValueError(f"{CONFIG_SOURCE}: key twin.together: {protocol!r} is no protocol of "
-                             f"{PROTOCOLS}")
+            raise ValueError(f"{CONFIG_SOURCE}: key twin.together: {protocol!r} is no protocol "
+                             f"of {PROTOCOLS}")
         by_runs = {}
         for d in SIMULATED:
             runs = tuple(e for e, run in EXPERIMENTS[d].items() if run.chapter == protocol)
             if runs:
                 by_runs.setdefault(runs, []).append(d)
         for k, (runs, datasets) in enumerate(by_runs.items()):
-            apart = [e for e in runs if any(e in CLOSED_LOOP[d] or uses_identification(d, e) for d in datasets)]
+            apart = [e for e in runs
+                     if any(e in CLOSED_LOOP[d] or uses_identification(d, e) for d in datasets)]
             if apart:
-                raise ValueError(f"{CONFIG_SOURCE}: key twin.together: protocol {protocol}'s run {apart[0]} "
-                                 "needs identified values (a closed loop, a compensation): it is "
-                                 "simulated on its own")
+                raise ValueError(f"{CONFIG_SOURCE}: key twin.together: protocol {protocol}'s run "
+                                 f"{apart[0]} needs identified values (a closed loop, a "
+                                 "compensation): it is simulated on its own")
             rules[f"simulate_{protocol}" + (f"_{k + 1}" if k else "")] = (protocol, runs, datasets)
     return rules
 
