@@ -29,9 +29,10 @@ from selfsense.scorecard.envelope import (
     judge_envelope,
     member_values,
     nominal_outside,
+    on_the_edge,
     row_key,
 )
-from selfsense.scorecard.render import combined_envelope
+from selfsense.scorecard.render import combined_envelope, envelope_rows_markdown
 from selfsense.verify.envelope import (
     Design,
     envelope,
@@ -315,6 +316,39 @@ def test_judge_analytic():
     assert math.isinf(judge(2.0, 1.0, 1.0, 0.0, None).distance)
 
 
+@pytest.mark.parametrize(
+    ("published", "bound", "edge"),
+    [
+        (11.5, None, False),  # mid-envelope
+        (2.0, None, False),  # inside by more than a gap: 0.575 + 1 < 2
+        (1.2, None, True),  # inside by less than a gap: the edge moved in passes it
+        (0.0, None, True),  # outside by less than a gap: the edge moved out reaches it
+        (-5.0, None, False),  # outside by more than a gap
+        (23.0, None, True),  # the upper edge, 22.425, the same way
+        (0.3, "upper", True),  # a bound "< 0.3": met once the lower edge moves out by a gap
+        (0.3, "lower", False),  # "> 0.3": met by the upper edge, far away
+    ],
+)
+def test_on_the_edge_analytic(published, bound, edge):
+    # 24 members 0, 1, …, 23: the 2.5 and 97.5 percentiles are 0.575 and 22.425, each between
+    # the outermost two members on its side, a gap of 1
+    assert on_the_edge(published, np.arange(24.0), 0.0, bound) is edge
+
+
+def test_on_the_edge_moves_by_the_gap_its_percentile_lies_in():
+    # one far member: the lower edge (-100 + 0.575 · 100 = -42.5) rests on it, a gap of 100
+    lone = np.r_[-100.0, np.arange(23.0)]
+    assert on_the_edge(-60.0, lone, 0.0, None) and on_the_edge(-30.0, lone, 0.0, None)
+    assert not on_the_edge(-150.0, lone, 0.0, None)
+    # 81 members: the 2.5 percentile is the third member, 2, a gap of 1 from the fourth; the far
+    # first member no longer sets the gap (with it, 0.5 would be on the edge)
+    many = np.r_[-100.0, np.arange(1.0, 81.0)]
+    assert np.percentile(many, 2.5) == pytest.approx(2.0)
+    assert on_the_edge(2.5, many, 0.0, None) and not on_the_edge(0.5, many, 0.0, None)
+    # the printed precision counts as in the verdict: 1.6 ± 0.5 is 0.9 from the edge moved in
+    assert not on_the_edge(1.6, np.arange(24.0), 0.5, None)
+
+
 def card(rows):
     return pd.DataFrame(
         [
@@ -368,8 +402,35 @@ def test_envelope_scorecard_verdicts():
         "no envelope": 1,
         "rows": 4,
     }
+    # "far" is 9 envelope widths out, "narrow" well inside; "wide" (0.2 … 3.0, published 1.0)
+    # too; "few" has no envelope to be on the edge of
+    assert out["on the edge"].tolist()[:3] == [False, False, False]
+    assert pd.isna(out.loc["few", "on the edge"])
     summary = envelope_summary(out.reset_index(), design(["X"]), [], [], {}, "0" * 64, 4)
     assert "the 4 members behind the percentiles gave a value for:\n\n- T, few: 1 of 4\n" in summary
+    assert "On the edge" in summary and ": 0 of 3 rows (consistent 0," in summary
+
+
+def test_a_row_on_the_edge_is_marked_in_the_lists(tmp_path):
+    nominal = card([("T", "edge", 1.1, 1.0), ("T", "out", 90.0, 1.0)])
+    members = {
+        f"m~{k:02d}": card([("T", "edge", 1.1, 1.1 + 0.1 * k), ("T", "out", 90.0, 1.0 + k)])
+        for k in range(24)
+    }
+    values = member_values(members, [row_key("T", q) for q in ("edge", "out")])
+    out = envelope_scorecard(nominal, values, pd.DataFrame(), [])
+    assert out["envelope verdict"].tolist() == ["inconsistent", "inconsistent"]
+    assert out["on the edge"].tolist() == [True, False]
+    summary = envelope_summary(out, design(["X"]), [], [], {}, "0" * 64, 24)
+    assert ": 1 of 2 rows (consistent 0, consistent (uninformative) 0, inconsistent 1)" in summary
+    assert "widths, on the edge; no screening)" in summary
+    # the docs' list reads the card back from its CSV
+    out.to_csv(tmp_path / "card.csv", index=False)
+    listed = envelope_rows_markdown(pd.read_csv(tmp_path / "card.csv")).splitlines()
+    assert [line.endswith("widths, on the edge); driven by –") for line in listed[3:]] == [
+        True,
+        False,
+    ]
 
 
 def test_a_design_judges_its_own_chapters_only():

@@ -11,6 +11,11 @@ nearer edge in envelope widths. A consistent number whose envelope's half-width 
 (uninformative)``, counted apart. With fewer than ``MIN_MEMBERS`` members giving the number it
 has ``no envelope``. ``driven by``: the Morris groups with the largest μ* for the row.
 
+``on the edge``: the verdict changes when either edge of the envelope moves, in or out, by the gap
+between the two members its percentile lies between (with fewer than 41 members, the outermost
+two on its side). One member more beyond that edge, or one fewer, moves it by up to that gap, so
+such a verdict rests on one member's draw.
+
 Pure: frames in, frames out.
 """
 
@@ -56,6 +61,7 @@ COLUMNS = [
     "half-width [%]",
     "envelope verdict",
     "distance [widths]",
+    "on the edge",
     "driven by",
 ]
 
@@ -85,6 +91,25 @@ def judge(published: float, low: float, high: float, precision: float, bound: st
     if inside:
         return Judged("consistent", float("nan"))
     return Judged("inconsistent", gap / width if width > 0 else float("inf"))
+
+
+def on_the_edge(published: float, values: np.ndarray, precision: float, bound: str | None) -> bool:
+    """Whether the verdict of ``published`` against the percentile envelope of ``values`` (the
+    members', finite, at least two) changes when an edge moves, inwards or outwards, by the gap
+    between the two members its percentile lies between (see module)."""
+    x = np.sort(values)
+    low, high = np.percentile(x, (PERCENTILES[0], PERCENTILES[-1]))
+    verdict = judge(published, low, high, precision, bound).verdict
+    # np.percentile's linear rule: the p-th percentile lies between x[i] and x[i + 1]
+    i = min(int(PERCENTILES[0] / 100 * (len(x) - 1)), len(x) - 2)
+    below, above = x[i + 1] - x[i], x[-1 - i] - x[-2 - i]
+    moved = [
+        (low - below, high),
+        (min(low + below, high), high),
+        (low, high + above),
+        (low, max(high - above, low)),
+    ]
+    return any(judge(published, lo, hi, precision, bound).verdict != verdict for lo, hi in moved)
 
 
 def precision(entry: Entry | None, published: float) -> float:
@@ -150,7 +175,8 @@ def envelope_scorecard(
             continue
         low, mid, high = np.percentile(finite, PERCENTILES)
         entry = by_key.get(key)
-        judged = judge(pub, low, high, precision(entry, pub), entry.bound if entry else None)
+        printed, bound = precision(entry, pub), entry.bound if entry else None
+        judged = judge(pub, low, high, printed, bound)
         half = 100 * (high - low) / 2 / abs(pub) if pub != 0 else float("inf")
         verdict = judged.verdict
         if verdict == "consistent" and not half <= INFORMATIVE:
@@ -162,6 +188,7 @@ def envelope_scorecard(
             "half-width [%]": half,
             "envelope verdict": verdict,
             "distance [widths]": judged.distance,
+            "on the edge": on_the_edge(pub, finite, printed, bound),
         }
         out.append(row)
     extra = pd.DataFrame(out, index=card.index, columns=COLUMNS)
@@ -228,6 +255,21 @@ def envelope_counts(card: pd.DataFrame) -> dict[str, int]:
     return {v: int(counted.get(v, 0)) for v in VERDICTS} | {"rows": len(card)}
 
 
+def edge_counts(card: pd.DataFrame) -> str:
+    """ "k of n rows (consistent a, uninformative b, inconsistent c)": the judged rows ``on the
+    edge``, by verdict."""
+    edge = card[card["on the edge"].eq(True)]
+    tally = edge["envelope verdict"].value_counts()
+    parts = ", ".join(f"{v} {int(tally.get(v, 0))}" for v in VERDICTS[:3])
+    return f"{len(edge)} of {len(card)} rows ({parts})"
+
+
+def edge_note(row: pd.Series) -> str:
+    """ ", on the edge" for a row whose verdict rests on one member's draw (a card read back from
+    its CSV included; a card made before the column existed has none)."""
+    return ", on the edge" if row.get("on the edge") == True else ""  # noqa: E712 (NaN, numpy)
+
+
 def calibration_misses(members: Mapping[str, pd.DataFrame]) -> dict[str, int]:
     """{member: its calibration rows out of band}, members with at least one: drawn jointly,
     the calibrated parameters' one-at-a-time spans can leave a signature's band (reported, not
@@ -282,6 +324,9 @@ def envelope_summary(
         f"The nominal twin's bands beside them: {int(band.get('within band', 0))} within, "
         f"{int(band.get('out of band', 0))} out of band.",
         "",
+        f"On the edge (the verdict changes when an edge moves by the gap between the two "
+        f"members its percentile lies between): {edge_counts(judged)}.",
+        "",
         f"The nominal twin's own value lies outside its envelope in "
         f"{len(nominal_outside(judged))} of the {len(judged)} rows with an envelope.",
         "",
@@ -307,7 +352,8 @@ def envelope_summary(
             lines.append(
                 f"- {row['source']}, {row['quantity']}: published {row['published']:.4g}, "
                 f"envelope {row['p2.5']:.4g} … {row['p97.5']:.4g} "
-                f"({row['distance [widths]']:.2g} widths; {row['driven by'] or 'no screening'})"
+                f"({row['distance [widths]']:.2g} widths{edge_note(row)}; "
+                f"{row['driven by'] or 'no screening'})"
             )
     return "\n".join(lines) + "\n"
 

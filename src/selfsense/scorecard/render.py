@@ -14,6 +14,7 @@ from typing import Any
 import pandas as pd
 
 from selfsense.scorecard.envelope import VERDICTS as ENVELOPE_VERDICTS
+from selfsense.scorecard.envelope import edge_note
 from selfsense.scorecard.registry import (
     BIAS,
     CAUSE_MARK,
@@ -835,6 +836,7 @@ def envelope_rows_markdown(card: pd.DataFrame) -> str:
             lines.append(
                 f"  - {row['source']}, {row['quantity']}: published {row['published']:.4g}, "
                 f"envelope {row['p2.5']:.4g} to {row['p97.5']:.4g}{unit} "
-                f"({row['distance [widths]']:.2g} widths); driven by {drivers or '–'}"
+                f"({row['distance [widths]']:.2g} widths{edge_note(row)}); "
+                f"driven by {drivers or '–'}"
             )
     return "\n".join(lines)
