@@ -147,8 +147,11 @@ def _dataset_s_own_first(folder: Path) -> tuple[bool, str]:
 
 def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> None:
     """Copy an envelope's results into snapshot/envelope/<name>/ with their provenance: the
-    commit, the unknowns' sha256, the design, the members (and the run's wall time, if given)."""
+    commit, the unknowns' sha256, the design, the members, the commits that made the members'
+    scorecards (the verdicts may be remade later from the same members) and the run's wall time,
+    if given."""
     sidecar = json.loads((folder / "scorecard.csv.json").read_text())
+    results = folder.parents[1]
     target = snapshot / "envelope" / Design.from_config(sidecar["design"]).name
     target.mkdir(parents=True, exist_ok=True)
     for name in ENVELOPE_FILES:
@@ -159,6 +162,12 @@ def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> Non
         "unknowns_sha256": sidecar["unknowns_sha256"],
         "design": sidecar["design"],
         "members": sidecar["members"],
+        "members_code": sorted(
+            {
+                json.loads((results / m / "scorecard.csv.json").read_text())["code"]["git_describe"]
+                for m in sidecar["members"]
+            }
+        ),
         "varied": plan["varied"],
         "held": plan["held"],
         "campaign": json.loads((snapshot / "campaign.json").read_text())["campaign"],

@@ -52,6 +52,10 @@ def test_an_envelope_design_is_snapshot_in_a_folder_of_its_name(tmp_path):
     sidecar |= {"design": design, "members": ["pi_p885_ch7~01"]}
     (run / "scorecard.csv.json").write_text(json.dumps(sidecar))
     (run / "plan.csv.json").write_text(json.dumps({"varied": ["a"], "held": ["b"]}))
+    # the member was made by an earlier commit than the verdicts
+    member = tmp_path / "results" / "pi_p885_ch7~01"
+    member.mkdir()
+    (member / "scorecard.csv.json").write_text(json.dumps({"code": {"git_describe": "0ab0ab0"}}))
     snapshot = tmp_path / "snapshot"
     snapshot.mkdir()
     (snapshot / "campaign.json").write_text(json.dumps({"campaign": "thesis"}))
@@ -62,3 +66,7 @@ def test_an_envelope_design_is_snapshot_in_a_folder_of_its_name(tmp_path):
     )
     record = json.loads((target / "provenance.json").read_text())
     assert record["code"] == "abc1234" and record["design"] == design and record["wall_s"] == 12.5
+    assert record["members_code"] == ["0ab0ab0"]
+    columns = ["chapter", "source", "quantity", "envelope verdict", "verdict"]
+    line = module.envelope_markdown([(pd.DataFrame(columns=columns), record)])
+    assert "code abc1234 (its members 0ab0ab0)" in line

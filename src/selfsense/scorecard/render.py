@@ -801,9 +801,13 @@ def envelope_markdown(designs: Sequence[tuple[pd.DataFrame, Mapping[str, Any]]])
         chapters = list(dict.fromkeys(str(c) for c in judged))
         word = "Chapter" if len(chapters) == 1 else "Chapters"
         method = design.method + (f" and {design.spread} latin" if design.spread else "")
+        code = provenance["code"]
+        made = [c for c in provenance.get("members_code", []) if c != code]
+        if made:
+            code = f"{code} (its members {', '.join(made)})"
         named.append(
             f"{word} {', '.join(chapters)}: {len(provenance['members'])} members, "
-            f"{method}, `docs/snapshot/envelope/{design.name}/`, code {provenance['code']}"
+            f"{method}, `docs/snapshot/envelope/{design.name}/`, code {code}"
         )
     lines = [
         f"The reproduction envelope of `{Design.from_config(designs[0][1]['design']).dataset}` "
