@@ -427,6 +427,7 @@ def test_a_row_on_the_edge_is_marked_in_the_lists(tmp_path):
     # the docs' list reads the card back from its CSV
     out.to_csv(tmp_path / "card.csv", index=False)
     listed = envelope_rows_markdown(pd.read_csv(tmp_path / "card.csv")).splitlines()
+    assert listed[0].endswith("; 1 of them on the edge, where one member's draw decides.")
     assert [line.endswith("widths, on the edge); driven by –") for line in listed[3:]] == [
         True,
         False,

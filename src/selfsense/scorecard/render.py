@@ -828,10 +828,12 @@ def envelope_markdown(designs: Sequence[tuple[pd.DataFrame, Mapping[str, Any]]])
 
 
 def envelope_rows_markdown(card: pd.DataFrame) -> str:
-    """docs/envelope.md's list: every inconsistent number with its envelope, distance and
-    drivers, per chapter."""
+    """docs/envelope.md's list: every inconsistent number with its envelope, distance (and
+    whether it is on the edge) and drivers, per chapter."""
     out = card[card["envelope verdict"] == "inconsistent"]
-    lines = [f"{len(out)} emergent numbers are inconsistent with the envelope.", ""]
+    edge = sum(bool(edge_note(row)) for _, row in out.iterrows())
+    on_edge = f"; {edge} of them on the edge, where one member's draw decides" if edge else ""
+    lines = [f"{len(out)} emergent numbers are inconsistent with the envelope{on_edge}.", ""]
     for chapter, part in out.groupby("chapter", sort=False):
         lines.append(f"- {_chapter(chapter)}:")
         for _, row in part.iterrows():
