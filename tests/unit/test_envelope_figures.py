@@ -36,17 +36,17 @@ COLUMNS = [c for c in NOMINAL_COLUMNS if c != "verdict"] + ENVELOPE_COLUMNS
 def _card() -> pd.DataFrame:
     rows = [
         # chapter, source, quantity, unit, published, reproduced, members, p2.5, p50, p97.5,
-        # half-width, verdict, distance, driven by
+        # half-width, verdict, distance, on the edge, driven by
         ("6", "Table 6.1", "C_e", "uF", 10.0, 10.2, 12, 9.0, 10.5, 12.0, 15.0, "consistent",
-         NAN, "geometry"),
+         NAN, False, "geometry"),
         ("6", "Table 6.1", "ripple $U_0$ amplitude", "V", 4.0, 20.0, 12, 5.0, 6.0, 7.0, 12.0,
-         "inconsistent", 2.5, "drive"),
+         "inconsistent", 2.5, True, "drive"),
         ("6", "Table 6.2", "offset", "V", 0.0, 0.1, 12, -0.1, 0.0, 0.1, NAN, "consistent",
-         NAN, ""),
+         NAN, False, ""),
         ("3", "Table 3.1", "loss", "W", -4.0, -9.0, 2, NAN, NAN, NAN, NAN, "no envelope",
-         NAN, ""),
+         NAN, NAN, ""),
         ("Ronkanen", "Fig 5", "stroke", "um", 50.0, NAN, 12, 0.0, 50.0, 400.0, 400.0,
-         "consistent (uninformative)", NAN, "stiffness"),
+         "consistent (uninformative)", NAN, False, "stiffness"),
     ]  # fmt: skip
     return pd.DataFrame(rows, columns=COLUMNS)
 
@@ -178,6 +178,8 @@ def test_forest_panels_per_chapter_in_reading_order_with_every_row_labelled():
     # the inconsistent row's bar spans +25..+75 %; the x axis ends at the clip edges' margin
     bar = axes[1].patches[1]
     assert bar.get_x() == pytest.approx(25.0) and bar.get_width() == pytest.approx(50.0)
+    # its verdict is on the edge: hatched, the consistent row's bar not
+    assert bar.get_hatch() == "////" and axes[1].patches[0].get_hatch() is None
     lo, hi = axes[2].get_xlim()
     assert lo == pytest.approx(-112.0) and hi == pytest.approx(212.0)
     # the Ronkanen envelope's upper end (+700 %) is drawn at the 200 % edge

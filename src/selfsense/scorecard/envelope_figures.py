@@ -39,6 +39,8 @@ VERDICT_COLOURS: dict[str, str | None] = {
 }
 #: a verdict the module does not know is still drawn, in neutral grey
 UNKNOWN_COLOUR = "0.6"
+#: how a bar whose verdict is on the edge is hatched, and the hatch's ink
+EDGE_HATCH, EDGE_INK = "////", "0.25"
 #: the card's columns drawn in the forest plot, each as a deviation from the published value
 VALUES = ("p2.5", "p50", "p97.5", "reproduced")
 #: a row label's length: long quantity names would squeeze the panels to nothing
@@ -86,14 +88,17 @@ def label(source: Any, quantity: Any, chars: int = LABEL_CHARS) -> str:
 def deviations(card: pd.DataFrame, axis: tuple[float, float] = AXIS) -> pd.DataFrame:
     """The forest plot's rows: every row of ``card`` whose published value is not 0 (a deviation
     relative to 0 has no meaning), on the card's index, with ``chapter`` (text), ``label``,
-    ``envelope verdict``, and for each of p2.5, p50, p97.5 and reproduced its deviation
-    ``<name> [%]`` (:func:`deviation`, not clipped) and ``<name> beyond`` (:func:`beyond`)."""
+    ``envelope verdict``, ``on the edge`` (false where the card has no such column), and for
+    each of p2.5, p50, p97.5 and reproduced its deviation ``<name> [%]`` (:func:`deviation`, not
+    clipped) and ``<name> beyond`` (:func:`beyond`)."""
     kept = card[card["published"].astype(float) != 0]
+    edge = kept["on the edge"].eq(True) if "on the edge" in kept else False
     out = pd.DataFrame(
         {
             "chapter": kept["chapter"].astype(str),
             "label": [label(s, q) for s, q in zip(kept["source"], kept["quantity"])],
             "envelope verdict": kept["envelope verdict"].astype(str),
+            "on the edge": edge,
         },
         index=kept.index,
     )
@@ -201,7 +206,12 @@ def _forest_panel(ax, rows: pd.DataFrame, axis: tuple[float, float]) -> None:
         lo, hi = row["p2.5 [%]"], row["p97.5 [%]"]
         if colour is not None and np.isfinite(lo) and np.isfinite(hi):
             left, right = np.clip([lo, hi], *axis)
-            ax.barh(y, right - left, left=left, height=0.56, color=colour, ec=colour, lw=0.6)
+            # hatched: a verdict one member's draw decides (selfsense.scorecard.envelope)
+            hatch = EDGE_HATCH if row["on the edge"] else None
+            ink = EDGE_INK if hatch else colour
+            ax.barh(
+                y, right - left, left=left, height=0.56, color=colour, ec=ink, lw=0.6, hatch=hatch
+            )
             for name in ("p2.5", "p97.5"):
                 if row[f"{name} beyond"]:
                     _edge(ax, y, row[f"{name} beyond"], axis, colour)
@@ -234,6 +244,7 @@ def _legend_handles() -> list:
         if c is not None
     ]
     return handles + [
+        Patch(fc="white", ec=EDGE_INK, hatch=EDGE_HATCH, label="on the edge"),
         Line2D([], [], marker="|", ms=7, mew=1.4, color="0.15", ls="none", label="members' p50"),
         Line2D([], [], marker="o", ms=3.2, color="k", ls="none", label="nominal twin"),
         Line2D([], [], marker=">", ms=5, color="0.6", mec="k", ls="none", label="beyond the axis"),
