@@ -256,8 +256,8 @@ def envelope_counts(card: pd.DataFrame) -> dict[str, int]:
 
 
 def edge_counts(card: pd.DataFrame) -> str:
-    """ "k of n rows (consistent a, uninformative b, inconsistent c)": the judged rows ``on the
-    edge``, by verdict."""
+    """The judged rows ``on the edge``, by verdict: "k of n rows (consistent a, consistent
+    (uninformative) b, inconsistent c)"."""
     edge = card[card["on the edge"].eq(True)]
     tally = edge["envelope verdict"].value_counts()
     parts = ", ".join(f"{v} {int(tally.get(v, 0))}" for v in VERDICTS[:3])
@@ -265,9 +265,10 @@ def edge_counts(card: pd.DataFrame) -> str:
 
 
 def edge_note(row: pd.Series) -> str:
-    """ ", on the edge" for a row whose verdict rests on one member's draw (a card read back from
-    its CSV included; a card made before the column existed has none)."""
-    return ", on the edge" if row.get("on the edge") == True else ""  # noqa: E712 (NaN, numpy)
+    """The note ", on the edge" for a row whose verdict rests on one member's draw, else "" (a
+    card read back from its CSV too; a card made before the column existed has none)."""
+    value = row.get("on the edge")
+    return ", on the edge" if isinstance(value, bool | np.bool_) and value else ""
 
 
 def calibration_misses(members: Mapping[str, pd.DataFrame]) -> dict[str, int]:
