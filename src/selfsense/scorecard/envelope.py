@@ -49,6 +49,8 @@ PERCENTILES = (2.5, 50.0, 97.5)
 VERDICTS = ("consistent", "consistent (uninformative)", "inconsistent", "no envelope")
 #: drivers named per row
 DRIVERS = 3
+#: the column that says whether a verdict rests on one member's draw (see module)
+EDGE = "on the edge"
 
 #: the nominal scorecard's columns an envelope scorecard keeps, before its own (:data:`COLUMNS`)
 NOMINAL_COLUMNS = ["chapter", "source", "quantity", "unit", "published", "reproduced", "verdict"]
@@ -61,7 +63,7 @@ COLUMNS = [
     "half-width [%]",
     "envelope verdict",
     "distance [widths]",
-    "on the edge",
+    EDGE,
     "driven by",
 ]
 
@@ -188,7 +190,7 @@ def envelope_scorecard(
             "half-width [%]": half,
             "envelope verdict": verdict,
             "distance [widths]": judged.distance,
-            "on the edge": on_the_edge(pub, finite, printed, bound),
+            EDGE: on_the_edge(pub, finite, printed, bound),
         }
         out.append(row)
     extra = pd.DataFrame(out, index=card.index, columns=COLUMNS)
@@ -255,10 +257,18 @@ def envelope_counts(card: pd.DataFrame) -> dict[str, int]:
     return {v: int(counted.get(v, 0)) for v in VERDICTS} | {"rows": len(card)}
 
 
+def edge_rows(card: pd.DataFrame) -> pd.Series:
+    """Whether each row of ``card`` is ``on the edge``: false where it has no envelope, and for
+    every row of a card made before the column existed (a card read back from its CSV too)."""
+    if EDGE not in card:
+        return pd.Series(False, index=card.index)
+    return card[EDGE].eq(True)
+
+
 def edge_counts(card: pd.DataFrame) -> str:
     """The judged rows ``on the edge``, by verdict: "k of n rows (consistent a, consistent
     (uninformative) b, inconsistent c)"."""
-    edge = card[card["on the edge"].eq(True)]
+    edge = card[edge_rows(card)]
     tally = edge["envelope verdict"].value_counts()
     parts = ", ".join(f"{v} {int(tally.get(v, 0))}" for v in VERDICTS[:3])
     return f"{len(edge)} of {len(card)} rows ({parts})"
@@ -267,7 +277,7 @@ def edge_counts(card: pd.DataFrame) -> str:
 def edge_note(row: pd.Series) -> str:
     """The note ", on the edge" for a row whose verdict rests on one member's draw, else "" (a
     card read back from its CSV too; a card made before the column existed has none)."""
-    value = row.get("on the edge")
+    value = row.get(EDGE)
     return ", on the edge" if isinstance(value, bool | np.bool_) and value else ""
 
 

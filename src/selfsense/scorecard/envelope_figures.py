@@ -23,6 +23,7 @@ from matplotlib.patches import Patch
 
 from selfsense.io import figures  # before pyplot: it chooses the Agg backend
 from selfsense.io.provenance import save_figure
+from selfsense.scorecard.envelope import EDGE, edge_rows
 
 plt = figures.plt
 
@@ -92,13 +93,12 @@ def deviations(card: pd.DataFrame, axis: tuple[float, float] = AXIS) -> pd.DataF
     each of p2.5, p50, p97.5 and reproduced its deviation ``<name> [%]`` (:func:`deviation`, not
     clipped) and ``<name> beyond`` (:func:`beyond`)."""
     kept = card[card["published"].astype(float) != 0]
-    edge = kept["on the edge"].eq(True) if "on the edge" in kept else False
     out = pd.DataFrame(
         {
             "chapter": kept["chapter"].astype(str),
             "label": [label(s, q) for s, q in zip(kept["source"], kept["quantity"])],
             "envelope verdict": kept["envelope verdict"].astype(str),
-            "on the edge": edge,
+            EDGE: edge_rows(kept),
         },
         index=kept.index,
     )
@@ -207,7 +207,7 @@ def _forest_panel(ax, rows: pd.DataFrame, axis: tuple[float, float]) -> None:
         if colour is not None and np.isfinite(lo) and np.isfinite(hi):
             left, right = np.clip([lo, hi], *axis)
             # hatched: a verdict one member's draw decides (selfsense.scorecard.envelope)
-            hatch = EDGE_HATCH if row["on the edge"] else None
+            hatch = EDGE_HATCH if row[EDGE] else None
             ink = EDGE_INK if hatch else colour
             ax.barh(
                 y, right - left, left=left, height=0.56, color=colour, ec=ink, lw=0.6, hatch=hatch

@@ -14,7 +14,7 @@ from typing import Any
 import pandas as pd
 
 from selfsense.scorecard.envelope import VERDICTS as ENVELOPE_VERDICTS
-from selfsense.scorecard.envelope import edge_note
+from selfsense.scorecard.envelope import edge_note, edge_rows
 from selfsense.scorecard.registry import (
     BIAS,
     CAUSE_MARK,
@@ -831,7 +831,7 @@ def envelope_rows_markdown(card: pd.DataFrame) -> str:
     """docs/envelope.md's list: every inconsistent number with its envelope, distance (and
     whether it is on the edge) and drivers, per chapter."""
     out = card[card["envelope verdict"] == "inconsistent"]
-    edge = sum(bool(edge_note(row)) for _, row in out.iterrows())
+    edge = int(edge_rows(out).sum())
     on_edge = f"; {edge} of them on the edge, where one member's draw decides" if edge else ""
     lines = [f"{len(out)} emergent numbers are inconsistent with the envelope{on_edge}.", ""]
     for chapter, part in out.groupby("chapter", sort=False):
