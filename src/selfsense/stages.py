@@ -5,11 +5,12 @@ Pure: a manifest and its experiments in, the plan out. It is written once and us
 workflow gates its rules with it (``workflow/rules/common.smk`` derives every ``*_DATASETS`` list
 from :func:`plan_stages`) and rule ``stage_plan`` writes it as ``results/<dataset>/stages.csv``
 (:meth:`StagePlan.rows`), so a dataset's table says exactly what its run does. A stage runs when
-its dataset lacks nothing: neither what the stage needs itself (channels, runs, manifest keys)
-nor a stage it builds on (:attr:`Stage.after`).
+its dataset lacks nothing: neither what the stage needs itself (channels, the runs of its
+:attr:`Stage.roles`, manifest keys) nor a stage it builds on (:attr:`Stage.after`).
 
-The experiment names here are the catalogue's (``workflow/protocols``) and the thesis's: which
-runs a chapter's tables are computed from is a fact of the experiments, not a setting.
+Which run plays which part is the catalogue's (``roles:`` in ``workflow/protocols``) or the
+manifest's (:func:`selfsense.io.roles.assign_roles`); the rules and the library read runs by
+role (:func:`runs`, :func:`run`), so the roles a stage lists here are every run its rules read.
 """
 
 from __future__ import annotations
@@ -18,60 +19,47 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from selfsense.chapters.figure_names import CH7_COUPLED as _CH7_COUPLED_FIGURES
 from selfsense.io.capture import DISPLACEMENT
 from selfsense.io.manifest import require_keys
+from selfsense.io.roles import ROLES, Experiments, by_frequency, run, runs
 
-#: a dataset's experiments: {name: its catalogue entry (an ``Experiment``), or None for a measured
-#: capture the catalogue does not describe}
-Experiments = Mapping[str, Any]
+__all__ = ["Experiments", "run", "runs", "by_frequency"]
 
-#: the Chapter 3 runs by drive frequency (Figures 3.9–3.14, hysteresis, C_e recovery)
-CH3_SERIES = {"10 Hz": "ch3_sine_10hz", "1 Hz": "ch3_sine_1hz", "0.1 Hz": "ch3_sine_0p1hz"}
-#: the static stiffness tests of Eq 4.16
-CH4_STATIC = ("ch4_static_free", "ch4_static_blocked")
-#: Γ is fitted on the 0.1 Hz run (Tables 5.1, 5.2)
-GAMMA_RUN = "ch5_sine_0p1hz"
+#: the Chapter 3 series by drive frequency (Figures 3.9–3.14, hysteresis, C_e recovery): roles
+CH3_SERIES = {"10 Hz": "ch3.series_10hz", "1 Hz": "ch3.series_1hz", "0.1 Hz": "ch3.series_0p1hz"}
 #: the drive frequencies [Hz] of Table 5.4 (the open-loop observer error)
 TABLE_5_4_HZ = (0.01, 0.1, 1.0, 10.0, 50.0, 100.0)
 #: a0 is fitted on the sines from this drive frequency [Hz] up (Eq 5.3: 10–300 Hz)
 CHARGE_SINES_FROM_HZ = 10
-#: the creep run of Chapter 5 and the stepped-sine sweep of Fig 5.3
-CREEP_RUN, SWEEP_RUN = "ch5_creep", "ch5_sweep"
-#: the voltage-trend run of Table 7.1
-CH7_VOLTAGE_RUN = "ch7_volt_150hz"
-#: the runs the thermal model's predictions are checked on (Figures 7.5, 7.6)
-CH7_CHECKS = ("ch7_heat_cool", "ch7_mixed_voltage")
-#: the runs the coupled observer/thermal estimation is evaluated on (Figures 7.10–7.12)
-CH7_COUPLED = tuple(_CH7_COUPLED_FIGURES.values())
-#: Γ_T is fitted on the 50 Hz run (Tables 7.2, 7.3) and its order validated on the hotter 100 Hz run
-GAMMA_T_RUNS = {"fit": "ch7_freq_50hz", "validation": "ch7_freq_100hz"}
-
-
-def experiment_frequency(name: str) -> float | None:
-    """Drive frequency [Hz] from a catalogue name such as ch5_sine_0p1hz (None without one)."""
-    token = next((t for t in name.split("_") if t.endswith("hz")), None)
-    return float(token[:-2].replace("p", ".")) if token else None
-
-
-def sines(experiments: Experiments, prefix: str) -> dict[float | None, str]:
-    """{frequency [Hz]: experiment} of the experiments named <prefix><f>hz, in catalogue order."""
-    return {experiment_frequency(e): e for e in experiments if e.startswith(prefix)}
-
-
-def ch4_sets(experiments: Experiments) -> list[str]:
-    """The Chapter 4 sine sets (ch4_sine_*), in catalogue order."""
-    return [e for e in experiments if e.startswith("ch4_sine_")]
+#: the profiles of Chapter 6 (Tables 6.1, 6.2 and P3): {profile: (open-loop role, closed-loop role)}
+PROFILES = {
+    p: (f"control.{p.lower()}_open", f"control.{p.lower()}_closed")
+    for p in ("P1", "P2a", "P2b", "P2c", "P2d", "P3")
+}
+#: the Ronkanen open-loop comparison: {"<kind>_<control>": role}
+RONKANEN_PAIRS = {
+    f"{kind}_{control}": f"powerloss.{kind}_{control}"
+    for kind in ("decay", "repeat", "drift")
+    for control in ("current", "voltage")
+}
+#: Figs 3, 4, 5 (and 6): the ±300 nA ramps with too large, too small and ideal compensation
+RONKANEN_VELOCITY_RAMPS = (
+    "powerloss.ramp_too_large",
+    "powerloss.ramp_too_small",
+    "powerloss.ramp_ideal",
+)
 
 
 def charge_sines(experiments: Experiments) -> dict[float, str]:
     """{frequency [Hz]: experiment} of the 10–300 Hz sines a0 is fitted on (Eq 5.3)."""
-    return {f: e for f, e in sines(experiments, "ch5_sine_").items() if f >= CHARGE_SINES_FROM_HZ}
+    sines = by_frequency(experiments, "observer.sine")
+    return {f: e for f, e in sines.items() if f is not None and f >= CHARGE_SINES_FROM_HZ}
 
 
 def observed_sines(experiments: Experiments) -> dict[float, str]:
     """{frequency [Hz]: experiment} of the sines the observer is evaluated on (Table 5.4)."""
-    return {f: e for f, e in sines(experiments, "ch5_sine_").items() if f in TABLE_5_4_HZ}
+    sines = by_frequency(experiments, "observer.sine")
+    return {f: e for f, e in sines.items() if f in TABLE_5_4_HZ}
 
 
 def closed_loop(experiments: Experiments) -> list[str]:
@@ -79,13 +67,14 @@ def closed_loop(experiments: Experiments) -> list[str]:
     return [e for e, x in experiments.items() if x is not None and x.control == "closed_loop"]
 
 
+def profile_runs(experiments: Experiments, profiles=tuple(PROFILES)) -> dict[str, str]:
+    """{run: its profile} of the Chapter 6 runs of ``profiles`` the dataset has, open and closed."""
+    return {e: p for p in profiles for role in PROFILES[p] for e in runs(experiments, role)}
+
+
 def _channels(manifest: Mapping[str, Any], *channels: str) -> list[str]:
     recorded = set(manifest["daq"]["channels"])
     return [f"channel {c}" for c in channels if c not in recorded]
-
-
-def _runs(experiments: Experiments, *runs: str) -> list[str]:
-    return [f"run {r}" for r in runs if r not in experiments]
 
 
 def _characterise(manifest, experiments):
@@ -101,49 +90,25 @@ def _ripple(manifest, experiments):
     return _channels(manifest, "Ur", "Ir", "U", "I", "x_laser") + plan
 
 
-def _ch3(manifest, experiments):
-    return _runs(experiments, *CH3_SERIES.values())
-
-
-def _identify(manifest, experiments):
-    sets = [] if ch4_sets(experiments) else ["runs ch4_sine_*"]
-    return sets + _runs(experiments, *CH4_STATIC)
-
-
-def _gamma(manifest, experiments):
-    return _runs(experiments, GAMMA_RUN)
+def _none(manifest, experiments):
+    return []
 
 
 def _observer(manifest, experiments):
+    if not runs(experiments, "observer.sine"):
+        return []  # the role's own row says so
     observed = observed_sines(experiments)
-    return (
-        ([] if charge_sines(experiments) else ["10–300 Hz runs ch5_sine_*"])
-        + _runs(experiments, CREEP_RUN)
-        + [f"the {f:g} Hz run ch5_sine_*" for f in TABLE_5_4_HZ if f not in observed]
-    )
-
-
-def _frequency_response(manifest, experiments):
-    return (
-        []
-        if experiments.get(SWEEP_RUN) is not None
-        else [f"run {SWEEP_RUN} (of the ch5 catalogue)"]
-    )
-
-
-def _control(manifest, experiments):
-    return [] if closed_loop(experiments) else ["closed-loop runs (of the ch6 catalogue)"]
+    return ([] if charge_sines(experiments) else ["10–300 Hz runs of role observer.sine"]) + [
+        f"the {f:g} Hz run of role observer.sine" for f in TABLE_5_4_HZ if f not in observed
+    ]
 
 
 def _thermal(manifest, experiments):
-    freq = [] if sines(experiments, "ch7_freq_") else ["runs ch7_freq_*"]
-    runs = (CH7_VOLTAGE_RUN, *CH7_CHECKS, *CH7_COUPLED, *GAMMA_T_RUNS.values())
-    return freq + _runs(experiments, *runs) + _channels(manifest, "T_mid")
+    return _channels(manifest, "T_mid")
 
 
 def _powerloss(manifest, experiments):
-    catalogue = [] if "ronkanen" in manifest["protocols"] else ["protocols: ronkanen"]
-    return _channels(manifest, "U", "I", "i_cmd", "x_disp") + catalogue
+    return _channels(manifest, "U", "I", "i_cmd", "x_disp")
 
 
 @dataclass(frozen=True)
@@ -156,8 +121,10 @@ class Stage:
     title: str
     #: what it needs, in words (the row's needs column)
     needs: str
-    #: what of its own needs a dataset lacks: (manifest, experiments) -> [lack, ...]
+    #: what of its own needs beyond its roles a dataset lacks: (manifest, experiments) -> [lack]
     lacks: Callable[[Mapping[str, Any], Experiments], list[str]]
+    #: the roles (:data:`selfsense.io.roles.ROLES`) whose runs its rules read: each needs a run
+    roles: tuple[str, ...] = ()
     #: the stages it builds on: a dataset that skips one of them skips this one too
     after: tuple[str, ...] = ()
     #: manifest keys (dotted) it computes with that the dataset schema leaves optional
@@ -181,15 +148,23 @@ STAGES = (
     Stage(
         "ch3",
         "hysteresis and figures (Ch. 3)",
-        "ripple stage and the Chapter 3 runs ch3_sine_10hz, ch3_sine_1hz, ch3_sine_0p1hz",
-        _ch3,
+        "ripple stage and the Chapter 3 series at 10, 1 and 0.1 Hz",
+        _none,
+        roles=tuple(CH3_SERIES.values()),
         after=("ripple",),
     ),
     Stage(
         "identify",
         "identify (Ch. 4)",
         "ripple stage, Chapter 4 sine sets and the static stiffness tests",
-        _identify,
+        _none,
+        roles=(
+            "identify.set",
+            "identify.static_free",
+            "identify.static_blocked",
+            "identify.force_record",
+            "identify.recovery_drive",
+        ),
         after=("ripple",),
         manifest_keys=(
             "actuator.moving_mass_kg",
@@ -201,29 +176,33 @@ STAGES = (
     Stage(
         "gamma",
         "gamma (Ch. 5)",
-        "ripple stage and the 0.1 Hz run ch5_sine_0p1hz",
-        _gamma,
+        "ripple stage and the 0.1 Hz run Γ is fitted on",
+        _none,
+        roles=("gamma.fit",),
         after=("ripple",),
     ),
     Stage(
         "observer",
         "observer (Ch. 5)",
-        "gamma stage, the Table 5.4 sines, 10–300 Hz sines and ch5_creep",
+        "gamma stage, the Table 5.4 sines, 10–300 Hz sines and the creep run",
         _observer,
+        roles=("observer.sine", "observer.creep", "observer.study"),
         after=("gamma",),
     ),
     Stage(
         "frequency_response",
         "frequency response (Ch. 5, Fig 5.3)",
-        "identify stage and the stepped-sine sweep ch5_sweep",
-        _frequency_response,
+        "identify stage and the stepped-sine sweep",
+        _none,
+        roles=("frequency_response.sweep",),
         after=("identify",),
     ),
     Stage(
         "control",
         "control (Ch. 6)",
-        "observer and identify stages and closed-loop runs",
-        _control,
+        "observer and identify stages and the profiles P1–P3, open and closed loop",
+        _none,
+        roles=tuple(role for pair in PROFILES.values() for role in pair),
         after=("observer", "identify"),
     ),
     Stage(
@@ -231,14 +210,30 @@ STAGES = (
         "thermal (Ch. 7)",
         "observer and identify stages, the Chapter 7 runs and T_mid",
         _thermal,
+        roles=(
+            "thermal.heating",
+            "thermal.voltage",
+            "thermal.check",
+            "thermal.gamma_t_fit",
+            "thermal.gamma_t_validation",
+            "thermal.coupled_fig_7_10",
+            "thermal.coupled_fig_7_11",
+            "thermal.coupled_fig_7_12",
+        ),
         after=("observer", "identify"),
         manifest_keys=("actuator.thermal",),
     ),
     Stage(
         "powerloss",
         "powerloss (Ronkanen)",
-        "U, I, i_cmd, x_disp channels and the ronkanen catalogue",
+        "U, I, i_cmd, x_disp channels and the Ronkanen runs",
         _powerloss,
+        roles=(
+            "powerloss.hold",
+            "powerloss.ramp",
+            *RONKANEN_VELOCITY_RAMPS,
+            *RONKANEN_PAIRS.values(),
+        ),
     ),
 )
 
@@ -283,7 +278,8 @@ def plan_stages(manifest: Mapping[str, Any], experiments: Experiments) -> StageP
     chosen = manifest.get("stages")
     for stage in STAGES:
         before = [f"the {key} stage" for key in stage.after if lacks[key]]
-        own = stage.lacks(manifest, experiments)
+        roles = [f"role {r} ({ROLES[r]})" for r in stage.roles if not runs(experiments, r)]
+        own = roles + stage.lacks(manifest, experiments)
         if chosen is not None and stage.key not in chosen:
             own = ["a place in the manifest's stages: list", *own]
         lacks[stage.key] = tuple(dict.fromkeys(before + own))

@@ -12,6 +12,7 @@ import yaml
 
 from selfsense import stages
 from selfsense.io.manifest import ManifestError, expand_protocols, load_dataset
+from selfsense.io.roles import ROLES
 
 from ..helpers import ROOT, SMOKE_CONFIG, copy_repo, run_snakemake
 
@@ -19,18 +20,35 @@ PROTOCOLS = ROOT / "workflow" / "protocols"
 
 CHARACTERISE = ("characterise", True, "channel U and a displacement x_laser or x_disp")
 RIPPLE = "ripple channels Ur, Ir with U, I, x_laser and a folding plan (daq.ripple)"
-CH3 = "ripple stage and the Chapter 3 runs ch3_sine_10hz, ch3_sine_1hz, ch3_sine_0p1hz"
+CH3 = "ripple stage and the Chapter 3 series at 10, 1 and 0.1 Hz"
 IDENTIFY = "ripple stage, Chapter 4 sine sets and the static stiffness tests"
-GAMMA = "ripple stage and the 0.1 Hz run ch5_sine_0p1hz"
-OBSERVER = "gamma stage, the Table 5.4 sines, 10–300 Hz sines and ch5_creep"
-SWEEP = "identify stage and the stepped-sine sweep ch5_sweep"
-CONTROL = "observer and identify stages and closed-loop runs"
+GAMMA = "ripple stage and the 0.1 Hz run Γ is fitted on"
+OBSERVER = "gamma stage, the Table 5.4 sines, 10–300 Hz sines and the creep run"
+SWEEP = "identify stage and the stepped-sine sweep"
+CONTROL = "observer and identify stages and the profiles P1–P3, open and closed loop"
 THERMAL = "observer and identify stages, the Chapter 7 runs and T_mid"
-POWERLOSS = "U, I, i_cmd, x_disp channels and the ronkanen catalogue"
+POWERLOSS = "U, I, i_cmd, x_disp channels and the Ronkanen runs"
 LACKS = "; this dataset lacks: "
 
-#: stages.csv of the shipped datasets, (stage, runs, needs) a row, in both campaigns: the rows it
-#: had before the plan was one module, and the Chapter 3 row
+
+def lacking(*roles):
+    """What a skipped stage's row says of the roles it has no run of."""
+    return ", ".join(f"role {r} ({ROLES[r]})" for r in roles)
+
+
+PROFILE_ROLES = [
+    f"control.{p}_{c}" for p in ("p1", "p2a", "p2b", "p2c", "p2d", "p3") for c in ("open", "closed")
+]
+RONKANEN_ROLES = [
+    "powerloss.hold",
+    "powerloss.ramp",
+    "powerloss.ramp_too_large",
+    "powerloss.ramp_too_small",
+    "powerloss.ramp_ideal",
+    *(f"powerloss.{k}_{c}" for k in ("decay", "repeat", "drift") for c in ("current", "voltage")),
+]
+
+#: stages.csv of the shipped datasets, (stage, runs, needs) a row, in both campaigns
 SHIPPED = {
     "pi_p885": [
         CHARACTERISE,
@@ -45,7 +63,7 @@ SHIPPED = {
         (
             "powerloss (Ronkanen)",
             False,
-            POWERLOSS + LACKS + "channel i_cmd, channel x_disp, protocols: ronkanen",
+            POWERLOSS + LACKS + lacking(*RONKANEN_ROLES) + ", channel i_cmd, channel x_disp",
         ),
     ],
     "tokin_nb40": [
@@ -60,39 +78,59 @@ SHIPPED = {
             False,
             CH3
             + LACKS
-            + "the ripple stage, run ch3_sine_10hz, run ch3_sine_1hz, run ch3_sine_0p1hz",
+            + "the ripple stage, "
+            + lacking("ch3.series_10hz", "ch3.series_1hz", "ch3.series_0p1hz"),
         ),
         (
             "identify (Ch. 4)",
             False,
-            IDENTIFY + LACKS + "the ripple stage, runs ch4_sine_*, run ch4_static_free, "
-            "run ch4_static_blocked",
+            IDENTIFY
+            + LACKS
+            + "the ripple stage, "
+            + lacking(
+                "identify.set",
+                "identify.static_free",
+                "identify.static_blocked",
+                "identify.force_record",
+                "identify.recovery_drive",
+            ),
         ),
-        ("gamma (Ch. 5)", False, GAMMA + LACKS + "the ripple stage, run ch5_sine_0p1hz"),
+        ("gamma (Ch. 5)", False, GAMMA + LACKS + "the ripple stage, " + lacking("gamma.fit")),
         (
             "observer (Ch. 5)",
             False,
-            OBSERVER + LACKS + "the gamma stage, 10–300 Hz runs ch5_sine_*, run ch5_creep, "
-            "the 0.01 Hz run ch5_sine_*, the 0.1 Hz run ch5_sine_*, the 1 Hz run ch5_sine_*, "
-            "the 10 Hz run ch5_sine_*, the 50 Hz run ch5_sine_*, the 100 Hz run ch5_sine_*",
+            OBSERVER
+            + LACKS
+            + "the gamma stage, "
+            + lacking("observer.sine", "observer.creep", "observer.study"),
         ),
         (
             "frequency response (Ch. 5, Fig 5.3)",
             False,
-            SWEEP + LACKS + "the identify stage, run ch5_sweep (of the ch5 catalogue)",
+            SWEEP + LACKS + "the identify stage, " + lacking("frequency_response.sweep"),
         ),
         (
             "control (Ch. 6)",
             False,
-            CONTROL + LACKS + "the observer stage, the identify stage, closed-loop runs "
-            "(of the ch6 catalogue)",
+            CONTROL + LACKS + "the observer stage, the identify stage, " + lacking(*PROFILE_ROLES),
         ),
         (
             "thermal (Ch. 7)",
             False,
-            THERMAL + LACKS + "the observer stage, the identify stage, runs ch7_freq_*, "
-            "run ch7_volt_150hz, run ch7_heat_cool, run ch7_mixed_voltage, run ch7_freq_100hz, "
-            "run ch7_freq_50hz, run ch7_mixed_ae, channel T_mid",
+            THERMAL
+            + LACKS
+            + "the observer stage, the identify stage, "
+            + lacking(
+                "thermal.heating",
+                "thermal.voltage",
+                "thermal.check",
+                "thermal.gamma_t_fit",
+                "thermal.gamma_t_validation",
+                "thermal.coupled_fig_7_10",
+                "thermal.coupled_fig_7_11",
+                "thermal.coupled_fig_7_12",
+            )
+            + ", channel T_mid",
         ),
         ("powerloss (Ronkanen)", True, POWERLOSS),
     ],
@@ -237,7 +275,9 @@ def test_without_the_ripple_channels_every_ripple_stage_names_what_is_missing(st
 def test_without_the_chapter_3_runs_ripple_runs_and_chapter_3_says_what_it_lacks(stack):
     result = plan(without_protocols(stack, "ch3"))
     assert result.runs("ripple") and not result.runs("ch3")
-    assert result.lacks["ch3"] == ("run ch3_sine_10hz", "run ch3_sine_1hz", "run ch3_sine_0p1hz")
+    assert ", ".join(result.lacks["ch3"]) == lacking(
+        "ch3.series_10hz", "ch3.series_1hz", "ch3.series_0p1hz"
+    )
 
 
 def test_a_running_stage_needs_its_manifest_keys_and_a_skipped_one_does_not(stack):

@@ -25,8 +25,7 @@ if SIMULATED:
             dataset="|".join(SIMULATED),
             # closed-loop runs need the identified model: rule simulate_closed_loop; the runs of
             # a protocol simulated together: its own rule, below
-            experiment=r"(?![A-Za-z0-9_]*_closed)"
-            + "".join(f"(?!{e}(?![A-Za-z0-9_]))" for e in SIMULATED_TOGETHER)
+            experiment="".join(f"(?!{e}(?![A-Za-z0-9_]))" for e in SIMULATED_CLOSED_LOOP + SIMULATED_TOGETHER)
             + r"[A-Za-z0-9_]+",
         log:
             "logs/{dataset}/simulate/{experiment}.log",

@@ -22,6 +22,7 @@ from selfsense.scorecard.registry import applicable, parse_registry, tables_read
 from selfsense.io.unknowns import load_unknowns
 from selfsense.verify.envelope import envelope
 from selfsense import stages
+from selfsense.io import roles
 
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
 # defaults. --configfile files override config.yaml; Snakemake lists them before it in
@@ -188,8 +189,9 @@ def _experiments(name):
         if missing:
             raise ValueError(f"{RAW / name / 'dataset.yaml'}: experiment {missing[0]} is listed "
                              f"without a capture {RAW / name / (missing[0] + '.nc')}")
-        return {e: experiments.get(e) for e in manifest["experiments"]}
-    return experiments
+        listed = {e: experiments.get(e) for e in manifest["experiments"]}
+        return roles.assign_roles(listed, experiments, manifest.get("roles", {}), str(RAW / name / "dataset.yaml"))
+    return roles.assign_roles(experiments, experiments, manifest.get("roles", {}), str(RAW / name / "dataset.yaml"))
 
 
 EXPERIMENTS = {name: _experiments(name) for name in DATASETS}
@@ -241,19 +243,10 @@ def protocol_file(dataset, experiment):
     return str(PROTOCOLS / f"{EXPERIMENTS[dataset][experiment].chapter}.yaml")
 
 
-experiment_frequency = stages.experiment_frequency
-
-
-def sines(dataset, prefix):
-    """{frequency [Hz]: experiment} for the experiments named <prefix><f>hz."""
-    return stages.sines(EXPERIMENTS[dataset], prefix)
-
-
 def drive_frequency(dataset, experiment):
     """The drive frequency [Hz] the protocol ran: the smoke campaign speeds up the slow sines, so
-    it differs from the name's."""
-    run = EXPERIMENTS[dataset][experiment]
-    return run.protocol["segments"][0]["frequency"] if run is not None else experiment_frequency(experiment)
+    it differs from the catalogue's nominal one."""
+    return EXPERIMENTS[dataset][experiment].protocol["segments"][0]["frequency"]
 
 
 def longest_first(wildcards):
@@ -345,107 +338,102 @@ def loop_page_title(dataset, page):
     return f"{dataset}, page {int(page)}"
 
 
-# ---- Chapter 3
+# ---- What the rules make: the names of their tables and figures (figure_names: written once)
 
-CH3_SERIES = stages.CH3_SERIES
 CH3_FIGURES, CH3_MODEL_FIGURE = figure_names.CH3, figure_names.CH3_MODEL
-
-
-# ---- Chapter 4
-
 CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
 CH4_FIGURES = figure_names.CH4
-
-#: the Chapter 4 sine sets of each dataset
-CH4_SETS = {d: stages.ch4_sets(EXPERIMENTS[d]) for d in DATASETS}
-
-#: the static stiffness tests of Eq 4.16: {capture input: experiment}
-CH4_STATIC = dict(zip(("free", "blocked"), stages.CH4_STATIC))
-
-#: the capture whose truth the identified model is held to (Fig 4.8's U_H at its frequency too)
-RECOVERY_SINE = "ch4_sine_10hz_s1"
-
-
-def ch4_series(wildcards):
-    """The ripple series of the dataset's Chapter 4 sets, in CH4_SETS's order."""
-    return [f"results/{wildcards.dataset}/ripple/{e}.nc" for e in CH4_SETS[wildcards.dataset]]
-
-
-# ---- Chapter 5
-
 GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
                 "coefficients": "table_5_2_coefficients.csv", "anova_j5": "table_5_2_anova_j5.csv",
                 "coefficients_j5": "table_5_2_coefficients_j5.csv", "basis": "gamma_basis.csv"}
-
-GAMMA_RUN = stages.GAMMA_RUN  # Γ is fitted on the 0.1 Hz run (Tables 5.1, 5.2)
-
-#: the creep run of Chapter 5 and the stepped-sine sweep of Fig 5.3
-CREEP_RUN, SWEEP_RUN = stages.CREEP_RUN, stages.SWEEP_RUN
-
 CH5_FIGURES, FREQUENCY_RESPONSE_FIGURE = figure_names.CH5, figure_names.CH5_SWEEP
 OBSERVER_STUDY_FIGURE, ERROR_BUDGET_FIGURE = figure_names.CH5_STUDY, figure_names.CH5_BUDGET
-
-#: {frequency [Hz]: experiment} of the 10–300 Hz sines a0 is fitted on (Eq 5.3)
-CHARGE_SINES = {d: stages.charge_sines(EXPERIMENTS[d]) for d in DATASETS}
-
-#: {frequency [Hz]: experiment} of the sines the observer is evaluated on (Table 5.4)
-OBSERVED_SINES = {d: stages.observed_sines(EXPERIMENTS[d]) for d in DATASETS}
-
-#: {experiment: Table 5.4 frequency [Hz], None for the creep run} of every open-loop run the observer is evaluated on
-OBSERVED_RUNS = {d: {e: f for f, e in OBSERVED_SINES[d].items()} | {stages.CREEP_RUN: None} for d in DATASETS}
-
-
-# ---- Chapter 6
-
 CH6_TABLES = ["table_6_1", "p1_summary", "table_6_2", "p3", "tracking"]
 CH6_FIGURES = figure_names.CH6
-
-#: the closed-loop experiments of each dataset (audited against the estimate their loop logged)
-CLOSED_LOOP = {d: stages.closed_loop(EXPERIMENTS[d]) for d in DATASETS}
-
-#: the Chapter 6 runs of each dataset, open and closed loop
-CH6_RUNS = {d: [e for e in EXPERIMENTS[d] if e.startswith("ch6_")] for d in DATASETS}
-
-
-def ch6_protocols(wildcards):
-    """{experiment: protocol} of the dataset's Chapter 6 runs (their reference, P1's tests)."""
-    return {e: dict(EXPERIMENTS[wildcards.dataset][e].protocol) for e in CH6_RUNS[wildcards.dataset]}
-
-
-#: the runs of Tables 6.1–6.2 whose tracking error the budget splits
-TRACKED_RUNS = {d: [e for e in CH6_RUNS[d] if e.startswith(("ch6_p1_", "ch6_p2"))] for d in DATASETS}
-
-#: the closed-loop runs whose observer error Chapter 6 tabulates (ε_OCL: P1 in Table 6.1, P2a–d in
-#: Table 6.2), which the error budget splits too
-CH6_BUDGET_RUNS = {d: [e for e in CLOSED_LOOP[d] if e.startswith(("ch6_p1_", "ch6_p2"))] for d in DATASETS}
-
-#: {experiment: Table 5.4 frequency [Hz] or None} of every run the error budget splits
-BUDGET_RUNS = {d: OBSERVED_RUNS[d] | dict.fromkeys(CH6_BUDGET_RUNS[d]) for d in DATASETS}
-
-#: the closed-loop runs the leak study simulates again (Table 6.2's P2 profiles: seconds each)
-LEAK_RUNS = {d: [e for e in CLOSED_LOOP[d] if e.startswith("ch6_p2")] for d in DATASETS}
-
-
-# ---- Chapter 7
-
-#: the runs the coupled observer/thermal estimation is evaluated on (Figures 7.10–7.12)
-COUPLED_FIGURES = figure_names.CH7_COUPLED
-CH7_COUPLED = list(stages.CH7_COUPLED)
-
-#: the runs the thermal model's predictions are checked on (Figures 7.5, 7.6)
-CH7_CHECKS = list(stages.CH7_CHECKS)
-CH7_VOLTAGE_RUN = stages.CH7_VOLTAGE_RUN
-
 THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
 THERMAL_FIGURES = figure_names.CH7_THERMAL
 GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (figure_names.CH7_GAMMA_T, figure_names.CH7_FREQUENCY,
                                                     figure_names.CH7_DIAGRAM)
-
 GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
                   "coefficients": "table_7_3_coefficients.csv", "order": "gamma_t_order.csv"}
+COUPLED_FIGURES = figure_names.CH7_COUPLED
+RONKANEN_FIGURES = figure_names.RONKANEN
 
-#: Γ_T is fitted on the 50 Hz run (Tables 7.2, 7.3) and its order validated on the hotter 100 Hz run
-GAMMA_T_RUNS = stages.GAMMA_T_RUNS
+
+# ---- Runs by role (selfsense.io.roles): which run plays which part is the catalogue's roles:, or
+# the manifest's; the rules read runs only through these, never by name
+
+def role_runs(dataset, role):
+    """The dataset's runs of a role (a role of several runs: in catalogue order)."""
+    return roles.runs(EXPERIMENTS[dataset], role)
+
+
+def role_run(dataset, role):
+    """The dataset's one run of a role (a rule of a stage that needs it, so it has one)."""
+    return roles.run(EXPERIMENTS[dataset], role)
+
+
+def role_paths(pattern, role):
+    """An input function: pattern (with {dataset} and {run}) for each run of the role."""
+    return lambda w: [pattern.format(dataset=w.dataset, run=e) for e in role_runs(w.dataset, role)]
+
+
+def role_path(pattern, role):
+    """An input function: pattern (with {dataset} and {run}) for the role's one run."""
+    return lambda w: pattern.format(dataset=w.dataset, run=role_run(w.dataset, role))
+
+
+def by_frequency(dataset, role):
+    """{nominal drive frequency [Hz]: run} of the dataset's runs of a role."""
+    return roles.by_frequency(EXPERIMENTS[dataset], role)
+
+
+def coupled_runs(dataset):
+    """The runs of Figures 7.10–7.12's coupled estimation, in the figures' order."""
+    return [role_run(dataset, f"thermal.coupled_{name}") for name in figure_names.CH7_COUPLED]
+
+
+def protocols_of(dataset, experiments):
+    """{experiment: its protocol} (a rule's param: their reference, P1's tests)."""
+    return {e: dict(EXPERIMENTS[dataset][e].protocol) for e in experiments}
+
+
+#: {dataset: {frequency [Hz]: experiment}} of the 10–300 Hz sines a0 is fitted on (Eq 5.3)
+CHARGE_SINES = {d: stages.charge_sines(EXPERIMENTS[d]) for d in DATASETS}
+
+#: {dataset: {frequency [Hz]: experiment}} of the sines the observer is evaluated on (Table 5.4)
+OBSERVED_SINES = {d: stages.observed_sines(EXPERIMENTS[d]) for d in DATASETS}
+
+#: {dataset: {experiment: Table 5.4 frequency [Hz], None for the creep run}} of every open-loop run
+#: the observer is evaluated on
+OBSERVED_RUNS = {d: {e: f for f, e in OBSERVED_SINES[d].items()}
+                    | dict.fromkeys(role_runs(d, "observer.creep")) for d in DATASETS}
+
+#: {dataset: the closed-loop experiments} (audited against the estimate their loop logged)
+CLOSED_LOOP = {d: stages.closed_loop(EXPERIMENTS[d]) for d in DATASETS}
+
+#: the closed-loop runs the twin simulates (rule simulate_closed_loop, not rule simulate)
+SIMULATED_CLOSED_LOOP = sorted({e for d in SIMULATED for e in CLOSED_LOOP[d]})
+
+#: {dataset: {run: its profile}} of the Chapter 6 runs, open and closed loop
+CH6_RUNS = {d: stages.profile_runs(EXPERIMENTS[d]) for d in DATASETS}
+
+def profile_pairs(dataset):
+    """{profile: [open-loop run, closed-loop run]} of the Chapter 6 profiles (stages.PROFILES)."""
+    return {p: [role_run(dataset, r) for r in pair] for p, pair in stages.PROFILES.items()}
+
+
+#: {dataset: {run: its profile}} of the runs of Tables 6.1–6.2 whose tracking error the budget splits
+TRACKED_RUNS = {d: stages.profile_runs(EXPERIMENTS[d], ("P1", "P2a", "P2b", "P2c", "P2d")) for d in DATASETS}
+
+#: {dataset: {experiment: Table 5.4 frequency [Hz] or None}} of every run the error budget splits:
+#: the observer's and the closed loops' whose observer error Chapter 6 tabulates (ε_OCL: P1 in
+#: Table 6.1, P2a–d in Table 6.2)
+BUDGET_RUNS = {d: OBSERVED_RUNS[d] | dict.fromkeys(e for e in TRACKED_RUNS[d] if e in CLOSED_LOOP[d])
+               for d in DATASETS}
+
+#: {dataset: the closed-loop runs the leak study simulates again} (Table 6.2's P2 profiles: seconds each)
+LEAK_RUNS = {d: [e for e, p in TRACKED_RUNS[d].items() if p != "P1" and e in CLOSED_LOOP[d]] for d in DATASETS}
 
 
 # ---- Ronkanen 2002 (power loss)
@@ -453,23 +441,23 @@ GAMMA_T_RUNS = stages.GAMMA_T_RUNS
 POWERLOSS = "results/{dataset}/powerloss"
 
 RONKANEN_REPORT = {"category": "{dataset}", "subcategory": "Ronkanen 2002"}  # where the report files them
-RONKANEN_FIGURES = figure_names.RONKANEN
 
-#: the open-loop comparison: {"<kind>_<control>": experiment}
-RONKANEN_PAIRS = {f"{kind}_{control}": f"rk_{kind}_{control}"
-                  for kind in ("decay", "repeat", "drift") for control in ("current", "voltage")}
 
-#: Fig 3, 4, 5 (and 6): the ±300 nA ramps with too large, too small and ideal compensation
-RONKANEN_VELOCITY_RAMPS = ["rk_ramp_300na_10g", "rk_ramp_300na_1g", "rk_ramp_300na_2g"]
+def ronkanen_runs(dataset, parts):
+    """{part: experiment} of the Ronkanen runs of parts ({part: role})."""
+    return {part: role_run(dataset, role) for part, role in parts.items()}
 
-#: when each run's first segment ends [s]: where its hold starts (Figs 2, 11)
-FIRST_SEGMENT_END = {d: {e: float(x.protocol.get("warmup", 0.0)) + float(x.protocol["segments"][0]["duration"])
-                         for e, x in EXPERIMENTS[d].items() if x is not None} for d in POWERLOSS_DATASETS}
+
+def first_segment_end(dataset, role):
+    """When the first segment of the role's run ends [s]: where its hold starts (Figs 2, 11)."""
+    protocol = EXPERIMENTS[dataset][role_run(dataset, role)].protocol
+    return float(protocol.get("warmup", 0.0)) + float(protocol["segments"][0]["duration"])
+
 
 def identification_runs(dataset):
     """The captures R and the ramps' impedances are identified from (rule powerloss_identify):
     {"hold": the static hold, "ramps": every ramp with its fixed trial impedance}."""
-    return {"hold": "rk_static_hold", "ramps": [e for e in EXPERIMENTS[dataset] if e.startswith("rk_ramp_")]}
+    return {"hold": role_run(dataset, "powerloss.hold"), "ramps": role_runs(dataset, "powerloss.ramp")}
 
 
 def uses_identification(dataset, experiment):
@@ -548,12 +536,18 @@ SCORECARD = parse_registry(load_yaml(SCORECARD_REGISTRY), SCORECARD_REGISTRY)
 CURVES = {
     "gamma": {"folder": "ch5", "source": "Table 5.2", "coefficients": [f"b{i}" for i in range(6)], "g": None,
               "fits": {"thesis order": "gamma_j5.json", "our order": "gamma.json"}, "temperatures": [0.0],
-              "datasets": GAMMA_DATASETS, "run": GAMMA_RUN, "series": f"ripple/{GAMMA_RUN}.nc", "power": None},
+              "datasets": GAMMA_DATASETS, "role": "gamma.fit", "series": "ripple/{run}.nc", "power": None},
     "gamma_t": {"folder": "ch7", "source": "Table 7.3", "coefficients": [f"bT{i}" for i in range(6)],
                 "g": "g (temperature coefficient)", "fits": {"thesis order": "gamma_t_n5.json", "our order": "gamma_t.json"},
-                "temperatures": [23.0], "datasets": THERMAL_DATASETS, "run": GAMMA_T_RUNS["fit"],
-                "series": f"thermal/{GAMMA_T_RUNS['fit']}_gamma.nc", "power": f"thermal/{GAMMA_T_RUNS['fit']}.nc"},
+                "temperatures": [23.0], "datasets": THERMAL_DATASETS, "role": "thermal.gamma_t_fit",
+                "series": "thermal/{run}_gamma.nc", "power": "thermal/{run}.nc"},
 }
+
+
+def curve_input(w, part):
+    """One curve's (CURVES) file of a dataset: its run's series or power."""
+    c = CURVES[w.fit]
+    return f"results/{w.dataset}/" + c[part].format(run=role_run(w.dataset, c["role"]))
 
 
 def curve_fits(w):

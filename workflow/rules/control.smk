@@ -24,7 +24,7 @@ if SIMULATED:
             n_periods=config["ripple"]["n_periods"],
         wildcard_constraints:
             dataset="|".join(SIMULATED),
-            experiment=r"[A-Za-z0-9_]*_closed[A-Za-z0-9_]*",
+            experiment="|".join(SIMULATED_CLOSED_LOOP) or "(?!)",  # none: matches no name
         log:
             "logs/{dataset}/simulate_closed_loop/{experiment}.log",
         benchmark:
@@ -71,8 +71,8 @@ rule ch6_results:
         **{t: report(f"results/{{dataset}}/ch6/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
                      subcategory="Chapter 6") for t in CH6_TABLES},
     params:
-        protocols=ch6_protocols,
-        controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in CH6_RUNS[w.dataset]},
+        protocols=lambda w: protocols_of(w.dataset, CH6_RUNS[w.dataset]),
+        profiles=lambda w: profile_pairs(w.dataset),
         omega_c=config["control"]["omega_c"],
     log:
         "logs/{dataset}/ch6_results.log",
@@ -94,7 +94,8 @@ rule ch6_figures:
         **{name: report_figure(name, "Chapter 6") for name in CH6_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        protocols=ch6_protocols,
+        protocols=lambda w: protocols_of(w.dataset, CH6_RUNS[w.dataset]),
+        profiles=lambda w: profile_pairs(w.dataset),
     log:
         "logs/{dataset}/ch6_figures.log",
     benchmark:

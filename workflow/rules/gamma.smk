@@ -6,8 +6,8 @@ rule gamma_fit:
     """Γ of orders 3–6 and ln on the 0.1 Hz data; ANOVA and coefficients (statsmodels) at the
     order the model selection picks and at the thesis's j = 5."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=GAMMA_RUN)),  # its warm-up at 0 V is left out of the fit
-        series=f"results/{{dataset}}/ripple/{GAMMA_RUN}.nc",
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, "gamma.fit"))),  # its warm-up at 0 V is left out of the fit
+        series=role_path("results/{dataset}/ripple/{run}.nc", "gamma.fit"),
         library=library_sources("gamma_fit"),
     output:
         **{k: report(f"results/{{dataset}}/ch5/{v}", caption=f"../report/{k}.rst", category="{dataset}",

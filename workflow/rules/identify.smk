@@ -5,7 +5,8 @@
 rule static_stiffness:
     """k from the blocked force over the free stroke at U_max (Eq 4.16)."""
     input:
-        unpack(lambda w: captures(w.dataset, **CH4_STATIC)),
+        unpack(lambda w: captures(w.dataset, free=role_run(w.dataset, "identify.static_free"),
+                                  blocked=role_run(w.dataset, "identify.static_blocked"))),
         library=library_sources("static_stiffness"),
     output:
         table=report("results/{dataset}/ch4/static_stiffness.csv", caption="../report/static_stiffness.rst",
@@ -26,7 +27,7 @@ rule static_stiffness:
 rule identify:
     """Case 1 and Case 2 for every set (Eq 4.15–4.25); Tables 4.1–4.3 and the model for later stages."""
     input:
-        series=ch4_series,
+        series=role_paths("results/{dataset}/ripple/{run}.nc", "identify.set"),
         static="results/{dataset}/ch4/static_stiffness.csv",
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("identify"),
@@ -48,8 +49,9 @@ rule identify:
 rule ch4_figures:
     """Figures 4.2–4.8."""
     input:
-        unpack(lambda w: captures(w.dataset, force="ch4_sine_50hz_s1", drive=RECOVERY_SINE)),
-        series=ch4_series,
+        unpack(lambda w: captures(w.dataset, force=role_run(w.dataset, "identify.force_record"),
+                                  drive=role_run(w.dataset, "identify.recovery_drive"))),
+        series=role_paths("results/{dataset}/ripple/{run}.nc", "identify.set"),
         per_set="results/{dataset}/ch4/sets.csv",
         library=library_sources("ch4_figures"),
     output:

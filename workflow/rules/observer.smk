@@ -41,7 +41,7 @@ rule observe:
         stats="results/{dataset}/observer/{experiment}.json",
     params:
         n_periods=config["ripple"]["n_periods"],
-        transient_s=lambda w: config["observer"]["creep_transient_s"] if w.experiment == CREEP_RUN else None,
+        transient_s=lambda w: config["observer"]["creep_transient_s"] if w.experiment in role_runs(w.dataset, "observer.creep") else None,
     log:
         "logs/{dataset}/observe/{experiment}.log",
     benchmark:
@@ -57,8 +57,8 @@ rule ch5_tables:
     """Table 5.4 (open-loop observer error) and the creep run's errors."""
     input:
         stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in OBSERVED_SINES[w.dataset].values()],
-        creep=f"results/{{dataset}}/observer/{CREEP_RUN}.nc",
-        creep_stats=f"results/{{dataset}}/observer/{CREEP_RUN}.json",
+        creep=role_path("results/{dataset}/observer/{run}.nc", "observer.creep"),
+        creep_stats=role_path("results/{dataset}/observer/{run}.json", "observer.creep"),
         library=library_sources("ch5_tables"),
     output:
         table=report("results/{dataset}/ch5/table_5_4.csv", caption="../report/table_5_4.rst",
@@ -81,7 +81,7 @@ rule ch5_tables:
 rule observer_study:
     """Beyond the thesis: observer error against ω_S and the offset current (1 Hz capture)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture="ch5_sine_1hz")),
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, "observer.study"))),
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("observer_study"),
@@ -108,18 +108,18 @@ rule observer_study:
 rule ch5_figures:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14."""
     input:
-        unpack(lambda w: captures(w.dataset, gamma_capture=GAMMA_RUN)),  # its warm-up, left out of the Γ fits
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
-        gamma_series=f"results/{{dataset}}/ripple/{GAMMA_RUN}.nc",
+        unpack(lambda w: captures(w.dataset, gamma_capture=role_run(w.dataset, "gamma.fit"))),  # its warm-up, left out of the Γ fits
+        series=role_paths("results/{dataset}/ripple/{run}.nc", "observer.sine"),
+        gamma_series=role_path("results/{dataset}/ripple/{run}.nc", "gamma.fit"),
         traces=lambda w: [f"results/{w.dataset}/observer/{e}.nc" for e in OBSERVED_SINES[w.dataset].values()],
-        creep=f"results/{{dataset}}/observer/{CREEP_RUN}.nc",
+        creep=role_path("results/{dataset}/observer/{run}.nc", "observer.creep"),
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("ch5_figures"),
     output:
         **{name: report_figure(name, "Chapter 5") for name in CH5_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        series_f=lambda w: list(sines(w.dataset, "ch5_sine_")),
+        series_f=lambda w: list(by_frequency(w.dataset, "observer.sine")),
         traces_f=lambda w: list(OBSERVED_SINES[w.dataset]),
         n_periods=config["ripple"]["n_periods"],
         orders=config["gamma"]["orders"],
@@ -137,7 +137,7 @@ rule ch5_figures:
 rule frequency_response:
     """Fig 5.3: G(s) = x/q (Eq 5.2) from the stepped-sine sweep against the identified model."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=SWEEP_RUN)),
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, "frequency_response.sweep"))),
         model="results/{dataset}/ch4/model.json",
         library=library_sources("frequency_response"),
     output:
@@ -148,7 +148,7 @@ rule frequency_response:
         figure=report_figure(FREQUENCY_RESPONSE_FIGURE, "Chapter 5"),
     params:
         pdf=FIGURE_PDF,
-        protocol=lambda w: EXPERIMENTS[w.dataset][SWEEP_RUN].protocol,
+        protocol=lambda w: EXPERIMENTS[w.dataset][role_run(w.dataset, "frequency_response.sweep")].protocol,
         settle_s=config["observer"]["sweep_settle_s"],
     log:
         "logs/{dataset}/frequency_response.log",

@@ -18,7 +18,7 @@ rule powerloss_identify:
         identified=report(f"{POWERLOSS}/identified.csv", caption="../report/ronkanen_identified.rst",
                           **RONKANEN_REPORT),
     params:
-        hold_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_static_hold"],
+        hold_start=lambda w: first_segment_end(w.dataset, "powerloss.hold"),
         velocity_window=config["powerloss"]["velocity_window_s"],
     log:
         "logs/{dataset}/powerloss_identify.log",
@@ -53,7 +53,7 @@ rule powerloss_table_2:
 rule powerloss_performance:
     """Hysteresis, drift, repeatability and max error: current vs open-loop voltage control."""
     input:
-        unpack(lambda w: captures(w.dataset, **RONKANEN_PAIRS)),
+        unpack(lambda w: captures(w.dataset, **ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS))),
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_performance"),
     output:
@@ -62,7 +62,7 @@ rule powerloss_performance:
         repeatability=report(f"{POWERLOSS}/repeatability.csv", caption="../report/ronkanen_repeatability.rst",
                              **RONKANEN_REPORT),
     params:
-        drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
+        drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
         drift_duration=config["powerloss"]["drift_duration_s"],
     log:
         "logs/{dataset}/powerloss_performance.log",
@@ -78,8 +78,9 @@ rule powerloss_performance:
 rule powerloss_figures:
     """Figures 2–11 of the paper from the captures and the identified constants."""
     input:
-        unpack(lambda w: captures(w.dataset, hold="rk_static_hold", ramps=RONKANEN_VELOCITY_RAMPS,
-                                  **RONKANEN_PAIRS)),
+        unpack(lambda w: captures(w.dataset, hold=role_run(w.dataset, "powerloss.hold"),
+                                  ramps=[role_run(w.dataset, r) for r in stages.RONKANEN_VELOCITY_RAMPS],
+                                  **ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS))),
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
         identified=f"{POWERLOSS}/identified.csv",
@@ -90,7 +91,7 @@ rule powerloss_figures:
     params:
         pdf=FIGURE_PDF,
         velocity_window=config["powerloss"]["velocity_window_s"],
-        drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
+        drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
     log:
         "logs/{dataset}/powerloss_figures.log",
     benchmark:

@@ -52,7 +52,7 @@ rule ch3_hysteresis:
     """Loop widths C–U, C–x, R–C, x–U at 100 V, 10 Hz beside the thesis's percentages; the drive
     and ripple U–I phases (Figs 3.3–3.4)."""
     input:
-        series=f"results/{{dataset}}/ripple/{CH3_SERIES['10 Hz']}.nc",
+        series=role_path("results/{dataset}/ripple/{run}.nc", stages.CH3_SERIES["10 Hz"]),
         library=library_sources("ch3_hysteresis"),
     output:
         table=report("results/{dataset}/ch3/hysteresis.csv", caption="../report/hysteresis.rst",
@@ -61,7 +61,7 @@ rule ch3_hysteresis:
                       category="{dataset}", subcategory="Chapter 3"),
     params:
         skip_s=config["ripple"]["skip_s"],
-        frequency=lambda w: float(drive_frequency(w.dataset, CH3_SERIES["10 Hz"])),
+        frequency=lambda w: float(drive_frequency(w.dataset, role_run(w.dataset, stages.CH3_SERIES["10 Hz"]))),
     log:
         "logs/{dataset}/ch3_hysteresis.log",
     benchmark:
@@ -76,15 +76,15 @@ rule ch3_hysteresis:
 rule ch3_figures:
     """Figures 3.2–3.14 of the ripple impedance measurement."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=CH3_SERIES["10 Hz"])),
-        series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, stages.CH3_SERIES["10 Hz"]))),
+        series=lambda w: [f"results/{w.dataset}/ripple/{role_run(w.dataset, r)}.nc" for r in stages.CH3_SERIES.values()],
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("ch3_figures"),
     output:
         **{name: report_figure(name, "Chapter 3") for name in CH3_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        labels=list(CH3_SERIES),
+        labels=list(stages.CH3_SERIES),
         skip_s=config["ripple"]["skip_s"],
     log:
         "logs/{dataset}/ch3_figures.log",

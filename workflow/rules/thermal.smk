@@ -30,9 +30,9 @@ rule thermal_extract:
 rule thermal_identify:
     """τ, γ, k_T per heating run and Table 7.1; trends with frequency and V²; prediction errors."""
     input:
-        freq_series=lambda w: [f"results/{w.dataset}/thermal/{e}.nc" for e in sines(w.dataset, "ch7_freq_").values()],
-        volt_series=f"results/{{dataset}}/thermal/{CH7_VOLTAGE_RUN}.nc",
-        check_series=[f"results/{{dataset}}/thermal/{e}.nc" for e in CH7_CHECKS],
+        freq_series=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.heating"),
+        volt_series=role_path("results/{dataset}/thermal/{run}.nc", "thermal.voltage"),
+        check_series=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.check"),
         manifest=RAW / "{dataset}" / "dataset.yaml",
         model="results/{dataset}/ch4/model.json",
         library=library_sources("thermal_identify"),
@@ -43,9 +43,9 @@ rule thermal_identify:
         **{name: report_figure(name, "Chapter 7") for name in THERMAL_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        freqs=lambda w: list(sines(w.dataset, "ch7_freq_")),
-        checks=CH7_CHECKS,
-        volt_segments=lambda w: EXPERIMENTS[w.dataset][CH7_VOLTAGE_RUN].protocol["segments"],
+        freqs=lambda w: list(by_frequency(w.dataset, "thermal.heating")),
+        checks=lambda w: role_runs(w.dataset, "thermal.check"),
+        volt_segments=lambda w: EXPERIMENTS[w.dataset][role_run(w.dataset, "thermal.voltage")].protocol["segments"],
     log:
         "logs/{dataset}/thermal_identify.log",
     benchmark:
@@ -61,10 +61,10 @@ rule gamma_t_fit:
     """Γ_T of orders 4–6 with temperature, and with a C·T interaction, on the 50 Hz run (Tables
     7.2, 7.3 at the thesis's n = 5); the order of the Γ_T used downstream validated on the 100 Hz run."""
     input:
-        samples=f"results/{{dataset}}/thermal/{GAMMA_T_RUNS['fit']}_gamma.nc",
-        power=f"results/{{dataset}}/thermal/{GAMMA_T_RUNS['fit']}.nc",
-        val_samples=f"results/{{dataset}}/thermal/{GAMMA_T_RUNS['validation']}_gamma.nc",
-        val_power=f"results/{{dataset}}/thermal/{GAMMA_T_RUNS['validation']}.nc",
+        samples=role_path("results/{dataset}/thermal/{run}_gamma.nc", "thermal.gamma_t_fit"),
+        power=role_path("results/{dataset}/thermal/{run}.nc", "thermal.gamma_t_fit"),
+        val_samples=role_path("results/{dataset}/thermal/{run}_gamma.nc", "thermal.gamma_t_validation"),
+        val_power=role_path("results/{dataset}/thermal/{run}.nc", "thermal.gamma_t_validation"),
         library=library_sources("gamma_t_fit"),
     output:
         **{k: report(f"results/{{dataset}}/ch7/{v}", caption=f"../report/{k}_t.rst", category="{dataset}",
@@ -91,8 +91,8 @@ rule gamma_t_fit:
 rule frequency_effect:
     """Figure 7.8: C_e–x at each Chapter 5 drive frequency against Γ, beside each run's temperature."""
     input:
-        unpack(lambda w: captures(w.dataset, captures=list(sines(w.dataset, "ch5_sine_").values()))),
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in sines(w.dataset, "ch5_sine_").values()],
+        unpack(lambda w: captures(w.dataset, captures=role_runs(w.dataset, "observer.sine"))),
+        series=role_paths("results/{dataset}/ripple/{run}.nc", "observer.sine"),
         gamma="results/{dataset}/ch5/gamma.json",
         gamma_t="results/{dataset}/ch7/gamma_t.json",
         library=library_sources("frequency_effect"),
@@ -102,9 +102,9 @@ rule frequency_effect:
         figure=report_figure(FREQUENCY_FIGURE, "Chapter 7"),
     params:
         pdf=FIGURE_PDF,
-        runs=lambda w: list(sines(w.dataset, "ch5_sine_").values()),
-        frequencies=lambda w: [drive_frequency(w.dataset, e) for e in sines(w.dataset, "ch5_sine_").values()],
-        reference=GAMMA_RUN,
+        runs=lambda w: role_runs(w.dataset, "observer.sine"),
+        frequencies=lambda w: [drive_frequency(w.dataset, e) for e in role_runs(w.dataset, "observer.sine")],
+        reference=lambda w: role_run(w.dataset, "gamma.fit"),
         bins=config["thermal"]["frequency_effect_bins"],
         min_windows=config["thermal"]["frequency_effect_min_windows"],
     log:
@@ -174,8 +174,8 @@ rule coupled:
 rule ch7_summary:
     """Coupled-estimation errors beside the thesis, Figures 7.10–7.12."""
     input:
-        stats=[f"results/{{dataset}}/ch7/coupled/{e}.json" for e in CH7_COUPLED],
-        traces=[f"results/{{dataset}}/ch7/coupled/{e}.nc" for e in CH7_COUPLED],
+        stats=lambda w: [f"results/{w.dataset}/ch7/coupled/{e}.json" for e in coupled_runs(w.dataset)],
+        traces=lambda w: [f"results/{w.dataset}/ch7/coupled/{e}.nc" for e in coupled_runs(w.dataset)],
         library=library_sources("ch7_summary"),
     output:
         coupled=report("results/{dataset}/ch7/coupled.csv", caption="../report/coupled.rst", category="{dataset}",
@@ -183,7 +183,7 @@ rule ch7_summary:
         **{name: report_figure(name, "Chapter 7") for name in COUPLED_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        runs=CH7_COUPLED,
+        runs=lambda w: coupled_runs(w.dataset),
     log:
         "logs/{dataset}/ch7_summary.log",
     benchmark:

@@ -8,8 +8,8 @@
 rule ce_recovery:
     """C_e from the ripple against the twin's true clamped capacitance (parameter recovery)."""
     input:
-        unpack(lambda w: captures(w.dataset, captures=list(CH3_SERIES.values()))),
-        series=[f"results/{{dataset}}/ripple/{e}.nc" for e in CH3_SERIES.values()],
+        unpack(lambda w: captures(w.dataset, captures=[role_run(w.dataset, r) for r in stages.CH3_SERIES.values()])),
+        series=lambda w: [f"results/{w.dataset}/ripple/{role_run(w.dataset, r)}.nc" for r in stages.CH3_SERIES.values()],
         library=library_sources("ce_recovery"),
     output:
         table=report("results/{dataset}/twin/ce_recovery.csv", caption="../report/ce_recovery.rst",
@@ -56,8 +56,9 @@ rule model_recovery:
     """Identified parameters against the twin's built values and against the same identification on
     its noiseless states (parameter recovery)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=RECOVERY_SINE, sets=CH4_SETS[w.dataset])),
-        series=ch4_series,
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, "identify.recovery_drive"),
+                                  sets=role_runs(w.dataset, "identify.set"))),
+        series=role_paths("results/{dataset}/ripple/{run}.nc", "identify.set"),
         per_set="results/{dataset}/ch4/sets.csv",
         hysteresis="results/{dataset}/ch4/hysteresis_voltage.csv",
         static="results/{dataset}/ch4/static_stiffness.csv",
@@ -67,7 +68,7 @@ rule model_recovery:
         table=report("results/{dataset}/twin/model_recovery.csv", caption="../report/model_recovery.rst",
                      category="{dataset}", subcategory="Twin validation"),
     params:
-        frequency=lambda w: drive_frequency(w.dataset, RECOVERY_SINE),
+        frequency=lambda w: drive_frequency(w.dataset, role_run(w.dataset, "identify.recovery_drive")),
         n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/model_recovery.log",
@@ -96,11 +97,11 @@ rule error_budget:
         pdf=FIGURE_PDF,
         frequencies=lambda w: list(BUDGET_RUNS[w.dataset].values()),
         # Chapter 6 counts from the loop's settling on (its ω_C), in P1's segments; Table 5.4 from the warm-up on
-        loop_omega_c=lambda w: [config["control"]["omega_c"] if e in CH6_BUDGET_RUNS[w.dataset] else None
+        loop_omega_c=lambda w: [config["control"]["omega_c"] if e in CLOSED_LOOP[w.dataset] else None
                                 for e in BUDGET_RUNS[w.dataset]],
-        p1_protocols=lambda w: [dict(EXPERIMENTS[w.dataset][e].protocol) if e.startswith("ch6_p1_") else None
-                                for e in BUDGET_RUNS[w.dataset]],
-        transient_s=lambda w: [config["observer"]["creep_transient_s"] if e == CREEP_RUN else None
+        p1_protocols=lambda w: [dict(EXPERIMENTS[w.dataset][e].protocol) if CH6_RUNS[w.dataset].get(e) == "P1"
+                                else None for e in BUDGET_RUNS[w.dataset]],
+        transient_s=lambda w: [config["observer"]["creep_transient_s"] if e in role_runs(w.dataset, "observer.creep") else None
                                for e in BUDGET_RUNS[w.dataset]],
         n_periods=config["ripple"]["n_periods"],
     log:
@@ -151,6 +152,7 @@ rule tracking_budget:
     params:
         protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) for e in TRACKED_RUNS[w.dataset]},
         controls=lambda w: {e: EXPERIMENTS[w.dataset][e].control for e in TRACKED_RUNS[w.dataset]},
+        profiles=lambda w: TRACKED_RUNS[w.dataset],
         omega_c=config["control"]["omega_c"],
     log:
         "logs/{dataset}/tracking_budget.log",
@@ -195,7 +197,7 @@ rule loop_leak:
 rule thermal_recovery:
     """τ, γ, k_T of Table 7.1 and Γ_T's g against the twin's truth (simulated datasets: it reads /truth)."""
     input:
-        unpack(lambda w: captures(w.dataset, truth_capture="ch7_freq_100hz")),
+        unpack(lambda w: captures(w.dataset, truth_capture=role_run(w.dataset, "thermal.gamma_t_validation"))),
         table_7_1="results/{dataset}/ch7/table_7_1.csv",
         gamma_t=rules.gamma_t_fit.output.gamma_t,
         library=library_sources("thermal_recovery"),
@@ -217,9 +219,9 @@ rule temperature_budget:
     """The mixed run's coupled temperature errors (Fig 7.12) split into their sources with the twin's
     truth: power estimate, thermal model, thermometer (verification; simulated datasets: it reads /truth)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=COUPLED_FIGURES["fig_7_12"])),
-        traces=f"results/{{dataset}}/ch7/coupled/{COUPLED_FIGURES['fig_7_12']}.nc",
-        stats=f"results/{{dataset}}/ch7/coupled/{COUPLED_FIGURES['fig_7_12']}.json",
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, "thermal.coupled_fig_7_12"))),
+        traces=role_path("results/{dataset}/ch7/coupled/{run}.nc", "thermal.coupled_fig_7_12"),
+        stats=role_path("results/{dataset}/ch7/coupled/{run}.json", "thermal.coupled_fig_7_12"),
         thermal_model="results/{dataset}/ch7/thermal_model.json",
         library=library_sources("temperature_budget"),
     output:
@@ -239,7 +241,7 @@ rule temperature_budget:
 rule powerloss_recovery:
     """Identified R, a, X and c against the twin's true parameters (twin validation)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture="rk_static_hold")),
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, "powerloss.hold"))),
         identified=f"{POWERLOSS}/identified.csv",
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
@@ -261,13 +263,13 @@ rule powerloss_truth:
     """Section 7's results from the sensor and from the twin's true displacement, and the sensor's
     share (twin validation: it reads /truth)."""
     input:
-        unpack(lambda w: captures(w.dataset, **RONKANEN_PAIRS)),
+        unpack(lambda w: captures(w.dataset, **ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS))),
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_truth"),
     output:
         report(f"{POWERLOSS}/performance_truth.csv", caption="../report/ronkanen_performance_truth.rst", **RONKANEN_REPORT),
     params:
-        drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
+        drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
         drift_duration=config["powerloss"]["drift_duration_s"],
     log:
         "logs/{dataset}/powerloss_truth.log",
@@ -285,10 +287,10 @@ rule gamma_truth:
     and all at once: what of a curve's distance from the thesis's is the twin's C–x relation, and
     Γ_T's C·T interaction (verification, twin datasets only)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=CURVES[w.fit]["run"])),
+        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, CURVES[w.fit]["role"]))),
         registry=SCORECARD_REGISTRY,
-        series=lambda w: f"results/{w.dataset}/{CURVES[w.fit]['series']}",
-        power=lambda w: [f"results/{w.dataset}/{CURVES[w.fit]['power']}"] if CURVES[w.fit]["power"] else [],
+        series=lambda w: curve_input(w, "series"),
+        power=lambda w: [curve_input(w, "power")] if CURVES[w.fit]["power"] else [],
         fits=curve_fits,
         library=library_sources("gamma_truth"),
     output:

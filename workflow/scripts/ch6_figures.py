@@ -7,11 +7,11 @@ from selfsense.chapters import ch6
 from selfsense.io.provenance import save_figure, script_logging
 
 
-def main(captures, protocols, out, log, pdf):
-    """out: {figure name: path}."""
+def main(captures, protocols, profiles, out, log, pdf):
+    """profiles: {profile: (open-loop run, closed-loop run)}; out: {figure name: path}."""
     logger = script_logging(log)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
-    built = ch6.figures_ch6(runs, protocols)
+    built = ch6.figures_ch6(runs, protocols, profiles)
     for name, fig in built.items():
         save_figure(fig, out[name], inputs=list(captures), pdf=pdf)
     logger.info("wrote %s", ", ".join(sorted(built)))
@@ -22,6 +22,7 @@ if "snakemake" in globals():
     main(
         list(snakemake.input.captures),
         p.protocols,
+        p.profiles,
         dict(snakemake.output.items()),
         snakemake.log[0],
         p.pdf,

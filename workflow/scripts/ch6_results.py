@@ -11,11 +11,11 @@ from selfsense.io.provenance import script_logging, write_table
 from selfsense.methods.electromech import load_k_over_alpha
 
 
-def main(captures, protocols, controls, k_over_alpha, omega_c, out, log=None):
-    """out: {table name: path}."""
+def main(captures, protocols, profiles, k_over_alpha, omega_c, out, log=None):
+    """profiles: {profile: (open-loop run, closed-loop run)}; out: {table name: path}."""
     logger = script_logging(log)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
-    tables = ch6.results(runs, protocols, controls, k_over_alpha, omega_c)
+    tables = ch6.results(runs, protocols, profiles, k_over_alpha, omega_c)
     for key, table in tables.items():
         write_table(
             table,
@@ -31,7 +31,7 @@ if "snakemake" in globals():
     main(
         list(snakemake.input.captures),
         p.protocols,
-        p.controls,
+        p.profiles,
         load_k_over_alpha(snakemake.input.model),
         p.omega_c,
         dict(snakemake.output.items()),

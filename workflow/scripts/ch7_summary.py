@@ -10,13 +10,14 @@ from selfsense.io.capture import read_series
 from selfsense.io.provenance import save_figure, script_logging, write_table
 
 
-def main(stats, traces, out, log=None, pdf=True):
-    """stats / traces: {run: path}; out: {"coupled" or figure name: path}."""
+def main(stats, traces, figures, out, log=None, pdf=True):
+    """stats / traces: {run: path}; figures: {figure name: its run}; out: {"coupled" or figure
+    name: path}."""
     logger = script_logging(log)
     records = {run: json.loads(Path(path).read_text()) for run, path in stats.items()}
-    coupled = ch7.coupled_table(records)
+    coupled = ch7.coupled_table(records, figures[ch7.MIXED_FIGURE])
     write_table(coupled, out["coupled"], inputs=list(stats.values()))
-    for name, run in ch7.COUPLED_FIGURES.items():
+    for name, run in figures.items():
         save_figure(
             ch7.figure_coupled(name, run, read_series(traces[run]), records[run]),
             out[name],
@@ -31,6 +32,7 @@ if "snakemake" in globals():
     main(
         dict(zip(p.runs, i.stats)),
         dict(zip(p.runs, i.traces)),
+        dict(zip(ch7.COUPLED_FIGURES, p.runs)),
         dict(snakemake.output.items()),
         snakemake.log[0],
         pdf=p.pdf,

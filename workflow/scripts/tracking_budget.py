@@ -12,12 +12,12 @@ from selfsense.verify.tracking_budget import capture_tracking_budget
 
 
 def main(runs, tables, omega_c, log=None):
-    """runs: {capture path: (its protocol, whether its loop is closed)}; tables: {"tracking",
-    "controller": path}."""
+    """runs: {capture path: (its protocol, whether its loop is closed, whether it is P1, counted
+    per segment)}; tables: {"tracking", "controller": path}."""
     logger = script_logging(log)
     rows = {name: [] for name in tables}
-    for k, (capture, (protocol, closed)) in enumerate(runs.items(), 1):
-        for name, budget in capture_tracking_budget(capture, protocol, closed, omega_c).items():
+    for k, (capture, (protocol, closed, p1)) in enumerate(runs.items(), 1):
+        for name, budget in capture_tracking_budget(capture, protocol, closed, omega_c, p1).items():
             rows[name] += [
                 {"run": Path(capture).stem, "segment": s or None} | row for s, row in budget.items()
             ]
@@ -39,7 +39,11 @@ if "snakemake" in globals():
     p = snakemake.params
     main(
         {
-            c: (p.protocols[Path(c).stem], p.controls[Path(c).stem] == "closed_loop")
+            c: (
+                p.protocols[Path(c).stem],
+                p.controls[Path(c).stem] == "closed_loop",
+                p.profiles[Path(c).stem] == "P1",
+            )
             for c in snakemake.input.capture
         },
         dict(snakemake.output.items()),

@@ -100,28 +100,35 @@ def load_run(path, protocol: Mapping, command: bool = False) -> dict[str, np.nda
 def results(
     runs: Mapping[str, Mapping[str, np.ndarray]],
     protocols: Mapping[str, Mapping],
-    controls: Mapping[str, str],
+    profiles: Mapping[str, tuple[str, str]],
     k_over_alpha: float,
     omega_c: float,
 ) -> dict[str, pd.DataFrame]:
     """Tables 6.1 (P1 tests), 6.2 (P2 profiles), the P3 summary and the loop's tracking
-    prediction."""
+    prediction, from the runs of ``profiles`` ({"P1", "P2a" … "P3": (open-loop run, closed-loop
+    run)})."""
     p1 = {"e_TOL": [], "e_TCL": [], "e_OCL": []}
     rows62, p1_stroke = [], 0.0
-    for name, run in runs.items():
-        protocol, closed = protocols[name], controls[name] == "closed_loop"
-        if name.startswith("ch6_p1_"):
-            errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
-            per_test = len(protocol["segments"])  # the recording holds the tests one after another
-            for key, maxima in segment_maxima(
-                run["t"], errs, segment_windows(protocol, omega_c)
-            ).items():
-                if key in p1:
-                    p1[key] += [maxima[k : k + per_test] for k in range(0, len(maxima), per_test)]
-            p1_stroke = max(p1_stroke, float(np.ptp(run["x_ref"])))
-        elif name.startswith("ch6_p2"):
-            rows62 += p2_rows(name, run, protocol, closed, omega_c)
-    p3o, p3c, p3 = runs["ch6_p3_open"], runs["ch6_p3_closed"], protocols["ch6_p3_closed"]
+    for profile, pair in profiles.items():
+        for name, closed in zip(pair, (False, True), strict=True):
+            run, protocol = runs[name], protocols[name]
+            if profile == "P1":
+                errs = errors(
+                    run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed
+                )
+                per_test = len(protocol["segments"])  # the recording holds the tests in turn
+                for key, maxima in segment_maxima(
+                    run["t"], errs, segment_windows(protocol, omega_c)
+                ).items():
+                    if key in p1:
+                        p1[key] += [
+                            maxima[k : k + per_test] for k in range(0, len(maxima), per_test)
+                        ]
+                p1_stroke = max(p1_stroke, float(np.ptp(run["x_ref"])))
+            elif profile.startswith("P2"):
+                rows62 += p2_rows(profile, run, protocol, closed, omega_c)
+    (p3o, p3c), p3 = profiles["P3"], protocols[profiles["P3"][1]]
+    p3o, p3c = runs[p3o], runs[p3c]
     hold = float(p3.get("warmup", 0.0)) + p3["segments"][0]["duration"]
     t61 = table_6_1(p1)
     return {
@@ -225,15 +232,13 @@ def settled_after(warmup: float, omega_c: float) -> float:
 
 
 def p2_rows(
-    name: str, run: Mapping[str, np.ndarray], protocol: Mapping, closed: bool, omega_c: float
+    profile: str, run: Mapping[str, np.ndarray], protocol: Mapping, closed: bool, omega_c: float
 ) -> list[dict]:
-    """Table 6.2's rows of the P2 run ``name`` (ch6_p2a_open …): its errors after
+    """Table 6.2's rows of a run of the P2 ``profile`` ("P2a" …): its errors after
     :func:`settled_after`."""
     errs = errors(run["x_ref"], run["x_laser"], run["x_hat"] if closed else None, closed)
     after = settled_after(protocol.get("warmup", 0.0), omega_c)
-    return profile_errors(
-        "P" + name.split("_")[1][1:], run["t"], errs, float(np.ptp(run["x_ref"])), after
-    )
+    return profile_errors(profile, run["t"], errs, float(np.ptp(run["x_ref"])), after)
 
 
 def profile_errors(
@@ -299,18 +304,25 @@ FIGURES = figure_names.CH6
 
 
 def figures_ch6(
-    runs: Mapping[str, Mapping[str, np.ndarray]], protocols: Mapping[str, Mapping]
+    runs: Mapping[str, Mapping[str, np.ndarray]],
+    protocols: Mapping[str, Mapping],
+    profiles: Mapping[str, tuple[str, str]],
 ) -> dict:
     """Figures 6.2–6.8 from the runs' 4 kHz series ({experiment: {t, x_ref, x_laser, x_hat?, U}})
-    and their protocols; a figure whose runs are missing is left out. P1's figures show the first
-    two of the recording's tests (:func:`p1_window`): fifty would hide the minor loops."""
+    of ``profiles`` ({"P1" …: (open-loop run, closed-loop run)}) and their protocols; a figure
+    whose runs are missing is left out. P1's figures show the first two of the recording's tests
+    (:func:`p1_window`): fifty would hide the minor loops."""
     from selfsense.io import figures
 
+    def pair(profile):
+        names = profiles.get(profile, (None, None))
+        return tuple(runs.get(n) for n in names)
+
     built = []
-    p1o, p1c = runs.get("ch6_p1_open"), runs.get("ch6_p1_closed")
+    p1o, p1c = pair("P1")
     p1 = p1o is not None and p1c is not None
     if p1:
-        shown = p1c["t"] < p1_window(protocols["ch6_p1_closed"])
+        shown = p1c["t"] < p1_window(protocols[profiles["P1"][1]])
         p1o, p1c = ({k: None if v is None else v[shown] for k, v in r.items()} for r in (p1o, p1c))
     built.append(
         figures.time_traces(
@@ -338,8 +350,8 @@ def figures_ch6(
         if p1
         else None
     )
-    for p in ("p2a", "p2b", "p2c", "p2d"):
-        o, c = runs.get(f"ch6_{p}_open"), runs.get(f"ch6_{p}_closed")
+    for p in ("P2a", "P2b", "P2c", "P2d"):
+        o, c = pair(p)
         built.append(
             None
             if o is None or c is None
@@ -354,7 +366,7 @@ def figures_ch6(
                 f"{p.upper()}: tracking open and closed loop",
             )
         )
-    o, c = runs.get("ch6_p3_open"), runs.get("ch6_p3_closed")
+    o, c = pair("P3")
     built.append(
         None
         if o is None or c is None

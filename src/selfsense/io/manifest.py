@@ -23,6 +23,8 @@ from typing import Any
 import jsonschema
 import yaml
 
+from selfsense.io.roles import catalogue_roles
+
 SCHEMAS = resources.files("selfsense.io") / "schemas"
 #: the experiment catalogue, relative to the folder the workflow (or a script run alone) runs in
 PROTOCOLS = Path("workflow") / "protocols"
@@ -422,6 +424,13 @@ class Experiment:
     control: str = "open_loop"
     #: the bender's feedforward setting (Ronkanen catalogue), as the protocol gives it
     compensation: Mapping[str, Any] | None = None
+    #: the parts it plays in the stages (``selfsense.io.roles``): the catalogue's ``roles:``, or
+    #: those a manifest's ``roles:`` maps onto it
+    roles: frozenset[str] = frozenset()
+    #: [Hz] the drive frequency the thesis ran it at (its catalogue entry's first segment, before
+    #: a campaign's overrides), by which the tables name it: the smoke campaign runs slow sines
+    #: faster, and a lab's own run takes it from the catalogue run it follows
+    nominal_hz: float | None = None
 
 
 def protocol_duration(protocol: Mapping[str, Any]) -> float:
@@ -462,7 +471,8 @@ def expand_protocols(
                 entry |= smoke
             sets = int(entry.pop("sets", 1))
             names = [f"{name}_s{k}" for k in range(1, sets + 1)] if repeated else [name]
-            for n in names:
+            nominal = doc["experiments"][name]["segments"][0].get("frequency")
+            for index, n in enumerate(names):
                 experiments[n] = Experiment(
                     name=n,
                     chapter=chapter,
@@ -474,6 +484,8 @@ def expand_protocols(
                     load_stiffness=float(entry.get("load_stiffness", 0.0)),
                     control=entry.get("control", "open_loop"),
                     compensation=entry.get("compensation"),
+                    roles=catalogue_roles(entry.get("roles", ()), index == 0, f"{path}: {name}"),
+                    nominal_hz=None if nominal is None else float(nominal),
                 )
     return experiments
 

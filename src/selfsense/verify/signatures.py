@@ -7,16 +7,20 @@ calibration targets' locators then read them as they read a campaign's tables
 (:func:`selfsense.scorecard.calibration.calibration_table`), so a search and rule twin_calibration
 judge one signature by one definition. Runs and what they give (docs/twin.md, "Calibration"):
 
-- ch3_sine_10hz, 100 V at 10 Hz: the ripple series of rule extract_ripple → the loop widths and
-  phases of rule ch3_hysteresis (ch3/hysteresis.csv, ch3/phases.csv; Figs 3.4, 3.10–3.14);
-- ch4_sine_10hz_s1, one set of Chapter 4: its Case 2 identification → Table 4.3's U_Pmax
-  (ch4/table_4_3.csv; one set where the campaign averages over 10–100 Hz);
-- ch5_sine_0p1hz: the laser's max − min after the warm-up, as the observer stage measures the
-  stroke of Table 5.4 (ch5/table_5_4.csv);
-- ch6_p2a_open: P2a's feedforward error ε_TOL in % of stroke (ch6/table_6_2.csv, Table 6.2);
+- the 10 Hz series of Chapter 3 (role ch3.series_10hz, 100 V at 10 Hz): the ripple series of
+  rule extract_ripple → the loop widths and phases of rule ch3_hysteresis (ch3/hysteresis.csv,
+  ch3/phases.csv; Figs 3.4, 3.10–3.14);
+- the set of Chapter 4 the identified model is held to (role identify.recovery_drive): its Case 2
+  identification → Table 4.3's U_Pmax (ch4/table_4_3.csv; one set where the campaign averages
+  over 10–100 Hz);
+- the 0.1 Hz sine of Chapter 5 (role observer.sine): the laser's max − min after the warm-up, as
+  the observer stage measures the stroke of Table 5.4 (ch5/table_5_4.csv);
+- profile P2a in open loop (role control.p2a_open): P2a's feedforward error ε_TOL in % of stroke
+  (ch6/table_6_2.csv, Table 6.2);
 - Chapter 7 by closed form, not a 600 s run: τ = ρcv/(k_T A) (Eq 7.5), and the steady temperature
   T_amb + γ P (Eq 7.4 at s = 0, γ = 1/(k_T A), Eq 7.6) with P the heating power (Eq 7.10) of
-  ch5_sine_100hz, seconds of ch7_freq_100hz's drive (100 V at 100 Hz) with the stack near ambient
+  the 100 Hz sine of Chapter 5 (role observer.sine), seconds of the 100 Hz heating run's drive
+  (100 V at 100 Hz) with the stack near ambient
   (ch7/freq_trend.csv, ch7/table_7_1.csv). The campaign identifies τ and γ from the heating curve
   instead, where C_P's temperature dependence shifts them by a few %
   (docs/twin.md, "Thermal parameters").
@@ -33,6 +37,7 @@ import numpy as np
 import pandas as pd
 
 from selfsense.chapters import ch3, ch4, ch5, ch6, ch7
+from selfsense.io import roles
 from selfsense.io.capture import open_capture
 from selfsense.io.manifest import Experiment
 from selfsense.methods.drive import drive_from_protocol
@@ -42,14 +47,23 @@ from selfsense.methods.thermal import ThermalModel, ThermalProperties
 from selfsense.twin.bench import DaqPlan, simulate_capture
 from selfsense.twin.params import TwinParams
 
+#: the short runs, by what they are: {key: (role, nominal drive frequency [Hz] within a role of
+#: several runs, or None)}
+RUNS = {
+    "ch3 10 Hz": ("ch3.series_10hz", None),
+    "ch4 set": ("identify.recovery_drive", None),
+    "ch5 0.1 Hz": ("observer.sine", 0.1),
+    "ch5 100 Hz": ("observer.sine", 100.0),
+    "P2a open": ("control.p2a_open", None),
+}
 #: the tables (relative to results/<dataset>/) the short runs give, each with the runs it needs
 TABLES = {
-    "ch3/hysteresis.csv": ("ch3_sine_10hz",),
-    "ch3/phases.csv": ("ch3_sine_10hz",),
-    "ch4/table_4_3.csv": ("ch4_sine_10hz_s1",),
-    "ch5/table_5_4.csv": ("ch5_sine_0p1hz",),
-    "ch6/table_6_2.csv": ("ch6_p2a_open",),
-    "ch7/freq_trend.csv": ("ch4_sine_10hz_s1", "ch5_sine_100hz"),
+    "ch3/hysteresis.csv": ("ch3 10 Hz",),
+    "ch3/phases.csv": ("ch3 10 Hz",),
+    "ch4/table_4_3.csv": ("ch4 set",),
+    "ch5/table_5_4.csv": ("ch5 0.1 Hz",),
+    "ch6/table_6_2.csv": ("P2a open",),
+    "ch7/freq_trend.csv": ("ch4 set", "ch5 100 Hz"),
     "ch7/table_7_1.csv": (),
 }
 #: the companions of the ripple series, as rule extract_ripple writes them
@@ -72,6 +86,13 @@ class ShortRuns:
     omega_c: float
     workdir: Path
 
+    def experiment(self, key: str) -> Experiment:
+        """The catalogue's experiment that is the short run ``key`` of :data:`RUNS`."""
+        role, hz = RUNS[key]
+        if hz is None:
+            return self.catalogue[roles.run(self.catalogue, role)]
+        return self.catalogue[roles.by_frequency(self.catalogue, role)[hz]]
+
     def tables(
         self, params: TwinParams, wanted: Iterable[str] = tuple(TABLES)
     ) -> dict[str, pd.DataFrame]:
@@ -83,19 +104,19 @@ class ShortRuns:
             raise ValueError(f"no short run gives {unknown[0]} (they give {', '.join(TABLES)})")
 
         @cache
-        def capture(name):
-            return _capture(params, self.daq, self.catalogue[name], self.seed, self.workdir)
+        def capture(key):
+            return _capture(params, self.daq, self.experiment(key), self.seed, self.workdir)
 
         @cache
         def steady():
             return ch3.steady(
-                _ripple_series(capture("ch3_sine_10hz"), self.n_periods), 0.1
+                _ripple_series(capture("ch3 10 Hz"), self.n_periods), 0.1
             )  # ch3_hysteresis's skip_s
 
         @cache
         def identified():
             return _identify(
-                capture("ch4_sine_10hz_s1"), self.n_periods, params, self.moving_mass, self.geometry
+                capture("ch4 set"), self.n_periods, params, self.moving_mass, self.geometry
             )
 
         thermal = ThermalModel.from_k_T(
@@ -107,9 +128,9 @@ class ShortRuns:
 
         def steady_temperature():
             heating = _heating_power(
-                capture("ch5_sine_100hz"), self.n_periods, identified().case2.k_over_alpha
+                capture("ch5 100 Hz"), self.n_periods, identified().case2.k_over_alpha
             )
-            f = self.catalogue["ch5_sine_100hz"].protocol["segments"][0]["frequency"]
+            f = self.experiment("ch5 100 Hz").protocol["segments"][0]["frequency"]
             # the columns of ch7.steady_rise_trends, from the closed form
             return pd.DataFrame(
                 {
@@ -124,19 +145,19 @@ class ShortRuns:
             "ch3/hysteresis.csv": lambda: ch3.hysteresis_table(steady()),
             "ch3/phases.csv": lambda: ch3.phase_table(steady(), 10.0),
             "ch4/table_4_3.csv": lambda: ch4.table_4_3(
-                {"ch4_sine_10hz_s1": identified()}, self.geometry
+                {self.experiment("ch4 set").name: identified()}, self.geometry
             ),
             "ch5/table_5_4.csv": lambda: ch5.table_5_4(
                 {
                     0.1: {
                         "max error [µm]": np.nan,
                         "error [% of stroke]": np.nan,
-                        "stroke [µm]": _stroke(capture("ch5_sine_0p1hz")) * 1e6,
+                        "stroke [µm]": _stroke(capture("ch5 0.1 Hz")) * 1e6,
                     }
                 }
             ),
             "ch6/table_6_2.csv": lambda: _feedforward_errors(
-                capture("ch6_p2a_open"), self.catalogue["ch6_p2a_open"], self.omega_c
+                capture("P2a open"), self.experiment("P2a open"), self.omega_c
             ),
             "ch7/freq_trend.csv": steady_temperature,
             # the columns of ch7.table_7_1, from the closed form
@@ -212,9 +233,9 @@ def _stroke(path: Path) -> float:
 
 
 def _feedforward_errors(path: Path, experiment: Experiment, omega_c: float) -> pd.DataFrame:
-    """Table 6.2's rows of an open-loop P2 run, as rule ch6_results makes them."""
-    run = ch6.load_run(path, experiment.protocol)
-    return pd.DataFrame(ch6.p2_rows(experiment.name, run, experiment.protocol, False, omega_c))
+    """Table 6.2's rows of P2a's open-loop run, as rule ch6_results makes them."""
+    series = ch6.load_run(path, experiment.protocol)
+    return pd.DataFrame(ch6.p2_rows("P2a", series, experiment.protocol, False, omega_c))
 
 
 def _heating_power(path: Path, n_periods: int, k_over_alpha: float) -> float:

@@ -67,7 +67,6 @@ errors that cancel in their sum (the sources still add up to ε_T exactly).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from pathlib import Path
 
 import numpy as np
 from scipy.signal import lfilter
@@ -149,9 +148,9 @@ def controller_split(
 
 
 def capture_tracking_budget(
-    path, protocol: Mapping, closed: bool, omega_c: float
+    path, protocol: Mapping, closed: bool, omega_c: float, per_segment: bool
 ) -> dict[str, dict[str, dict[str, float]]]:
-    """One Chapter 6 run's tracking budget, counted as its table counts: P1 (``ch6_p1_*``) per
+    """One Chapter 6 run's tracking budget, counted as its table counts: P1 (``per_segment``) per
     segment a–h over the steady windows of :func:`selfsense.chapters.ch6.segment_windows` (Table
     6.1), a P2 profile from the loop's settling on (:func:`selfsense.chapters.ch6.settled_after`,
     Table 6.2). Returns {"tracking": {segment or "":
@@ -172,7 +171,7 @@ def capture_tracking_budget(
         float(attrs["stack_alpha"]) / float(attrs["stack_k"]),
     )
     warmup = float(protocol.get("warmup", 0.0))
-    if Path(path).stem.startswith("ch6_p1_"):
+    if per_segment:
         spans = segment_windows(protocol, omega_c)
     else:
         spans = [("", settled_after(warmup, omega_c), np.inf)]
