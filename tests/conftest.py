@@ -44,7 +44,7 @@ def pytest_configure(config):
 #: module-scoped fixtures that run a DAG of their own (or copy the smoke tree): a worker builds its
 #: own instance of a module's fixture, so the tests sharing one go to one worker (split over two,
 #: the DAG ran twice)
-OWN_DAGS = ("bench", "lab_csv", "config_tree", "batches", "lab_examples", "hostile")
+OWN_DAGS = ("bench", "lab_csv", "config_tree", "batches", "lab_examples", "hostile", "lab_roles")
 
 #: the group of every test that does not need the smoke DAG: the first group, so that one worker
 #: runs it while the other runs the smoke DAG that every other test waits for

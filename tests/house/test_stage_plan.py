@@ -374,3 +374,31 @@ def test_an_envelope_member_draws_only_the_figure_that_comes_with_a_table_it_rea
     drawn = [o for made in member.values() for o in made if o.startswith("figures/")]
     assert drawn == [f"figures/{MEMBER}/fig_5_3.png"]
     assert "ch6_figures" in jobs["pi_p885"]
+
+
+def catalogue_names():
+    """Every run name of the shipped catalogue, as the thesis campaign expands it, and the
+    prefixes its families share (ch5_sine_, rk_ramp_ …): what no rule or library module may
+    spell, since a stage reads its runs by role."""
+    names = set()
+    for path in sorted(PROTOCOLS.glob("*.yaml")):
+        names |= set(expand_protocols([path.stem], "thesis", PROTOCOLS))
+    families = {"_".join(n.split("_")[:2]) + "_" for n in names}
+    return names, families
+
+
+def test_no_rule_and_no_library_module_names_a_run_of_the_catalogue():
+    names, families = catalogue_names()
+    words = re.compile(r"\b(" + "|".join(sorted(names | families, key=len, reverse=True)) + ")")
+    found = []
+    places = [
+        *(ROOT / "workflow" / "rules").glob("*.smk"),
+        *(ROOT / "workflow" / "scripts").glob("*.py"),
+        *(ROOT / "src" / "selfsense").rglob("*.py"),
+    ]
+    assert {"ch4_sine_", "ch6_p1_", "rk_ramp_", "ch5_sweep"} <= names | families
+    for path in places:
+        for k, line in enumerate(path.read_text().splitlines(), 1):
+            for m in words.finditer(line):
+                found.append(f"{path.relative_to(ROOT)}:{k}: {m.group(0)}")
+    assert found == []

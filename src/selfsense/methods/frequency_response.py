@@ -5,9 +5,9 @@ Eq 5.1 with F = 0 in the Laplace domain gives Eq 5.2,
     G(s) = x(s)/q(s) = x(s)·s/I(s) = 1 / ((C_P/α)(m s² + b s + k) + α),
 
 whose poles are the stack's resonance with its charge held (stiffened from k to k + α²/C_P).
-The measured response comes from a sweep of sine segments (workflow/protocols/ch5.yaml,
-``ch5_sweep``): each segment's position and current are reduced to one complex amplitude each by a
-lock-in over whole periods after the settling cycles, and G = X/Q.
+The measured response comes from a sweep of sine segments (the run of role
+frequency_response.sweep): each segment's position and current are reduced to one complex
+amplitude each by a lock-in over whole periods after the settling cycles, and G = X/Q.
 
 Choices, with the reasons:
 
