@@ -45,7 +45,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
-from selfsense.io.provenance import provenance, temporary_path, write_json
+from selfsense.io.provenance import WRITE_ERRNO, provenance, temporary_path, write_json
 
 LOG = logging.getLogger("selfsense.io.capture")
 
@@ -501,17 +501,6 @@ def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | Non
     return None
 
 
-#: what a failed write's errno means for the capture's folder
-_WRITE_ERRNO = {
-    errno.ENOSPC: "no space left on device",
-    errno.EDQUOT: "disk quota exceeded",
-    errno.EROFS: "folder is read-only (read-only file system)",
-    errno.EACCES: "folder is read-only (permission denied)",
-    errno.EPERM: "folder is read-only (operation not permitted)",
-    errno.EFBIG: "file too large (the file system's or the process's file size limit)",
-}
-
-
 def _cannot_write(
     path: Path, err: OSError, tmp: Path | None = None, what: str = "capture"
 ) -> CaptureWriteError:
@@ -519,7 +508,7 @@ def _cannot_write(
     if err.errno == errno.ENAMETOOLONG:
         reason = _name_too_long(path, tmp)
     else:
-        reason = _WRITE_ERRNO.get(err.errno, err.strerror or str(err))
+        reason = WRITE_ERRNO.get(err.errno, err.strerror or str(err))
     return CaptureWriteError(f"{path}: cannot write the {what}: {reason}")
 
 
@@ -1267,6 +1256,8 @@ class SeriesWriter:
 
 def series_scalars(path: os.PathLike | str) -> dict[str, float]:
     """The numeric attributes a :class:`SeriesWriter` stored with a series (say, a run's peaks)."""
+    if not Path(path).exists():
+        raise _fail(path, "no such series")
     try:
         with netCDF4.Dataset(path) as nc:
             return {
@@ -1283,6 +1274,8 @@ def read_series(
 ) -> dict[str, np.ndarray]:
     """A derived series written by :class:`SeriesWriter`, whole (they are ns× smaller than
     captures)."""
+    if not Path(path).exists():  # netCDF-C would say only "No such file or directory"
+        raise _fail(path, "no such series")
     try:
         with netCDF4.Dataset(path) as nc:
             names = list(nc.variables) if names is None else names
