@@ -127,3 +127,13 @@ def test_every_capture_of_the_thesis_campaign_is_within_the_stated_size():
     manifest = load_dataset(ROOT / "raw", "pi_p885")
     for run in catalogue(manifest, "thesis").values():
         twin._check_capture_size(run, manifest, "m.yaml")  # raises beyond the bound
+
+
+def test_a_protocol_file_that_sets_the_length_is_the_one_named(monkeypatch):
+    """Without an override of the run, its protocol file set its length, and is named."""
+    manifest = load_dataset(ROOT / "raw", "pi_p885")
+    monkeypatch.setattr(twin, "MAX_CAPTURE_SAMPLES", 1000)
+    run = catalogue(manifest, "smoke")["ch4_sine_10hz_s2"]
+    with pytest.raises(ManifestError) as e:
+        twin._check_capture_size(run, manifest, "m.yaml")
+    one_line(str(e.value), "workflow/protocols/ch4.yaml: key experiments.ch4_sine_10hz: ")

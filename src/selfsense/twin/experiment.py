@@ -10,11 +10,18 @@ The twin as a whole is described in :mod:`selfsense.twin` (docs/design.md, "The 
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from selfsense.io.capture import ScanReport, UnshrinkableChunk, compression_settings
-from selfsense.io.manifest import ManifestError, catalogue, load_dataset, protocol_duration
+from selfsense.io.manifest import (
+    PROTOCOLS,
+    ManifestError,
+    catalogue,
+    load_dataset,
+    protocol_duration,
+)
 from selfsense.methods.drive import Drive, drive_from_protocol
 from selfsense.twin.bench import Bench, Controller, DaqPlan, simulate_capture
 from selfsense.twin.params import TwinParams
@@ -150,19 +157,20 @@ def _check_capture_size(exp, manifest: Mapping, where: Path) -> None:
     if samples <= MAX_CAPTURE_SAMPLES:
         return
     # the manifest's overrides of this run's protocol, if any, set its length; else its file
-    prefix = f"{exp.chapter}:experiments."
+    entry = re.sub(r"_s[0-9]+$", "", exp.name)  # a set's runs are <entry>_s<k>
+    prefix = f"{exp.chapter}:experiments.{entry}."
     keys = [k for k in manifest.get("protocol_overrides", {}) if k.startswith(prefix)]
     source = (
         f"{where}: key protocol_overrides.{' and '.join(keys)}"
         if keys
-        else f"workflow/protocols/{exp.chapter}.yaml: key experiments"
+        else f"{PROTOCOLS / exp.chapter}.yaml: key experiments.{entry}"
     )
     raise ManifestError(
         f"{source}: experiment {exp.name} would record {samples:.4g} samples "
         f"({duration:.6g} s at daq.fs = {fs:g} Hz), more than a capture may hold "
         f"({MAX_CAPTURE_SAMPLES}, selfsense.twin.experiment.MAX_CAPTURE_SAMPLES; the thesis's "
         "longest has 77 M): shorten its segments, repeat or warmup",
-        "protocol_overrides" if keys else "experiments",
+        "protocol_overrides" if keys else f"experiments.{entry}",
     )
 
 
