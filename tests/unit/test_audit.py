@@ -3,15 +3,17 @@ mtime (cp -p, rsync -t, tar x), which Snakemake does not see, is found by conten
 
 import json
 import os
+from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
 from selfsense.io import provenance as provenance_module
 from selfsense.io.audit import Hashes, StaleInput, audit, check_inputs_unchanged
-from selfsense.io.provenance import provenance, write_json, write_table
+from selfsense.io.provenance import file_sha256, provenance, write_json, write_table
 
-from ..helpers import ROOT, cli
+from ..helpers import ROOT, cli, script, set_codes, synthetic
 
 HINT = ".venv/bin/snakemake --cores 2"
 
@@ -343,3 +345,60 @@ def test_the_start_check_finds_a_replaced_manifest_through_the_stage_plan(checke
     write_table(pd.DataFrame({"stage": ["characterise"]}), plan, inputs=["raw/lab/dataset.yaml"])
     replace_keeping_mtime(manifest, b"source: measured, other\n")
     stops("raw/lab/dataset.yaml: not the file results/lab/stages.csv.json checked (size")
+
+
+# -- the whole chain: a table, the series it was made from, the capture ---------------------------
+
+
+@pytest.fixture
+def chain(tmp_path, monkeypatch):
+    """A simulated capture raw/bench/ch3_sine_10hz.nc, its ripple series (rule extract_ripple)
+    and the two Chapter 3 tables made from the series (rule ch3_hysteresis), made by the rules'
+    own scripts in a checkout at tmp_path."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "raw" / "bench").mkdir(parents=True)
+    capture = "raw/bench/ch3_sine_10hz.nc"
+    synthetic(capture)
+    series = "results/bench/ripple/ch3_sine_10hz.nc"
+    script("extract_ripple").main(capture, series, 4)
+    tables = ["results/bench/ch3/hysteresis.csv", "results/bench/ch3/phases.csv"]
+    with np.errstate(divide="ignore"):  # the synthetic loops are closed: their widths divide by 0
+        script("ch3_hysteresis").main(series, *tables, skip_s=0.05)
+    return tmp_path / capture, series, tables
+
+
+def test_a_series_records_the_capture_it_was_made_from(chain, capsys):
+    capture, series, tables = chain
+    recorded = json.loads(Path(f"{series}.json").read_text())
+    assert recorded["inputs"] == {"raw/bench/ch3_sine_10hz.nc": file_sha256(capture)}
+    assert recorded["config"] == {"n_periods": 4}
+    assert run(capsys, "results/bench") == (
+        0,
+        [
+            f"{tables[0]}: up to date (1 input)",
+            f"{tables[1]}: up to date (1 input)",
+            f"{series}: up to date (1 input)",
+        ],
+    )
+
+
+@pytest.mark.parametrize("fault", ["changed in place", "deleted"])
+def test_a_changed_or_deleted_capture_names_every_table_made_from_it(chain, capsys, fault):
+    """The tables record only the series; the audit follows the series' provenance down to the
+    capture, which Snakemake does not see changed when its mtime is kept."""
+    capture, series, tables = chain
+    if fault == "deleted":
+        capture.unlink()
+        cause = "input raw/bench/ch3_sine_10hz.nc is missing"
+    else:
+        st = capture.stat()
+        set_codes(capture, "Ur", 100, 50, 1000)  # a few samples of the ripple, mtime kept
+        os.utime(capture, ns=(st.st_atime_ns, st.st_mtime_ns))
+        cause = "input raw/bench/ch3_sine_10hz.nc changed since it was made"
+    code, lines = run(capsys, *tables)
+    assert code == 1
+    assert [line.split(": ", 1)[0] for line in lines] == tables
+    for line in lines:
+        assert f"input {series} is stale itself ({series}: {cause})" in line
+    code, lines = run(capsys, "results/bench")
+    assert code == 1 and [line.split(": ", 1)[0] for line in lines] == [*tables, series]

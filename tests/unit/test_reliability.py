@@ -138,7 +138,7 @@ if kind == "capture":
         w.write({"U": np.zeros(2400)})
         os.kill(os.getpid(), signal.SIGKILL)
 elif kind == "series":
-    with SeriesWriter(out, {"C_e": "F"}) as w:
+    with SeriesWriter(out, {"C_e": "F"}, inputs=[]) as w:
         w.write({"C_e": np.zeros(100)})
         os.kill(os.getpid(), signal.SIGKILL)
 else:

@@ -78,6 +78,12 @@ def parse_repo(tmp_path_factory):
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
     for run in runs:  # present: the check is made before any capture is read
         (folder / f"{run}.nc").touch()
+    # a simulated dataset whose override asks the twin for a 1e12 s record
+    folder = repo / "raw" / "pi_long"
+    folder.mkdir()
+    doc = load_yaml(ROOT / "raw" / "pi_p885" / "dataset.yaml") | {"name": "pi_long"}
+    doc["protocol_overrides"] = {"ch3:experiments.ch3_sine_10hz.smoke.segments.0.duration": 1e12}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
     return repo
 
 
@@ -123,6 +129,15 @@ PIPELINE_FAULTS = [  # config changes, the file the line must name, what it must
         "fault.yaml",
         ["dataset name 'raw/pi_p885'", "no path separators"],
         id="dataset name with a path separator",
+    ),
+    pytest.param(
+        {"datasets": ["pi_long"]},
+        "raw/pi_long/dataset.yaml",
+        [
+            "key protocol_overrides.ch3:experiments.ch3_sine_10hz.smoke.segments.0.duration: "
+            "1000000000000.0 is greater than the maximum of 12000"
+        ],
+        id="an override of 1e12 s",
     ),
     pytest.param(
         {"campain": "smoke"}, "fault.yaml", ["unknown key campain"], id="unknown config key"

@@ -18,7 +18,7 @@ def main(
     logger = script_logging(log)
     th = json.loads(Path(thermal_model).read_text())
     if not th["identified"]:  # nothing to couple with: skip, and say why
-        with SeriesWriter(traces, COUPLED_UNITS) as w:
+        with SeriesWriter(traces, COUPLED_UNITS, inputs=[thermal_model]) as w:
             w.write({k: [] for k in COUPLED_UNITS})
         note = f"skipped: {th['reason']}"
         write_json({"note": note, "provenance": provenance([thermal_model])}, stats)
@@ -27,9 +27,9 @@ def main(
     g, gains, k_alpha = load_gamma(gamma_t), load_gains(observer), load_k_over_alpha(model)
     measured = read_series(power, ["time", "T_mid"])
     out, result = coupled_run(capture, measured, g, gains, th, k_alpha, n_periods)
-    with SeriesWriter(traces, COUPLED_UNITS) as w:
-        w.write(out)
     inputs = [capture, power, gamma_t, observer, thermal_model, model]
+    with SeriesWriter(traces, COUPLED_UNITS, inputs=inputs, config={"n_periods": n_periods}) as w:
+        w.write(out)
     write_json(result | {"provenance": provenance(inputs)}, stats)
     logger.info("%s: %s", capture, result)
 

@@ -18,7 +18,8 @@ def main(capture, series, n_periods, chunk_len=1 << 18, log=None):
         cap.require_samples(plan.block_len, f"ripple extraction ({window})")
         chunks = cap.iter_chunks(("Ur", "Ir") + COMPANIONS, chunk_len)
         attrs = {"capture": str(capture), "np": plan.n_periods, "fr_nominal": plan.fr, "fs": cap.fs}
-        with SeriesWriter(series, SERIES_UNITS, attrs) as out:
+        config = {"n_periods": n_periods}
+        with SeriesWriter(series, SERIES_UNITS, attrs, inputs=[capture], config=config) as out:
             for block in impedance_series(chunks, plan, cap.fs, COMPANIONS):
                 out.write(block)
         logger.info(

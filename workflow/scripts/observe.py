@@ -16,10 +16,11 @@ def main(capture, gamma, observer, traces, stats, n_periods, transient_s=None, l
     logger = script_logging(log)
     poly, gains = load_gamma(gamma), load_gains(observer)
     result, trace = observe_capture(capture, poly, gains, n_periods, transient_s)
-    with SeriesWriter(traces, UNITS, {"capture": capture}) as out:
-        out.write(trace)
     config = {"n_periods": n_periods, "transient_s": transient_s}
-    write_json(result | {"provenance": provenance([capture, gamma, observer], config)}, stats)
+    inputs = [capture, gamma, observer]
+    with SeriesWriter(traces, UNITS, {"capture": capture}, inputs=inputs, config=config) as out:
+        out.write(trace)
+    write_json(result | {"provenance": provenance(inputs, config)}, stats)
     logger.info("%s: %s", capture, result)
 
 

@@ -13,9 +13,14 @@ from selfsense.methods.electromech import load_k_over_alpha
 def main(capture, model, power, samples, n_periods, interval=0.1, every=200, log=None):
     logger = script_logging(log)
     P, peaks, G = extract_capture(capture, load_k_over_alpha(model), n_periods, interval, every)
-    with SeriesWriter(power, {k: SERIES_UNITS[k] for k in P}, {"capture": capture} | peaks) as w:
+    made = {
+        "inputs": [capture, model],
+        "config": {"n_periods": n_periods, "interval": interval, "every": every},
+    }
+    attrs = {"capture": capture}
+    with SeriesWriter(power, {k: SERIES_UNITS[k] for k in P}, attrs | peaks, **made) as w:
         w.write(P)
-    with SeriesWriter(samples, {k: SERIES_UNITS[k] for k in G}, {"capture": capture}) as w:
+    with SeriesWriter(samples, {k: SERIES_UNITS[k] for k in G}, attrs, **made) as w:
         w.write(G)
     logger.info(
         "%s: %d power intervals, %d Γ_T samples, mean power %.3f W",

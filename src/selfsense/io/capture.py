@@ -45,7 +45,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
-from selfsense.io.provenance import provenance, temporary_path, write_json
+from selfsense.io.provenance import WRITE_ERRNO, provenance, temporary_path, write_json
 
 LOG = logging.getLogger("selfsense.io.capture")
 
@@ -501,24 +501,15 @@ def _read_back(path: Path, crcs: Mapping[str, int], chunk_len: int) -> str | Non
     return None
 
 
-#: what a failed write's errno means for the capture's folder
-_WRITE_ERRNO = {
-    errno.ENOSPC: "no space left on device",
-    errno.EDQUOT: "disk quota exceeded",
-    errno.EROFS: "folder is read-only (read-only file system)",
-    errno.EACCES: "folder is read-only (permission denied)",
-    errno.EPERM: "folder is read-only (operation not permitted)",
-    errno.EFBIG: "file too large (the file system's or the process's file size limit)",
-}
-
-
-def _cannot_write(path: Path, err: OSError, tmp: Path | None = None) -> CaptureWriteError:
-    """``<file>: cannot write the capture: <the cause>``, from the OS's errno."""
+def _cannot_write(
+    path: Path, err: OSError, tmp: Path | None = None, what: str = "capture"
+) -> CaptureWriteError:
+    """``<file>: cannot write the <what>: <the cause>``, from the OS's errno."""
     if err.errno == errno.ENAMETOOLONG:
         reason = _name_too_long(path, tmp)
     else:
-        reason = _WRITE_ERRNO.get(err.errno, err.strerror or str(err))
-    return CaptureWriteError(f"{path}: cannot write the capture: {reason}")
+        reason = WRITE_ERRNO.get(err.errno, err.strerror or str(err))
+    return CaptureWriteError(f"{path}: cannot write the {what}: {reason}")
 
 
 def _name_too_long(path: Path, tmp: Path | None) -> str:
@@ -1162,7 +1153,12 @@ class SeriesWriter:
     """Derived series (e.g. ripple-block estimates) appended chunk by chunk to a netCDF file.
 
     Analyses write their intermediate results with it so their memory stays flat; like
-    :class:`CaptureWriter`, the file appears only when complete.
+    :class:`CaptureWriter`, the file appears only when complete. Like a table, it gets a
+    provenance sidecar ``<series>.json`` with the sha256 of the ``inputs`` it was made from (the
+    capture, a model): ``selfsense audit`` follows a table made from the series down to the
+    capture, so a capture changed or deleted under it is found (the inputs are required: an
+    intermediate without them would end the audit's chain there). A full disk is one line
+    naming the series, as for a capture, and leaves neither file.
     """
 
     def __init__(
@@ -1171,47 +1167,97 @@ class SeriesWriter:
         variables: Mapping[str, str],
         attrs: Mapping[str, object] | None = None,
         dim: str = "block",
+        *,
+        inputs: Sequence[os.PathLike | str],
+        config: Mapping[str, object] | None = None,
     ):
         self.path = Path(path)
         self.tmp: Path | None = None
         self.variables = dict(variables)  # name -> units
         self.attrs = dict(attrs or {})
         self.dim = dim
+        self.inputs = [os.fspath(p) for p in inputs]
+        self.config = dict(config or {})
         self.n = 0
         self._nc: netCDF4.Dataset | None = None
 
     def __enter__(self) -> SeriesWriter:
-        self.tmp = temporary_path(self.path)
-        nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
-        nc.setncatts({k: _attr(v) for k, v in self.attrs.items()})
-        nc.createDimension(self.dim, None)
-        for name, units in self.variables.items():
-            nc.createVariable(
-                name, "f8", (self.dim,), zlib=True, complevel=1, shuffle=True, chunksizes=(1 << 14,)
-            ).units = units
-        _limit_chunk_cache(nc)
+        try:
+            self.tmp = temporary_path(self.path)
+            nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        except OSError as err:
+            raise self._unstorable(err) from None
+        try:
+            nc.setncatts({k: _attr(v) for k, v in self.attrs.items()})
+            nc.createDimension(self.dim, None)
+            for name, units in self.variables.items():
+                nc.createVariable(
+                    name,
+                    "f8",
+                    (self.dim,),
+                    zlib=True,
+                    complevel=1,
+                    shuffle=True,
+                    chunksizes=(1 << 14,),
+                ).units = units
+            _limit_chunk_cache(nc)
+        except BaseException:
+            nc.close()
+            _remove(self.tmp)
+            raise
         self._nc = nc
         return self
 
     def write(self, data: Mapping[str, np.ndarray]) -> None:
         assert self._nc is not None, "use SeriesWriter inside a with block"
         n = len(next(iter(data.values())))
-        for name in self.variables:
-            self._nc[name][self.n : self.n + n] = data[name]
+        try:
+            for name in self.variables:
+                self._nc[name][self.n : self.n + n] = data[name]
+        except (RuntimeError, OSError) as err:  # a chunk the cache flushed failed
+            raise self._unstorable(err) from None
         self.n += n
+
+    def _unstorable(self, err: Exception) -> CaptureError:
+        """Why the series could not be written, in one line naming it: the file system is asked,
+        as :meth:`CaptureWriter._unstorable` does (netCDF-C says only "HDF error")."""
+        cause = _no_room(self.tmp, 1 << 20)  # a chunk of 16 384 f8 values, and metadata
+        if cause is None and isinstance(err, OSError) and err.errno is not None:
+            cause = err
+        if cause is not None:
+            return _cannot_write(self.path, cause, self.tmp, "series")
+        return CaptureError(f"{self.path}: cannot write the series: HDF5 failed ({err})")
 
     def __exit__(self, exc_type, exc, tb) -> None:
         nc, self._nc = self._nc, None
-        if nc is not None:
-            nc.close()
+        try:
+            if nc is not None:
+                nc.close()  # flushes the chunks still cached
+        except (RuntimeError, OSError) as err:
+            problem = self._unstorable(err) if exc_type is None else None
+            _remove(self.tmp)
+            if problem is not None:
+                raise problem from None
         if exc_type is not None:
-            self.tmp.unlink(missing_ok=True)
+            _remove(self.tmp)
             return
-        os.replace(self.tmp, self.path)
+        try:
+            os.replace(self.tmp, self.path)
+        except OSError as err:
+            _remove(self.tmp)
+            raise _cannot_write(self.path, err, self.tmp, "series") from None
+        try:
+            write_json(provenance(self.inputs, self.config), f"{self.path}.json")
+        except BaseException:
+            # a series without its sidecar would stop the audit's chain: neither is left
+            self.path.unlink(missing_ok=True)
+            raise
 
 
 def series_scalars(path: os.PathLike | str) -> dict[str, float]:
     """The numeric attributes a :class:`SeriesWriter` stored with a series (say, a run's peaks)."""
+    if not Path(path).exists():
+        raise _fail(path, "no such series")
     try:
         with netCDF4.Dataset(path) as nc:
             return {
@@ -1228,6 +1274,8 @@ def read_series(
 ) -> dict[str, np.ndarray]:
     """A derived series written by :class:`SeriesWriter`, whole (they are ns× smaller than
     captures)."""
+    if not Path(path).exists():  # netCDF-C would say only "No such file or directory"
+        raise _fail(path, "no such series")
     try:
         with netCDF4.Dataset(path) as nc:
             names = list(nc.variables) if names is None else names

@@ -13,7 +13,7 @@ from __future__ import annotations
 import copy
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache, lru_cache
 from importlib import resources
@@ -463,6 +463,7 @@ def expand_protocols(
                 _replace(
                     doc, key, value, f"{source or path}: key protocol_overrides.{chapter}:{key}"
                 )
+            _validate_overridden(doc, chapter, by_chapter[chapter], source or path, path)
         for name, entry in doc["experiments"].items():
             entry = dict(entry)
             smoke = entry.pop("smoke", {})
@@ -528,15 +529,81 @@ def _overrides_by_protocol(
 
 
 def _replace(doc: Any, dotted: str, value: float, where: str) -> None:
-    """Set the number at a dotted key of a protocol document (a list's element by its index)."""
+    """Set the number at a dotted key of a protocol document (a list's element by its index:
+    0 to its length − 1, digits only, so that "-5", "first" or "9" of a 2-element list is one line
+    naming the key, not an IndexError or AttributeError)."""
+
+    def child(node: Any, key: str) -> Any:
+        if isinstance(node, list):
+            if not (_LIST_INDEX.fullmatch(key) and int(key) < len(node)):
+                n = len(node)
+                has = f"has {n} element{'' if n == 1 else 's'} (0 to {n - 1})" if n else "is empty"
+                raise ManifestError(
+                    f"{where}: {key[:40]!r} is not an index of the list there, which {has}",
+                    "protocol_overrides",
+                )
+            return node[int(key)]
+        if isinstance(node, Mapping) and key in node:
+            return node[key]
+        raise ManifestError(f"{where}: the protocol has no such key", "protocol_overrides")
+
     *parents, last = dotted.split(".")
     node = doc
     for key in parents:
-        node = node[int(key)] if isinstance(node, list) and key.isdigit() else node.get(key)
-        if not isinstance(node, (Mapping, list)):
-            raise ManifestError(f"{where}: the protocol has no such key", "protocol_overrides")
-    index = int(last) if isinstance(node, list) and last.isdigit() else last
-    present = index < len(node) if isinstance(index, int) else index in node
-    if not present or not isinstance(node[index], (int, float)) or isinstance(node[index], bool):
+        node = child(node, key)
+    held = child(node, last) if isinstance(node, list) else node.get(last)
+    if not isinstance(held, (int, float)) or isinstance(held, bool):
         raise ManifestError(f"{where}: the protocol holds no number there", "protocol_overrides")
-    node[index] = value
+    node[int(last) if isinstance(node, list) else last] = value
+
+
+#: a list's index in a protocol override's dotted key: digits only (str.isdigit() also takes "²",
+#: which int() refuses)
+_LIST_INDEX = re.compile(r"[0-9]+")
+
+
+def _validate_overridden(
+    doc: Any, chapter: str, overrides: Mapping[str, Any], source: Any, protocol: Path
+) -> None:
+    """The protocol document with a manifest's overrides applied, held to the protocol schema's
+    limits again (durations, counts, types: the file alone was checked when it was read, so a
+    drawn ``duration: 1e12`` or ``-5`` would otherwise reach the twin). The first problem is one
+    line naming the manifest and the override's key."""
+    for key, value in overrides.items():
+        _check_finite(value, source, f"protocol_overrides.{chapter}:{key}")
+    # only the experiments overridden: validating a whole protocol (ch7's) costs ≈ 10 ms, and an
+    # envelope's members are expanded at the workflow's parse
+    touched = {k.split(".")[1] for k in overrides if k.startswith("experiments.") and "." in k[12:]}
+    if all(k.startswith("experiments.") for k in overrides) and touched <= set(doc["experiments"]):
+        doc = doc | {"experiments": {name: doc["experiments"][name] for name in touched}}
+    errors = list(_validator("protocol.schema.yaml").iter_errors(doc))
+    if not errors:
+        return
+
+    def dotted(error: jsonschema.ValidationError) -> str:
+        return ".".join(str(p) for p in error.absolute_path)
+
+    def causes(error: jsonschema.ValidationError) -> Iterator[jsonschema.ValidationError]:
+        yield error
+        for sub in error.context or ():
+            yield from causes(sub)
+
+    # an override replaces a number, so each of the schema's complaints is at an override's key
+    # or at a parent of it (compensation's oneOf of R and c, an experiment's allOf, whose failure
+    # also makes its properties "unevaluated"): the deepest one at or above an override names it
+    found = [
+        (len(dotted(e)), e, k)
+        for e in (c for error in errors for c in causes(error))
+        for k in overrides
+        if e.validator != "unevaluatedProperties"
+        and (k == dotted(e) or k.startswith(f"{dotted(e)}."))
+    ]
+    if found:
+        _, error, key = max(found, key=lambda t: t[0])
+    else:
+        error, key = jsonschema.exceptions.best_match(errors), " and ".join(overrides)
+    raise ManifestError(
+        f"{source}: key protocol_overrides.{chapter}:{key}: {error.message} (a limit of the "
+        f"protocol schema, src/selfsense/io/schemas/protocol.schema.yaml)",
+        "protocol_overrides",
+    )

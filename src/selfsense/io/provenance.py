@@ -9,6 +9,7 @@ the same captures gives byte-identical tables.
 
 from __future__ import annotations
 
+import errno
 import glob
 import hashlib
 import json
@@ -108,16 +109,66 @@ def _host() -> str:
     return label or "host"
 
 
+#: what a failed write's errno means for the folder of the file written (a capture, a series, a
+#: table, a figure, a report)
+WRITE_ERRNO = {
+    errno.ENOSPC: "no space left on device",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "folder is read-only (read-only file system)",
+    errno.EACCES: "folder is read-only (permission denied)",
+    errno.EPERM: "folder is read-only (operation not permitted)",
+    errno.EFBIG: "file too large (the file system's or the process's file size limit)",
+}
+#: the errnos that can only mean the write failed, whichever file the OS names (pandas and
+#: matplotlib raise a full disk's ENOSPC on a flush, with no file name)
+_WRITE_ONLY_ERRNO = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG)
+
+
+class OutputWriteError(OSError):
+    """An output (table, figure, report) its folder cannot take: one line,
+    ``<file>: cannot write the output: no space left on device``. An OSError still (errno,
+    strerror and filename are the output's), so callers that handle file-system errors do."""
+
+    def __init__(self, path: str | os.PathLike, err: OSError):
+        reason = WRITE_ERRNO.get(err.errno, err.strerror or str(err))
+        super().__init__(err.errno, reason, os.fspath(path))
+
+    def __str__(self) -> str:
+        return f"{self.filename}: cannot write the output: {self.strerror}"
+
+
+def _is_write_error(err: OSError, *paths: Path) -> bool:
+    """Whether ``err`` is the folder refusing one of ``paths`` (not an input failing to open)."""
+    if err.errno in _WRITE_ONLY_ERRNO:
+        return True
+    named = {os.fspath(p) for p in paths}
+    return err.errno in WRITE_ERRNO and os.fspath(err.filename or "") in named
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
+    """Yield a temporary path beside ``path``; rename it over ``path`` only on success. A full
+    disk, a quota or a read-only folder is :class:`OutputWriteError`, naming ``path``; no
+    temporary is left."""
     path = Path(path)
-    tmp = temporary_path(path, hidden=True)
+    try:
+        tmp = temporary_path(path, hidden=True)
+    except OSError as err:  # the folder cannot be made
+        if _is_write_error(err, path, path.parent):
+            raise OutputWriteError(path, err) from None
+        raise
     try:
         yield tmp
         os.replace(tmp, path)
+    except OSError as err:
+        if not isinstance(err, OutputWriteError) and _is_write_error(err, path, tmp):
+            raise OutputWriteError(path, err) from None
+        raise
     finally:
-        tmp.unlink(missing_ok=True)
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:  # a read-only folder: its error is the one raised
+            pass
 
 
 def sha256(path: str | os.PathLike) -> str:
@@ -229,7 +280,18 @@ def write_table(
     spreadsheet would run as a formula is written inert (:func:`spreadsheet_safe`)."""
     with atomic_path(path) as tmp:
         spreadsheet_safe(table).to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
-    write_json(provenance(inputs, config, seed, **extra), f"{path}.json")
+    _with_sidecar([path], provenance(inputs, config, seed, **extra), f"{path}.json")
+
+
+def _with_sidecar(outputs: Iterable[str | os.PathLike], record: Any, sidecar: str) -> None:
+    """Write the outputs' provenance sidecar; if it cannot be written (a full disk), remove the
+    outputs too: an output without its sidecar would pass for one made before provenance."""
+    try:
+        write_json(record, sidecar)
+    except BaseException:
+        for output in outputs:
+            Path(output).unlink(missing_ok=True)
+        raise
 
 
 #: a text cell that starts with one of these is a formula to a spreadsheet (OWASP, "CSV Injection")
@@ -298,7 +360,9 @@ def save_figure(
                 bbox_inches="tight",
                 metadata={"CreationDate": None} if target.suffix == ".pdf" else {"Software": None},
             )
-    write_json(provenance(inputs, config, **extra), f"{path}.json")
+    _with_sidecar(
+        [path, beside] if pdf else [path], provenance(inputs, config, **extra), f"{path}.json"
+    )
 
 
 def modified_utc(path: str | os.PathLike) -> str:
@@ -306,8 +370,13 @@ def modified_utc(path: str | os.PathLike) -> str:
     return time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(Path(path).stat().st_mtime))
 
 
-def script_logging(log_path: str | os.PathLike | None) -> logging.Logger:
-    """Log a rule's script to its ``log:`` file (or stderr when run alone)."""
+def script_logging(
+    log_path: str | os.PathLike | None, inputs: Iterable[str | os.PathLike] | None = None
+) -> logging.Logger:
+    """Log a rule's script to its ``log:`` file (or stderr when run alone). A failure's one-line
+    reason goes to the log; one whose job's input is gone (``inputs``, by default the rule's,
+    ``snakemake.input`` of the script Snakemake runs) is that one line on the terminal too,
+    without a traceback."""
     logger = logging.getLogger("selfsense")
     logger.setLevel(logging.INFO)
     handler = logging.FileHandler(log_path, mode="w") if log_path else logging.StreamHandler()
@@ -315,26 +384,63 @@ def script_logging(log_path: str | os.PathLike | None) -> logging.Logger:
     logger.handlers[:] = [handler]
     if log_path:
         sys.excepthook = _log_then_raise(
-            logger, sys.__excepthook__
+            logger, sys.__excepthook__, inputs
         )  # once, however often this runs
     return logger
 
 
-def _log_then_raise(logger: logging.Logger, hook):
+def _log_then_raise(logger: logging.Logger, hook, inputs=None):
     """An excepthook that first writes the failure's one-line reason to the rule's log:
-    Snakemake points the user at that file, and the traceback goes only to the terminal."""
+    Snakemake points the user at that file, and the traceback goes only to the terminal. When an
+    input of the job is gone, that is the reason, and the terminal gets the same line alone:
+    Snakemake saw every input before it started the job, so another run (or a hand) removed it
+    while the job ran, and nothing in the code failed."""
 
     def excepthook(kind, error, tb):
+        gone = missing_inputs(_job_inputs() if inputs is None else inputs)
+        if gone:
+            line = missing_input_line(gone, error)
+            logger.error("%s", line)
+            print(line, file=sys.stderr)
+            return
         logger.error("%s", one_line_reason(error))
         hook(kind, error, tb)
 
     return excepthook
 
 
+def _job_inputs() -> list[str]:
+    """The input files of the rule whose script this is (``snakemake.input`` in the script
+    Snakemake runs as ``__main__``); none outside Snakemake."""
+    job = getattr(sys.modules.get("__main__"), "snakemake", None)
+    return [str(p) for p in getattr(job, "input", ())]
+
+
+def missing_inputs(inputs: Iterable[str | os.PathLike]) -> list[str]:
+    """Those of ``inputs`` that are not there now."""
+    return [str(p) for p in inputs if not os.path.exists(p)]
+
+
+def missing_input_line(gone: list[str], error: BaseException) -> str:
+    """``<input>: missing input: …``, one line naming the first input gone (and how many more)
+    and what the job stopped on."""
+    more = f" (and {len(gone) - 1} more: {', '.join(gone[1:3])}{' …' if len(gone) > 3 else ''})"
+    stopped = one_line_reason(error)
+    stopped = stopped if len(stopped) <= 200 else stopped[:197] + "..."
+    return (
+        f"{gone[0]}{more if len(gone) > 1 else ''}: missing input: it was there when this job "
+        "started and was removed while it ran (by another run, or by hand); run again, and "
+        f"Snakemake makes it anew or says why it cannot (the job stopped on: {stopped})"
+    )
+
+
 def one_line_reason(error: BaseException) -> str:
     """The message the user needs: ours are one line naming the file already; others get their
     type in front."""
     text = " ".join(str(error).split())
-    if any(c.__name__ in ("CaptureError", "ManifestError") for c in type(error).__mro__):
+    if any(
+        c.__name__ in ("CaptureError", "ManifestError", "OutputWriteError")
+        for c in type(error).__mro__
+    ):
         return text
     return f"{type(error).__name__}: {text}" if text else type(error).__name__

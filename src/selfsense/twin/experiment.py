@@ -10,16 +10,31 @@ The twin as a whole is described in :mod:`selfsense.twin` (docs/design.md, "The 
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from selfsense.io.capture import ScanReport, UnshrinkableChunk, compression_settings
-from selfsense.io.manifest import ManifestError, catalogue, load_dataset
+from selfsense.io.manifest import (
+    PROTOCOLS,
+    ManifestError,
+    catalogue,
+    load_dataset,
+    protocol_duration,
+)
 from selfsense.methods.drive import Drive, drive_from_protocol
 from selfsense.twin.bench import Bench, Controller, DaqPlan, simulate_capture
 from selfsense.twin.params import TwinParams
 
 LOG = logging.getLogger("selfsense.twin")
+
+#: the most samples (per fast channel) one simulated capture may have: 2**28 ≈ 268 M, 5 600 s at
+#: the stack's 48 kHz. The thesis campaign's longest capture is Chapter 7's 150 Hz heating run,
+#: 1 603 s or 77 M samples (≈ 1.5 GB of int16 channels before compression); its whole campaign is
+#: ≈ 460 M samples, so a single capture past this bound, 3.5× the longest, is a typo or a drawn
+#: override, not an experiment, and would fill a disk for hours before failing. Checked before
+#: the writer opens, so nothing reaches raw/.
+MAX_CAPTURE_SAMPLES = 1 << 28
 
 __all__ = [
     "Bench",
@@ -85,6 +100,7 @@ def simulate_experiment(
             f"{where}: unknown experiment {experiment!r} for campaign {config['campaign']}"
         )
     exp = experiments[experiment]
+    _check_capture_size(exp, manifest, where)
     cap = config["capture"]
     warmup = float(exp.protocol.get("warmup", 0.0))
     attrs = {
@@ -130,6 +146,32 @@ def simulate_experiment(
             drive_leak,
             identified,
         )
+
+
+def _check_capture_size(exp, manifest: Mapping, where: Path) -> None:
+    """Refuse, in one line naming the file and the key that set the run's length, a capture
+    longer than :data:`MAX_CAPTURE_SAMPLES`, before anything is written."""
+    fs = float(manifest["daq"]["fs"])
+    duration = protocol_duration(exp.protocol)
+    samples = duration * fs
+    if samples <= MAX_CAPTURE_SAMPLES:
+        return
+    # the manifest's overrides of this run's protocol, if any, set its length; else its file
+    entry = re.sub(r"_s[0-9]+$", "", exp.name)  # a set's runs are <entry>_s<k>
+    prefix = f"{exp.chapter}:experiments.{entry}."
+    keys = [k for k in manifest.get("protocol_overrides", {}) if k.startswith(prefix)]
+    source = (
+        f"{where}: key protocol_overrides.{' and '.join(keys)}"
+        if keys
+        else f"{PROTOCOLS / exp.chapter}.yaml: key experiments.{entry}"
+    )
+    raise ManifestError(
+        f"{source}: experiment {exp.name} would record {samples:.4g} samples "
+        f"({duration:.6g} s at daq.fs = {fs:g} Hz), more than a capture may hold "
+        f"({MAX_CAPTURE_SAMPLES}, selfsense.twin.experiment.MAX_CAPTURE_SAMPLES; the thesis's "
+        "longest has 77 M): shorten its segments, repeat or warmup",
+        "protocol_overrides" if keys else f"experiments.{entry}",
+    )
 
 
 def _simulate(
