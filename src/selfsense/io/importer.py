@@ -375,8 +375,8 @@ def _flag(req: Request, channel: str) -> str:
     if given is None:
         return ""
     option = next(o for o, kind in SCALE_KINDS.items() if kind == given[1])
-    text = f"{given[0]:g}"
-    return f"{option} {channel}={text if float(text) == given[0] else repr(given[0])}"
+    exact = [text for text in (f"{given[0]:g}", repr(given[0])) if float(text) == given[0]]
+    return f"{option} {channel}={min(exact, key=len)}"  # 20, not 20.0; 1e-320, not 9.99989e-321
 
 
 def _plausibility(source: Source, req: Request, c: Column, s: _ChannelSummary) -> None:
