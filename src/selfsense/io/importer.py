@@ -14,13 +14,16 @@ the columns asked for (not all empty, not one value throughout), overload sentin
 ``1e308``, ±inf: stored as missing and counted, refused beyond
 :data:`~selfsense.io.contract.CLIP_LIMIT` of a channel) before a range is derived from the data, a
 derived range against what a piezo bench can record (:data:`PLAUSIBLE`: a unit slip shows as
-metres of stroke), the time axis against a least-squares line through it, the clipping against the
-ranges. The source is read twice, in its reader's chunks: a first pass checks and sums up, the
-second streams into the capture, so memory does not grow with the file's length (a v4–v7 ``.mat``
-file is loaded whole by scipy). Imports into one dataset take its lock
-(:mod:`selfsense.io.dataset_lock`) and run one after another. The capture is written to a hidden
-temporary, read back, and linked to its name only if no file has it (an existing capture is never
-overwritten); the manifest follows by an atomic rename. A failure leaves nothing behind: no
+metres of stroke; where a --scale or --gain made it so, the refusal names the option), the time
+axis against a least-squares line through it, the clipping against the ranges, and the span of
+each channel in its range (at least :data:`MIN_CODES` int16 codes: a factor of 1e-320 leaves none).
+A reader refuses one column named for two channels and a sample the file never held (a v7.3
+variable declared longer than written). The source is read twice, in its reader's chunks: a
+first pass checks and sums up, the second streams into the capture, so memory does not grow with
+the file's length (a v4–v7 ``.mat`` file is loaded whole by scipy). Imports into one dataset take
+its lock (:mod:`selfsense.io.dataset_lock`) and run one after another. The capture is written to a
+hidden temporary, read back, and linked to its name only if no file has it (an existing capture is
+never overwritten); the manifest follows by an atomic rename. A failure leaves nothing behind: no
 capture, no temporary, no manifest change, no new folder. Every refusal is an
 :class:`~selfsense.io.sources.ImportProblem`, one line naming the file or the argument and, where
 it can, what to type instead.

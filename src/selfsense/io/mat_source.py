@@ -17,7 +17,9 @@ dataset ``Y``, ``data[k]`` MATLAB's ``data(:,k)``, the dataset's row k − 1. :c
 reads them in chunks by h5py's slicing, as the CSV reader streams. Complex (a compound of real and
 imag), logical and char variables are refused as they are in a v7 file; cell and struct arrays
 (object references) are refused in one line: save with ``-v7``, or store the channels as
-matrices.
+matrices. A variable declared longer than the samples written (a ``matfile`` preallocation whose
+logging stopped) is refused: h5py would read its chunks never written as the fill value
+(:func:`unwritten`).
 """
 
 from __future__ import annotations

@@ -13,6 +13,10 @@ A channel's ``wf_increment`` property (LabVIEW's waveform Δt) declares fs = 1/w
 import uses it when neither --time nor --fs is given, else they must agree with it
 (:data:`~selfsense.io.sources.DECLARED_FS_RTOL`), as the requested channels' must among
 themselves.
+
+A file whose last segment ends before its data do (a write interrupted) is cut to the samples
+every requested channel holds, and :attr:`TdmsSource.note` says so: TDMS has no fill value, so
+nptdms reads only what the file holds and no sample is made up.
 """
 
 from __future__ import annotations
