@@ -374,6 +374,13 @@ def lines_of(t, u, x):
             ["--fs", "5000", "--no-header"],
             ["its first line ('Run 3 of 2024') is one field", "remove the lines above the data"],
         ),
+        (  # the title shares only the spaces with the rows: it once made ' ' the separator
+            "title_spaced.csv",
+            "Run 3 of 2024\nt, U, x\n{spaced}",
+            ["U=U:V"],
+            ["--time", "t:s"],
+            ["its first line ('Run 3 of 2024') is one field, the lines after it split into 3"],
+        ),
         (
             "cut.csv",
             "t,U,x\n{rows}0.7,1.5",
@@ -398,7 +405,8 @@ def lines_of(t, u, x):
 )
 def test_a_text_file_refusal_names_the_real_cause(tmp_path, name, text, channels, extra, fragments):
     source = tmp_path / name
-    source.write_text(text.format(rows=lines_of(*ellipse(periods=1))))
+    rows = lines_of(*ellipse(periods=1))
+    source.write_text(text.format(rows=rows, spaced=rows.replace(",", ", ")))
     refused(import_args(source, tmp_path / "raw", *channels, extra=extra), *fragments)
 
 
