@@ -61,8 +61,11 @@ to keep it. A CSV, TDMS or v7.3 file is read in chunks, only the columns asked f
 Data rows that end in the separator while the header does not keep their columns. Overload
 values (|v| >= 1e30, e.g. 9.9E+37, or +-inf) are stored as missing and counted (the capture's
 import_note), before a range is derived; a channel overloaded in more than 1 % of its samples,
-or without a single value, is refused. Imports into one dataset run one after another (its
-lock, raw/<dataset>/.import.lock); an existing capture is never overwritten.
+or without a single value, is refused; so is one column named for two channels, a --gain or
+--scale that leaves a channel fewer than 64 int16 codes of its range, and a v7.3 variable
+declared longer than the samples written (a TDMS file whose last segment was cut is cut to the
+samples it holds, and says so). Imports into one dataset run one after another (its lock,
+raw/<dataset>/.import.lock); an existing capture is never overwritten.
 """
 
 

@@ -100,10 +100,19 @@ def _both(path: os.PathLike | str, problem: str, manifest_path: os.PathLike | st
 
 
 def clipping_problem(
-    channel: str, clipped: int, samples: int, lo: float, hi: float, manifest_path: os.PathLike | str
+    channel: str,
+    clipped: int,
+    samples: int,
+    lo: float,
+    hi: float,
+    manifest_path: os.PathLike | str,
+    origin: str | None = None,
+    factor: str = "",
 ) -> str | None:
     """Why a channel clipped in more than CLIP_LIMIT of its samples cannot be analysed, with the
-    likely cause; None when it is within the limit."""
+    likely cause; None when it is within the limit. ``origin``: where the range was given, if not
+    in the manifest (an import's --range); ``factor``: the option that scaled the values, if one
+    did (it is as likely a cause as the unit)."""
     if samples == 0 or clipped <= CLIP_LIMIT * samples:
         return None
     unit = CHANNEL_UNITS[channel][0]
@@ -111,8 +120,9 @@ def clipping_problem(
     return (
         f"channel {channel} is clipped in {100 * clipped / samples:.3g} % of its {samples} samples "
         f"(more than {100 * CLIP_LIMIT:g} %): the ADC range [{lo:g}, {hi:g}] {unit} "
-        f"(daq.ranges.{channel} in {manifest_path}) is too narrow, or the values are in the wrong "
-        f"unit ({slip}?)"
+        f"({origin or f'daq.ranges.{channel} in {manifest_path}'}) is too narrow, or the values "
+        f"are in the wrong unit ({slip}?)"
+        + (f", or {factor} is not their factor" if factor else "")
     )
 
 

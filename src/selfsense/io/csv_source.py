@@ -36,6 +36,7 @@ from selfsense.io.sources import (
     ImportProblem,
     column_spans,
     listed,
+    one_column_each,
     source_labels,
 )
 
@@ -110,6 +111,9 @@ def detect_separator(path: Path, lines: Sequence[str]) -> str:
     alike = splitting(lines)
     if alike:
         return alike[0]
+    below = splitting(lines[1:]) if len(lines) > 2 else []
+    if below:  # a title or comment line above the table: the layout check names it
+        return below[0]
     ragged = [s for s in DETECTED_SEPARATORS if all(_fields(line, s) >= 2 for line in lines)]
     if ragged:
         return ragged[0]
@@ -141,6 +145,7 @@ class CsvSource:
 
     rows = "rows"
     declared_fs = None  # a CSV has no clock of its own
+    note = ""
 
     def __init__(self, path: Path, columns: Sequence[Column], sep: str | None, header: bool):
         self.path, self.header = path, header
@@ -165,6 +170,7 @@ class CsvSource:
             columns,
             lambda c: f"column {c.spelled if isinstance(c.source, int) else repr(c.source)}",
         )
+        one_column_each(path, self.labels, self.positions)
         self.chunk_rows = int(min(CHUNK_ROWS, max(64, CSV_CHUNK_CELLS // self.width)))
 
     @staticmethod
@@ -233,10 +239,25 @@ class CsvSource:
             self._one_field()
         if last is not None and len(rows) == CHECKED_ROWS:
             rows.append(("the last", last))
+        first, after = (names, rows) if names is not None else (rows[0][1], rows[1:])
+        below = {len(row) for _, row in after}
+        if len(first) == 1 and len(below) == 1 and min(below) >= 2:
+            raise ImportProblem(
+                f"{self.path}: its first line ({first[0].strip()[:40]!r}) is one field, the "
+                f"lines after it split into {min(below)} at {self.sep!r}: a title or comment "
+                "above the table: remove the lines above the "
+                + ("header" if names is not None else "data")
+            )
         trailing = False
         for k, row in rows:
             if len(row) == width + 1 and row[-1].strip() == "":
                 trailing = True  # one more, empty field: the row ends in the separator
+            elif k == "the last" and len(row) < width:
+                raise ImportProblem(
+                    f"{self.path}: the last data row has {len(row)} fields where the rows "
+                    f"before it have {width}: the file ends inside a row, as an interrupted write "
+                    "leaves it: remove its last line, or export the file again"
+                )
             elif len(row) != width:
                 where = f"data row {k}" if isinstance(k, int) else "the last data row"
                 hint = (
@@ -420,6 +441,11 @@ class CsvSource:
             k = int(np.argmax(bad.to_numpy()))
             cell = str(series.iloc[k])
             comma = re.fullmatch(r"\s*[-+]?\d*,\d+\s*", cell)
+            if not self.header and start + k == 0 and int(bad.sum()) == 1:
+                raise ImportProblem(
+                    f"{self.path}: {self.labels[name]} holds {cell!r} in its first row and numbers "
+                    "below it: the file has a header row: leave --no-header out"
+                )
             raise ImportProblem(
                 f"{self.path}: {self.labels[name]} holds {cell!r} at data row "
                 f"{start + k + 1}, not a number"

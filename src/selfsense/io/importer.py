@@ -14,13 +14,16 @@ the columns asked for (not all empty, not one value throughout), overload sentin
 ``1e308``, ±inf: stored as missing and counted, refused beyond
 :data:`~selfsense.io.contract.CLIP_LIMIT` of a channel) before a range is derived from the data, a
 derived range against what a piezo bench can record (:data:`PLAUSIBLE`: a unit slip shows as
-metres of stroke), the time axis against a least-squares line through it, the clipping against the
-ranges. The source is read twice, in its reader's chunks: a first pass checks and sums up, the
-second streams into the capture, so memory does not grow with the file's length (a v4–v7 ``.mat``
-file is loaded whole by scipy). Imports into one dataset take its lock
-(:mod:`selfsense.io.dataset_lock`) and run one after another. The capture is written to a hidden
-temporary, read back, and linked to its name only if no file has it (an existing capture is never
-overwritten); the manifest follows by an atomic rename. A failure leaves nothing behind: no
+metres of stroke; where a --scale or --gain made it so, the refusal names the option), the time
+axis against a least-squares line through it, the clipping against the ranges, and the span of
+each channel in its range (at least :data:`MIN_CODES` int16 codes: a factor of 1e-320 leaves none).
+A reader refuses one column named for two channels and a sample the file never held (a v7.3
+variable declared longer than written). The source is read twice, in its reader's chunks: a
+first pass checks and sums up, the second streams into the capture, so memory does not grow with
+the file's length (a v4–v7 ``.mat`` file is loaded whole by scipy). Imports into one dataset take
+its lock (:mod:`selfsense.io.dataset_lock`) and run one after another. The capture is written to a
+hidden temporary, read back, and linked to its name only if no file has it (an existing capture is
+never overwritten); the manifest follows by an atomic rename. A failure leaves nothing behind: no
 capture, no temporary, no manifest change, no new folder. Every refusal is an
 :class:`~selfsense.io.sources.ImportProblem`, one line naming the file or the argument and, where
 it can, what to type instead.
@@ -42,6 +45,8 @@ import yaml
 
 from selfsense import __version__
 from selfsense.io.capture import (
+    CHANNEL_UNITS,
+    INT16_FULL,
     MIN_SAMPLES,
     SLOW_CHANNELS,
     CaptureError,
@@ -103,6 +108,14 @@ PLAUSIBLE: dict[str, Plausible] = {
     # within it: only a kN slip beyond)
     "N": Plausible("a force on a piezo actuator", typical=1e3, peak=1e6),
 }
+#: a channel's values span at least this many of the 65534 int16 codes of its range. Fewer, and
+#: its quantisation step exceeds 1.6 % of its span, as coarse as the loop widths and
+#: nonlinearities the analyses report in % of stroke; a bench's ADC gives a channel that uses
+#: only a tenth of its range 6500 codes (a 12-bit one 410 levels), so fewer is a factor, a unit
+#: or a range too wide for the data, not a recording
+MIN_CODES = 64
+#: what a refusal calls a range the import derives from the data
+DERIVED = "derived from the data"
 #: a derived ADC range leaves this fraction of the data's span free on each side
 RANGE_MARGIN = 0.1
 #: a derived range spans at least this fraction of the data's magnitude (a constant channel)
@@ -136,8 +149,9 @@ SCALE_ATTR_PREFIX = "scale_"
 
 @dataclass
 class _ChannelSummary:
-    """A channel's cells: how many, missing, overloaded; the finite ones' span [contract unit];
-    how many fall outside a range known before the pass."""
+    """A channel's cells: how many, missing, overloaded; the finite ones' span as recorded
+    (``raw_lo``, ``raw_hi``) and in the contract unit (:attr:`lo`, :attr:`hi`); how many fall
+    outside a range known before the pass."""
 
     label: str
     factor: float
@@ -146,8 +160,8 @@ class _ChannelSummary:
     missing: int = 0
     overload: int = 0
     first_overload: tuple[int, float] | None = None
-    lo: float = math.inf
-    hi: float = -math.inf
+    raw_lo: float = math.inf
+    raw_hi: float = -math.inf
     outside: int = 0
 
     def add(self, start: int, raw: np.ndarray) -> None:
@@ -160,10 +174,12 @@ class _ChannelSummary:
             k = int(np.argmax(over))
             self.first_overload = (start + k + 1, float(raw[k]))
         self.overload += count
-        good = raw[~(nan | over)] * self.factor
+        good = raw[~(nan | over)]
         if good.size:
-            self.lo, self.hi = min(self.lo, float(good.min())), max(self.hi, float(good.max()))
+            self.raw_lo = min(self.raw_lo, float(good.min()))
+            self.raw_hi = max(self.raw_hi, float(good.max()))
             if self.known:
+                good = good * self.factor
                 self.outside += int(
                     np.count_nonzero((good < self.known[0]) | (good > self.known[1]))
                 )
@@ -171,6 +187,14 @@ class _ChannelSummary:
     @property
     def valid(self) -> int:
         return self.n - self.missing - self.overload
+
+    @property
+    def lo(self) -> float:
+        return min(self.raw_lo * self.factor, self.raw_hi * self.factor)  # a factor may be < 0
+
+    @property
+    def hi(self) -> float:
+        return max(self.raw_lo * self.factor, self.raw_hi * self.factor)
 
 
 @dataclass
@@ -265,9 +289,10 @@ def channel_factors(req: Request) -> dict[str, float]:
 
 def _judge_channels(source: Source, summary: _Summary) -> list[str]:
     """Refuse a channel without a single value, overloaded beyond CLIP_LIMIT, or holding one
-    value throughout (a column counted from 0 where 1 was meant, a DAQ's idle input: never a
-    measurement, and an analysis would divide by its zero span); notes for the overloads stored
-    as missing."""
+    value throughout as recorded (a column counted from 0 where 1 was meant, a DAQ's idle input:
+    never a measurement, and an analysis would divide by its zero span; one that a factor
+    collapses is the factor's fault, :func:`_resolution`'s); notes for the overloads stored as
+    missing."""
     notes = []
     for name, s in summary.channels.items():
         if s.valid == 0:
@@ -284,13 +309,13 @@ def _judge_channels(source: Source, summary: _Summary) -> list[str]:
                 f"±inf, first {value:g} at data row {row}): the DAQ's sentinel for a saturated "
                 "input, too many to store as missing"
             )
-        if s.lo == s.hi:
+        if s.raw_lo == s.raw_hi:
             where = f"all {s.n} {source.rows}" + (
                 f" ({s.n - s.valid} empty or overloaded)" if s.valid < s.n else ""
             )
             hint = source.varying(name)
             raise ImportProblem(
-                f"{source.path}: {s.label} holds one value ({s.lo / s.factor:.10g}) in {where}: "
+                f"{source.path}: {s.label} holds one value ({s.raw_lo:.10g}) in {where}: "
                 f"not a measurement" + (f"; {hint}" if hint else "")
             )
         if s.overload:
@@ -347,12 +372,32 @@ def _implausible(quantity: str, lo: float, hi: float) -> str | None:
     return None
 
 
-def _plausibility(source: Source, c: Column, s: _ChannelSummary) -> None:
-    """Refuse a derived range no piezo bench records, naming the unit that would bring it in
-    (the one of the quantity's family nearest PLAUSIBLE's typical magnitude) and --range."""
+def _flag(req: Request, channel: str) -> str:
+    """The --scale or --gain option that scaled the channel, as typed; "" if none did."""
+    given = (req.scales or {}).get(channel)
+    if given is None:
+        return ""
+    option = next(o for o, kind in SCALE_KINDS.items() if kind == given[1])
+    exact = [text for text in (f"{given[0]:g}", repr(given[0])) if float(text) == given[0]]
+    return f"{option} {channel}={min(exact, key=len)}"  # 20, not 20.0; 1e-320, not 9.99989e-321
+
+
+def _plausibility(source: Source, req: Request, c: Column, s: _ChannelSummary) -> None:
+    """Refuse a derived range no piezo bench records, naming the factor where one scaled the
+    column (and what the column is without it), else the unit that would bring it in (the one
+    of the quantity's family nearest PLAUSIBLE's typical magnitude), and --range."""
     problem = _implausible(c.quantity, s.lo, s.hi)
     if problem is None:
         return
+    flag = _flag(req, c.name)
+    if flag:
+        lo, hi = sorted((s.raw_lo * c.factor, s.raw_hi * c.factor))
+        unscaled = _implausible(c.quantity, lo, hi) is None
+        without = f" (without the factor it spans {_quantity(hi - lo, c.quantity)})"
+        raise ImportProblem(
+            f"{flag}: {c.name} {problem}{without if unscaled else ''}; check the factor, or give "
+            f"--range {c.name}=LOW,HIGH to keep it"
+        )
     rule = PLAUSIBLE[c.quantity]
     units = UNITS[c.quantity]
     fits = []
@@ -372,6 +417,53 @@ def _plausibility(source: Source, c: Column, s: _ChannelSummary) -> None:
     raise ImportProblem(
         f"{source.path}: {c.name} {problem}; {suggestion}give --range {c.name}=LOW,HIGH to keep it"
     )
+
+
+def _range_origin(
+    manifest: Mapping[str, Any] | None, path: Path, req: Request, channel: str
+) -> str:
+    """Where a channel's range comes from, as a refusal names it (the manifest's wins: a --range
+    must agree with it)."""
+    if manifest is not None and channel in manifest["daq"]["ranges"]:
+        return f"daq.ranges.{channel} in {path}"
+    if channel in (req.ranges or {}):
+        return f"--range {channel}"
+    return DERIVED
+
+
+def _resolution(
+    source: Source,
+    req: Request,
+    c: Column,
+    s: _ChannelSummary,
+    rng: tuple[float, float],
+    origin: str,
+) -> None:
+    """Refuse a channel whose values span fewer than MIN_CODES int16 codes of its range: packed,
+    it would be a few steps (a factor of 1e-320 leaves U one code, all zeros). The span bounds
+    the codes a channel can take whatever its samples, so this is judged before anything is
+    written; a channel of few levels within a wider span (a two-level step drive) is what it
+    recorded, and kept."""
+    spec = channel_spec(c.name, *rng)
+    codes = max(0.0, min(s.hi, rng[1]) - max(s.lo, rng[0])) / spec.scale_factor
+    if codes >= MIN_CODES:
+        return
+    unit = CHANNEL_UNITS[c.name][0]
+    problem = (
+        f"{c.name} spans {codes:.3g} of the {2 * INT16_FULL} int16 codes of its range "
+        f"[{rng[0]:g}, {rng[1]:g}] {unit} ({origin}), fewer than {MIN_CODES}: packed, it would be "
+        "a few steps, not a measurement"
+    )
+    flag = _flag(req, c.name)
+    if flag:
+        raise ImportProblem(f"{flag}: {problem}; check the factor")
+    if origin == DERIVED:  # a range fitted to the data spans this few only below its floor
+        remedy = f"its values are too small to be in {c.unit}: check the column's unit"
+    elif origin.startswith("--range"):
+        remedy = "give a range that fits the data, or check the column's unit"
+    else:
+        remedy = "the dataset's range is too wide for this recording, or the column's unit wrong"
+    raise ImportProblem(f"{source.path}: {s.label}: {problem}; {remedy}")
 
 
 def _judge_time(source: Source, req: Request, summary: _Summary) -> tuple[float, str]:
@@ -563,17 +655,28 @@ def _run_import(req: Request) -> tuple[Path, Path]:
             _check_fs(manifest, manifest_path, req, fs)
         for c in req.channels:
             if known[c.name] is None:  # declared by neither --range nor the manifest
-                _plausibility(source, c, summary.channels[c.name])
+                _plausibility(source, req, c, summary.channels[c.name])
         ranges = {
             c: known[c] or derived_range(summary.channels[c].lo, summary.channels[c].hi)
             for c in summary.channels
         }
+        origins = {c: _range_origin(manifest, manifest_path, req, c) for c in summary.channels}
         for channel, s in summary.channels.items():
-            problem = clipping_problem(channel, s.outside, s.n, *ranges[channel], manifest_path)
+            problem = clipping_problem(
+                channel,
+                s.outside,
+                s.n,
+                *ranges[channel],
+                manifest_path,
+                origins[channel],
+                _flag(req, channel),
+            )
             if problem:
                 raise ImportProblem(f"{req.source}: {problem}")
+        for c in req.channels:
+            _resolution(source, req, c, summary.channels[c.name], ranges[c.name], origins[c.name])
         doc = _manifest_document(manifest, manifest_path, req, fs, ranges)
-        note = "; ".join(filter(None, [time_note, *notes]))
+        note = "; ".join(filter(None, [source.note, time_note, *notes]))
         attrs = {
             "dataset": req.dataset,
             "experiment": req.experiment,
@@ -596,7 +699,7 @@ def _run_import(req: Request) -> tuple[Path, Path]:
         except BaseException:
             capture_path.unlink(missing_ok=True)  # a capture its manifest does not list: none
             raise
-    for line in (time_note, *notes):
+    for line in (source.note, time_note, *notes):
         if line:
             LOG.warning("%s: %s", req.source, line)
     return capture_path, manifest_path

@@ -17,7 +17,9 @@ dataset ``Y``, ``data[k]`` MATLAB's ``data(:,k)``, the dataset's row k − 1. :c
 reads them in chunks by h5py's slicing, as the CSV reader streams. Complex (a compound of real and
 imag), logical and char variables are refused as they are in a v7 file; cell and struct arrays
 (object references) are refused in one line: save with ``-v7``, or store the channels as
-matrices.
+matrices. A variable declared longer than the samples written (a ``matfile`` preallocation whose
+logging stopped) is refused: h5py would read its chunks never written as the fill value
+(:func:`unwritten`).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from selfsense.io.sources import (
     ImportProblem,
     column_spans,
     listed,
+    one_column_each,
     one_length,
     short_error,
     source_labels,
@@ -90,6 +93,7 @@ class MatSource:
     kind = "MATLAB"
     rows = "samples"
     declared_fs = None
+    note = ""
 
     def __init__(self, path: Path, columns: Sequence[Column]):
         self.path = path
@@ -97,6 +101,9 @@ class MatSource:
         self.columns = {c.name: c for c in columns}
         self.doc = _load_mat(path)
         self.data = {c.name: _mat_variable(path, self.doc, c) for c in columns}
+        one_column_each(
+            path, self.labels, {c.name: tuple(mat_tokens(path, c)) for c in columns}, "variable"
+        )
         lengths = {name: len(v) for name, v in self.data.items()}
         if one_length(path, "variables", self.labels, lengths) == 0:
             raise ImportProblem(f"{path}: no data (the variables are empty)")
@@ -157,13 +164,31 @@ def read_mat(path: Path, columns: Sequence[Column]) -> dict[str, np.ndarray]:
 
 
 def _mat_node(path: Path, doc: Mapping[str, Any], c: Column) -> Any:
+    from scipy.io.matlab import mat_struct
+
     node: Any = doc
-    for name, index in mat_tokens(path, c):
-        value = node.get(name) if isinstance(node, Mapping) else getattr(node, name, None)
+    tokens = mat_tokens(path, c)
+    for k, (name, index) in enumerate(tokens):
+        if k and not isinstance(node, mat_struct):  # getattr would find numpy's own (data.T)
+            parent = tokens[k - 1][0]
+            if isinstance(node, np.ndarray) and node.dtype == object:
+                raise ImportProblem(
+                    f"{path}: {c.source!r}: {parent} is a struct array of {node.size} elements: "
+                    f"name one, e.g. {parent}[1].{name}"
+                )
+            raise ImportProblem(
+                f"{path}: {c.source!r}: {parent} is not a struct (no field {name!r})"
+            )
+        value = getattr(node, name, None) if k else node.get(name)
         if value is None:
             raise ImportProblem(f"{path}: no variable {c.source!r} (at {name!r})")
         if index is not None:
             value = np.asarray(value)
+            if value.ndim == 1 and value.dtype != object:
+                raise ImportProblem(
+                    f"{path}: {c.source!r}: {name} is a vector of {value.size} samples, not a "
+                    f"matrix: name it without [{index}]"
+                )
             if value.ndim == 2 and index <= value.shape[1]:
                 value = value[:, index - 1]
             elif value.ndim == 1 and index <= value.shape[0] and value.dtype == object:
@@ -216,6 +241,33 @@ def _mat_variable(path: Path, doc: Mapping[str, Any], c: Column) -> np.ndarray:
 # -- MATLAB v7.3 (HDF5) ----------------------------------------------------------------------------
 
 
+def unwritten(ds: Any, axis: int, at: int) -> tuple[int, int] | None:
+    """The first stretch [start, stop) of samples along ``axis`` of an HDF5 dataset, at index
+    ``at`` of its other axis, that no allocated storage holds (None if storage holds all): a
+    chunked dataset's missing chunks, found by listing the allocated ones (their count first,
+    which settles a complete dataset without a list); a contiguous one with no storage at all."""
+    n = ds.shape[axis]
+    if ds.chunks is None:
+        return (0, n) if ds.id.get_storage_size() == 0 else None
+    grid = [-(-size // chunk) for size, chunk in zip(ds.shape, ds.chunks)]
+    if ds.id.get_num_chunks() == int(np.prod(grid)):
+        return None
+    step, other = ds.chunks[axis], 1 - axis
+    lane = at - at % ds.chunks[other]
+    held: set[int] = set()
+
+    def add(info: Any) -> None:
+        if info.chunk_offset[other] == lane:
+            held.add(info.chunk_offset[axis])
+
+    ds.id.chunk_iter(add)
+    missing = [k for k in range(0, n, step) if k not in held]
+    if not missing:
+        return None
+    stop = next((k for k in range(missing[0], n, step) if k in held), n)
+    return missing[0], stop
+
+
 def _text(value: Any) -> str:
     return value.decode("ascii", "replace") if isinstance(value, bytes) else str(value)
 
@@ -226,6 +278,7 @@ class Mat73Source:
     kind = "MATLAB v7.3"
     rows = "samples"
     declared_fs = None
+    note = ""
 
     def __init__(self, path: Path, columns: Sequence[Column]):
         self.path = path
@@ -235,6 +288,9 @@ class Mat73Source:
             #: per channel: the dataset's HDF5 path, its row to read (or None: its one column
             #: along axis 0), and how many samples
             self.where = {c.name: self._locate(f, c) for c in columns}
+        one_column_each(
+            path, self.labels, {name: w[:2] for name, w in self.where.items()}, "variable"
+        )
         lengths = {name: w[2] for name, w in self.where.items()}
         self.n = one_length(path, "variables", self.labels, lengths)
 
@@ -315,7 +371,9 @@ class Mat73Source:
             raise ImportProblem(f"{path}: {where!r} is not numeric")
         if ds.ndim != 2:
             raise ImportProblem(
-                f"{path}: {where!r} has {ds.ndim} dimensions: name a matrix's column"
+                f"{path}: {where!r} has {ds.ndim} dimensions "
+                f"({'×'.join(map(str, ds.shape[::-1]))}): the import reads a vector or a "
+                "matrix's column: save the series as one"
             )
         cols, rows = ds.shape  # MATLAB's rows × cols, stored transposed
         if index is not None:
@@ -324,17 +382,40 @@ class Mat73Source:
                     f"{path}: {where!r}: {name}[{index}] does not exist ({name} is "
                     f"{rows}×{cols}; counted from 1)"
                 )
-            return ds.name, index - 1, rows
+            return self._written(ds, c, index - 1, rows)
         if rows == 1 and cols == 1:
             raise ImportProblem(f"{path}: {where!r} is a single value, not a series")
         if cols == 1:
-            return ds.name, 0, rows  # a column vector: the dataset's one row
+            return self._written(ds, c, 0, rows)  # a column vector: the dataset's one row
         if rows == 1:
-            return ds.name, None, cols  # a row vector: the dataset's one column
+            return self._written(ds, c, None, cols)  # a row vector: the dataset's one column
         raise ImportProblem(
             f"{path}: {where!r} has size {rows}×{cols}: name one column, e.g. {where}[1] "
             f"(MATLAB's {where}(:,1))"
         )
+
+    def _written(self, ds: Any, c: Column, row: int | None, n: int) -> tuple[str, int | None, int]:
+        """The series (``row`` of the dataset, or its one column if None), refused where part
+        of it was never written: HDF5 allocates a chunked dataset's chunks as they are written,
+        and reads one never written (a preallocated variable whose logging stopped) as the fill
+        value, which would be imported as data. Within a written chunk the file cannot tell a
+        sample never written from one written as the fill value, so the written extent is known
+        to a chunk only and no cut is trusted."""
+        gap = unwritten(ds, 0 if row is None else 1, row or 0)
+        if gap is not None:
+            a, b = gap
+            what = (
+                f"none of its {n} samples was written"
+                if (a, b) == (0, n)
+                else f"its samples {a + 1}–{b} of {n} were never written"
+            )
+            kept = f": at most its first {a} samples hold data" if b == n and a else ""
+            raise ImportProblem(
+                f"{self.path}: {self.labels[c.name]}: {what} (no HDF5 storage holds them: a "
+                "preallocated variable whose logging stopped) and would read as its fill value "
+                f"{ds.fillvalue:g}{kept}; save the samples written and import those"
+            )
+        return ds.name, row, n
 
     @staticmethod
     def _read(ds: Any, row: int | None, start: int, stop: int) -> np.ndarray:

@@ -196,6 +196,26 @@ def one_length(path: Path, what: str, labels: Mapping[str, str], lengths: Mappin
     return next(iter(lengths.values()))
 
 
+def one_column_each(
+    path: Path, labels: Mapping[str, str], places: Mapping[str, Any], what: str = "column"
+) -> None:
+    """Refuse two channels (or a channel and the time) read from one place of the file: the
+    capture would hold one recording under two names, and an analysis would compare it with
+    itself (x against U: a gain of exactly 1, a stroke of the drive's span)."""
+
+    def named(name: str) -> str:
+        return f"the time {labels[name]}" if name == "time" else labels[name]
+
+    seen: dict[Any, str] = {}
+    for name, place in places.items():
+        if place in seen:
+            raise ImportProblem(
+                f"{path}: {named(seen[place])} and {named(name)} are one {what} of the file: "
+                f"each channel needs a {what} of its own"
+            )
+        seen[place] = name
+
+
 def listed(items: Sequence[str]) -> str:
     """Items for a refusal's one line: the first LISTED of them, and how many in all."""
     return ", ".join(items[:LISTED]) + (f", … ({len(items)} in all)" if len(items) > LISTED else "")
@@ -231,6 +251,9 @@ class Source(Protocol):
     labels: dict[str, str]
     #: the rate the file states (fs [Hz], where it states it), or None
     declared_fs: tuple[float, str] | None
+    #: what the reader left out of the file and why, for the capture's import_note ("" if
+    #: nothing)
+    note: str
 
     def chunks(self, progress: bool = False) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
         """(first row of the chunk, {name: the column's values as float64, NaN where empty}), in

@@ -13,10 +13,15 @@ A channel's ``wf_increment`` property (LabVIEW's waveform Δt) declares fs = 1/w
 import uses it when neither --time nor --fs is given, else they must agree with it
 (:data:`~selfsense.io.sources.DECLARED_FS_RTOL`), as the requested channels' must among
 themselves.
+
+A file whose last segment ends before its data do (a write interrupted) is cut to the samples
+every requested channel holds, and :attr:`TdmsSource.note` says so: TDMS has no fill value, so
+nptdms reads only what the file holds and no sample is made up.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 from collections.abc import Iterator, Sequence
@@ -33,6 +38,7 @@ from selfsense.io.sources import (
     ImportProblem,
     column_spans,
     listed,
+    one_column_each,
     one_length,
     short_error,
     source_labels,
@@ -67,10 +73,21 @@ class TdmsSource:
             objects = {name: tdms[g][ch] for name, (g, ch) in self.where.items()}
             for name, channel in objects.items():
                 self._check_type(name, channel)
+            one_column_each(path, self.labels, self.where, "channel")
             lengths = {name: len(channel) for name, channel in objects.items()}
+            empty = [name for name, n in lengths.items() if n == 0]
+            if empty and len(empty) < len(lengths):
+                raise ImportProblem(
+                    f"{path}: {self.labels[empty[0]]} holds no data (the file lists it without "
+                    "values)"
+                )
             self.declared_fs = self._declared_fs(
                 {n: ch for n, ch in objects.items() if n != "time"}
             )
+            self.note = ""
+            segments = tdms._reader._segments  # nptdms has no public word on a cut segment
+            if segments and segments[-1].segment_incomplete:
+                lengths, self.note = self._cut(lengths)
         self.n = one_length(path, "channels", self.labels, lengths)
         if self.n == 0:
             raise ImportProblem(f"{path}: no data (the channels are empty)")
@@ -78,16 +95,20 @@ class TdmsSource:
     @contextmanager
     def _open(self) -> Iterator[Any]:
         """The file opened for streaming; a damaged one (nptdms raises what it meets) or a read
-        that fails is one line."""
+        that fails is one line. nptdms' own warnings are held back: of a cut segment, the
+        import's note says it once."""
         from nptdms import TdmsFile
+        from nptdms.log import log_manager
 
+        level = log_manager.log_level
+        log_manager.set_level(logging.ERROR)
         try:
-            tdms = TdmsFile.open(self.path)
-        except Exception as err:  # noqa: BLE001 - nptdms raises whatever a damaged file gives
-            raise ImportProblem(
-                f"{self.path}: not a readable TDMS file ({short_error(err)})"
-            ) from None
-        try:
+            try:
+                tdms = TdmsFile.open(self.path)
+            except Exception as err:  # noqa: BLE001 - nptdms raises whatever a damaged file gives
+                raise ImportProblem(
+                    f"{self.path}: not a readable TDMS file ({short_error(err)})"
+                ) from None
             with tdms:
                 yield tdms
         except ImportProblem:
@@ -96,6 +117,20 @@ class TdmsSource:
             raise ImportProblem(
                 f"{self.path}: not a readable TDMS file ({short_error(err)})"
             ) from None
+        finally:
+            log_manager.set_level(level)
+
+    def _cut(self, lengths: dict[str, int]) -> tuple[dict[str, int], str]:
+        """The lengths of a file whose last segment ends before its data do (a write
+        interrupted: LabVIEW stopped, the disk filled, the file copied while logging): nptdms
+        reads only the values the file holds, so the requested channels are cut to the samples
+        they all hold, and the capture says so. No value is made up: TDMS has no fill."""
+        n = min(lengths.values())
+        each = ", ".join(f"{self.labels[k]}: {m}" for k, m in lengths.items())
+        return {k: n for k in lengths}, (
+            f"the file's last segment is incomplete (its write was interrupted): imported the {n} "
+            f"samples every channel holds ({each})"
+        )
 
     @staticmethod
     def spelled(where: tuple[str, str]) -> str:
