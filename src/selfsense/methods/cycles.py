@@ -32,20 +32,25 @@ all cycles mixes the major loop with minor ones). The rules, applied in this ord
    over 1/50 of a period first. A cycle runs from one crossing to the next; the pieces before the
    first and after the last are whole cycles when a period long to within a sample, else
    "partial".
-3. **Warm-up.** The capture attribute ``warmup_s`` when the capture gives it, even as 0 (every
-   piece that starts before it is dropped as "warm-up"); else detected from x: among the
-   full-amplitude cycles (rule 4), in time order, the leading run whose offset of x from the drive
-   (the mean of x − g·U over a period from the cycle's start, g the least-squares gain of the
-   later half of the full cycles) or whose non-closure (the mean of x − g·U over the cycle's last
-   tenth minus over its first tenth) differs from the later half's median by more than the
-   largest of :attr:`CycleRules.warmup_tolerance` of the stroke, five times the cycle-to-cycle
-   scatter of the later half (from successive differences, which a trend does not widen), and
-   five times what x's own noise gives the measure. The windows are placed at the crossings'
-   fractional times, so that every cycle's sit at the same phase whichever sample its boundary
-   fell on. The warm-up ends with that run's last cycle, and every piece that starts before is
-   dropped as "warm-up". When the later half itself drifts (its first and last thirds differ by
-   more than the tolerance) or the run is more than half the full cycles, x drifts through the
-   record instead of settling: nothing is dropped, and the note says so.
+3. **Warm-up.** The capture attribute ``warmup_s`` when the capture gives it, even as 0 (every piece
+   that starts before it is dropped as "warm-up"); else the settling transient detected from x. Each
+   full cycle (rule 4), in time order, has three measures (:func:`steadiness_measures`): its offset
+   from the drive (the mean of x − g·U over a period from its start, g the least-squares gain of the
+   later half of the full cycles), its non-closure (the mean of x − g·U over its last tenth minus
+   over its first tenth) and its loop width (the largest branch gap). The windows are placed at the
+   crossings' fractional times, so that every cycle's sit at the same phase whichever sample its
+   boundary fell on. A slow drift moves the measures along a trend; a settling sensor moves a few
+   leading cycles far off it. Through each measure a trend v̂(t) = a + b·(t − t̄) is fitted
+   (:func:`robust_trend`: a robust line, the median of the slopes between cycles half the cycles
+   apart, then least squares through the cycles near it), with the robust scatter of the later half
+   about it, s = 1.4826·MAD. A leading cycle is settling while, for one measure, |v − v̂(t)| >
+   max(w·S, z·σ·√(1 + 1/m + (t − t̄)²/S_tt)), v̂ the trend of the m cycles after it (the prediction
+   interval of a straight-line fit: the trend's own uncertainty at t), σ the larger of s and what
+   x's noise gives the measure, S the stroke, w :attr:`CycleRules.warmup_tolerance` (the floor) and
+   z :attr:`CycleRules.settling_z` (:func:`settling_run`). The warm-up ends with the leading run's
+   last cycle, and every piece that starts before is dropped as "warm-up". The trend is the drift:
+   never dropped, reported (:attr:`Cycles.drift`). When the run would reach past the first half of
+   the full cycles, x has not settled by the later half: nothing is dropped, and the note says so.
 4. **Classes** of the pieces, by the drive's amplitude over each: the amplitude of the sinusoid at
    the drive's frequency that, with an offset, fits U over the piece by least squares (half the
    peak-to-peak for a sine or a raised cosine; insensitive to noise, to a single spike, and to a
@@ -58,6 +63,11 @@ all cycles mixes the major loop with minor ones). The rules, applied in this ord
    :attr:`CycleRules.full_tolerance` below the largest whole piece's after the warm-up given;
    the others are "full" and are the cycles used. A reason later in this list wins: "warm-up"
    over "partial" over "pause" over "irregular" over "minor".
+
+5. **Outliers.** A used cycle whose measure lies off the used cycles' trend by more than
+   max(w·S, z·σ·√(1 + leverage)), z :attr:`CycleRules.outlier_z` (:func:`trend_outliers`), is
+   flagged (:attr:`Cycles.outliers`): still used for the stroke and loop width's median, least
+   and largest, left out of a model's fit (:attr:`Cycles.fitted`).
 
 Everything is vectorised numpy: a cycle's measures are cumulative sums, bincounts and
 ``reduceat``s over the samples, with no Python loop over samples (and none over cycles but building
