@@ -114,10 +114,12 @@ def test_the_row_of_a_ramped_paused_settling_capture_is_its_steady_cycles(tmp_pa
     np.testing.assert_allclose(amplitudes, [0.7 * A, 0.5 * A, 0.8 * A], atol=0.05 * A)
     assert "9 cycles used, 7 dropped (2 warm-up, 1 partial, 1 pause, 3 minor)" in row["note"]
     assert "3 minor loops" in row["note"]
-    # the loop figure: the used cycles' samples marked, the title counting them
-    assert panels.name == "ramped: 9 cycles used, 7 dropped (grey)"
-    used = panels.panels[0][4]
-    assert abs(used.sum() - 9 * int(FS / F)) <= 9
+    # the loop figure: each kind of cycle's samples marked, the title counting them
+    assert panels.name == "ramped: 9 cycles used, 7 dropped"
+    groups = panels.panels[0][4]
+    used, colour = groups["used (9)"]
+    assert colour == "C0" and abs(used.sum() - 9 * int(FS / F)) <= 9
+    assert {"warm-up (2)", "minor (3)", "pause (1)", "partial (1)"} <= set(groups)
 
 
 def test_the_old_numbers_of_the_same_capture_were_the_settling_and_the_blend(tmp_path):
@@ -203,7 +205,7 @@ def test_the_table_heads_each_column_as_its_rows_do():
 # -- the rules' scripts ----------------------------------------------------------------------------
 
 
-def test_the_scripts_pass_periods_and_scalings_and_draw_dropped_cycles_faint(tmp_path):
+def test_the_scripts_pass_periods_and_scalings_and_draw_dropped_cycles_on_top(tmp_path):
     from matplotlib import pyplot as plt  # after selfsense.io.figures has chosen the Agg backend
 
     u, x = recording()
@@ -232,8 +234,14 @@ def test_the_scripts_pass_periods_and_scalings_and_draw_dropped_cycles_faint(tmp
     )
     written = pd.read_csv(table)
     assert list(written.columns) == ch.table_columns([row])
-    # the figure draws the dropped cycles light grey under the used ones
+    # the figure draws the used cycles first and each kind of dropped cycle on top of them in
+    # its own colour, with a legend naming them
     fig = ch.loop_page([ch.characterise_capture(path, 0.1, 1.0)[1]], "page")
-    colours = [line.get_color() for line in fig.axes[0].lines]
-    assert colours == ["0.75", "C0"]
+    lines = fig.axes[0].lines
+    assert lines[0].get_color() == "C0" and lines[0].get_label() == "used (9)"
+    above = lines[1:]
+    assert above and all(line.get_zorder() > lines[0].get_zorder() for line in above)
+    assert len({line.get_color() for line in lines}) == len(lines)
+    legend = [text.get_text() for text in fig.axes[0].get_legend().get_texts()]
+    assert legend == [line.get_label() for line in lines] and "warm-up (2)" in legend
     plt.close(fig)

@@ -49,8 +49,9 @@ SPARSE_POINTS = 5000
 
 def loop_grid(rows, title):
     """One row of loops per item: rows are (name, panels) with panels (x, y, xlabel, ylabel) or
-    (x, y, xlabel, ylabel, used): ``used`` a boolean mask of the points measured (None: all),
-    the others drawn faint (light grey, smaller)."""
+    (x, y, xlabel, ylabel, groups): ``groups`` None (all points alike) or {legend: (mask,
+    colour)}, drawn in its order, each later group on top of the earlier ones (zorder), with a
+    legend in the row's first panel."""
     ncols = max(len(panels) for _, panels in rows)
     fig, axes = plt.subplots(
         len(rows),
@@ -67,13 +68,26 @@ def loop_grid(rows, title):
             # keeps about one point per cycle, and a line through them crosses the panel at every
             # sample (a scribble that hid the loop and took Agg 1 s a panel to fill); raster in the
             # PDF too
-            used = rest[0] if rest else None
+            groups = rest[0] if rest else None
             ms = 1.0 if len(x) > SPARSE_POINTS else 2.5  # a short record's points stay visible
-            if used is None:
+            if groups is None:
                 ax.plot(x, y, ".", ms=ms, mew=0, rasterized=True)
             else:
-                ax.plot(x[~used], y[~used], ".", ms=ms, mew=0, color="0.75", rasterized=True)
-                ax.plot(x[used], y[used], ".", ms=ms, mew=0, color="C0", rasterized=True)
+                for z, (label, (mask, colour)) in enumerate(groups.items()):
+                    ax.plot(
+                        x[mask],
+                        y[mask],
+                        ".",
+                        ms=ms,
+                        mew=0,
+                        color=colour,
+                        label=label,
+                        zorder=2 + z,
+                        rasterized=True,
+                    )
+                if ax is ax_row[0] and len(groups) > 1:
+                    # the legend's markers large enough to tell the colours apart
+                    ax.legend(fontsize=6, markerscale=4 / ms, loc="best", framealpha=0.8)
             ax.set(xlabel=xlabel, ylabel=ylabel)
             ax.grid(alpha=0.3)
         ax_row[0].set_title(name, fontsize=9)

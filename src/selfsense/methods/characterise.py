@@ -37,10 +37,20 @@ from selfsense.io.figures import (  # plt: after figures has chosen the Agg back
     loop_grid,
     placeholder,
 )
-from selfsense.methods.cycles import REASONS, RULES, CycleRules, Cycles, cycle_loops, find_cycles
+from selfsense.methods.cycles import (
+    MIN_CYCLE_SAMPLES,
+    REASONS,
+    RULES,
+    CycleRules,
+    Cycles,
+    cycle_loops,
+    find_cycles,
+    loop_bins,
+    rising_with_period,
+)
 from selfsense.methods.cycles import filled as filled_drive
 from selfsense.methods.hysteresis import MAX_ORDER, ORDER_TOLERANCE, fit_maxwell_slip
-from selfsense.methods.metrics import branch_gap, branch_means, direction
+from selfsense.methods.metrics import branch_gap, branch_means
 
 #: a capture is reduced to at most this many block means
 MAX_POINTS = 1 << 20
@@ -49,13 +59,6 @@ MAX_POINTS = 1 << 20
 END_FRACTION = 0.02
 #: a drive counts as held within this fraction of its range of the final value
 HOLD_FRACTION = 0.02
-#: smoothing of the drive before its direction is taken: this fraction of a drive period
-SMOOTH_PERIOD_FRACTION = 1 / 200
-#: a cycle of fewer block means is not measured alone (its peaks and its loop's middle fall
-#: between samples): the used cycles are then measured together
-MIN_CYCLE_SAMPLES = 48
-#: a cycle's loop width: its branches in one bin per this many samples of the cycle, 8 to 40 bins
-SAMPLES_PER_BIN = 6
 #: the minor loops' amplitudes listed in the table: at most this many
 MAX_LISTED = 24
 
@@ -196,13 +199,6 @@ def charge_measures(
     return out
 
 
-def rising_with_period(u: np.ndarray, period_samples: float) -> np.ndarray:
-    """As :func:`rising`, with the drive's period known [samples]."""
-    width = max(1, int(round(period_samples * SMOOTH_PERIOD_FRACTION)))
-    smooth = np.convolve(u, np.ones(width) / width, mode="same") if width > 1 else u
-    return direction(smooth)
-
-
 def steady_cycles(
     reduced: Reduced,
     x_channel: str,
@@ -244,7 +240,7 @@ def cycle_measures(
             out["loop_width"] = 100 * branch_gap(uu, xx - chord, rise) / out["stroke"]
         note = f"{per_cycle:.0f} samples a cycle: stroke and loop width of the used cycles together"
         return out, note
-    bins = int(np.clip(per_cycle // SAMPLES_PER_BIN, 8, 40))
+    bins = loop_bins(per_cycle)
     strokes, gaps = cycle_loops(u, x, up, cycles.used, bins)
     widths = 100 * gaps / strokes
     out = {}
@@ -261,7 +257,8 @@ def cycle_measures(
 
 def cycle_facts(cycles: Cycles) -> dict:
     """The cycle analysis's columns: period, warm-up, cycles used and dropped per reason, the
-    full and minor cycles' drive amplitudes."""
+    used ones flagged as outliers, x's drift through the used cycles [m], the full and minor
+    cycles' drive amplitudes."""
     counts = cycles.counts()
     source = cycles.warmup_source or (
         "none detected" if cycles.periodic else "none (no cycles to detect one on)"
@@ -275,6 +272,8 @@ def cycle_facts(cycles: Cycles) -> dict:
         "amplitude": cycles.amplitude,
         "cycles_used": counts["used"],
         **{f"dropped_{r}": counts[r] for r in REASONS},
+        "cycles_flagged": len(cycles.outliers),
+        "drift": cycles.drift,
         "minor_amplitudes": _listed(cycles.minor_amplitudes),
     }
 
@@ -296,7 +295,7 @@ def characterise(
     t = np.arange(len(ok))[ok] / reduced.fs
     u_all, x_all = d["U"], d[x_channel]
     out: dict = creep_after_step(t, u_all[ok], x_all[ok], settle_s, min_hold_s)
-    notes = [cycles.summary()] if cycles.periodic else []
+    notes = [cycles.summary(UM, "µm")] if cycles.periodic else []  # the table's units
     if cycles.periodic and cycles.used:
         u = filled_drive(u_all)
         up = rising_with_period(u, cycles.period_s * reduced.fs)
@@ -354,6 +353,8 @@ COLUMNS = (
     ("warm-up from", "warmup_from", None, ()),
     ("cycles used", "cycles_used", 1.0, ()),
     *((f"cycles dropped: {r}", f"dropped_{r}", 1.0, ()) for r in REASONS),
+    ("cycles flagged: far outside the others (not in the model's fit)", "cycles_flagged", 1.0, ()),
+    ("x drift through the used cycles [µm]", "drift", UM, ("x",)),
     ("minor loops' drive amplitudes [V]", "minor_amplitudes", None, ("U",)),
     ("hysteresis model: elements", "model_order", 1.0, ()),
     ("hysteresis model: cycles fit / chose the order / tested", "model_cycles", None, ()),
@@ -461,14 +462,55 @@ def instruments(manifest: Mapping) -> list[dict]:
     return rows
 
 
+#: the loop figure's colour of each kind of cycle; the used ones are drawn first, the others on top
+#: of them in this order (a dropped cycle hidden under the used ones cannot show why it was dropped)
+GROUP_COLOURS = {
+    "used": "C0",
+    "minor": "C2",
+    "irregular": "C4",
+    "pause": "C8",
+    "partial": "0.55",
+    "warm-up": "C1",
+    "flagged": "C3",
+}
+#: the legend's words for a kind of cycle
+GROUP_LABELS = {"flagged": "used, far outside the others (not in the model's fit)"}
+
+
+def cycle_groups(cycles: Cycles, step: int = 1) -> dict[str, np.ndarray]:
+    """The samples (every ``step``-th) of each kind of cycle: "used", each reason a piece was
+    dropped for and "flagged" (used, far outside the others), in GROUP_COLOURS's order, only the
+    kinds present. Without a periodic drive: "used" every sample after the warm-up, "warm-up"
+    the samples before it."""
+    n = cycles.n
+    if not cycles.periodic:
+        used = np.ones(n, bool)
+        used[: cycles.after_warmup().start] = False
+        out = {"used": used, "warm-up": ~used}
+    else:
+        kinds = {k: [] for k in GROUP_COLOURS}
+        kinds["used"] = cycles.used
+        kinds["flagged"] = cycles.outliers
+        for piece, reason in cycles.dropped:
+            kinds[reason].append(piece)
+        out = {}
+        for kind, pieces in kinds.items():
+            edges = np.zeros(n + 1, np.int64)
+            np.add.at(edges, [s.start for s in pieces], 1)
+            np.add.at(edges, [s.stop for s in pieces], -1)
+            out[kind] = np.cumsum(edges[:-1]) > 0
+    return {k: v[::step] for k, v in out.items() if v.any()}
+
+
 @dataclass(frozen=True)
 class LoopPanels:
-    """One capture's loops as drawn: (x, y, xlabel, ylabel, used) per panel, thinned to the
-    figure's resolution so that a dataset's worth of them fits in memory; ``used`` is True on the
-    samples of the cycles measured (None: all were), the others are drawn faint."""
+    """One capture's loops as drawn: (x, y, xlabel, ylabel, groups) per panel, thinned to the
+    figure's resolution so that a dataset's worth of them fits in memory; ``groups``: None (all
+    samples alike) or {legend: (mask, colour)}, drawn in order, the first (the used cycles) at
+    the bottom and each dropped kind on top of it in its own colour."""
 
     name: str
-    panels: tuple[tuple[np.ndarray, np.ndarray, str, str, np.ndarray | None], ...]
+    panels: tuple[tuple[np.ndarray, np.ndarray, str, str, dict | None], ...]
 
 
 def loop_panels(
@@ -480,28 +522,33 @@ def loop_panels(
     scalings: Mapping[str, str] | None = None,
 ) -> LoopPanels:
     """x–U loop, and beside it the q–U loop where the capture has the current; with ``cycles``
-    the dropped ones faint and the title counting them, with ``scalings`` the channels' declared
-    scaling on the axes."""
+    the dropped ones drawn on top of the used in their own colours with a legend and the title
+    counting them, with ``scalings`` the channels' declared scaling on the axes."""
     d = reduced.data
     step = max(1, len(d["U"]) // max_points)  # the figure needs no more points than pixels
     u = d["U"][::step]
-    used = None
+    groups = None
+    if cycles is not None:
+        counts = cycles.counts() | {"flagged": len(cycles.outliers)}
+        groups = {}
+        for kind, mask in cycle_groups(cycles, step).items():
+            label = GROUP_LABELS.get(kind, kind)
+            groups[f"{label} ({counts[kind]})" if cycles.periodic else label] = (
+                mask,
+                GROUP_COLOURS[kind],
+            )
     if cycles is not None and cycles.periodic:
-        used = cycles.mask()[::step]
-        name = f"{name}: {len(cycles.used)} cycles used, {len(cycles.dropped)} dropped (grey)"
+        name = f"{name}: {len(cycles.used)} cycles used, {len(cycles.dropped)} dropped"
     elif cycles is not None:
-        used = np.ones(len(d["U"]), bool)
-        used[: cycles.after_warmup().start] = False
-        used = used[::step]
         name = f"{name}: no periodic drive, all samples" + (
-            f" after the {cycles.warmup_s:g} s warm-up (grey)" if cycles.warmup_s else ""
+            f" after the {cycles.warmup_s:g} s warm-up" if cycles.warmup_s else ""
         )
     u_label = axis_label("U [V]", "U", scalings)
     x_label = axis_label(f"{x_channel} [µm]", x_channel, scalings)
-    panels = [(u, d[x_channel][::step] * UM, u_label, x_label, used)]
+    panels = [(u, d[x_channel][::step] * UM, u_label, x_label, groups)]
     if "I" in d:
         q = charge(np.nan_to_num(d["I"]), reduced.fs)[::step] * UF
-        panels.append((u, q, u_label, axis_label("q = ∫I dt [µC]", "I", scalings), used))
+        panels.append((u, q, u_label, axis_label("q = ∫I dt [µC]", "I", scalings), groups))
     return LoopPanels(name, tuple(panels))
 
 
@@ -532,19 +579,22 @@ def hysteresis_model(
     scalings: Mapping[str, str] | None = None,
 ) -> tuple[dict, list[dict]]:
     """The capture's own Maxwell model (:func:`selfsense.methods.hysteresis.fit_maxwell_slip`) on
-    its steady full-amplitude cycles: its measures for the table (the errors on the cycles neither
+    its steady full-amplitude cycles less those flagged far outside the others (``cycles.fitted``):
+    its measures for the table (the errors on the cycles neither
     the fit nor the choice of order saw) and its parameters, one record each (the validation
     cycles' rms voltage error of every order tried among them, the rule's evidence), each unit
     with the declared ``scalings`` of its channels. Nothing without a steady cycle or with a gap (a
     missing sample) in the record."""
     u, x = reduced.data["U"], reduced.data[x_channel]
     if (
-        not (cycles.periodic and cycles.used)
+        not (cycles.periodic and cycles.fitted)
         or not np.isfinite(u).all()
         or not np.isfinite(x).all()
     ):
         return {}, []
-    fit = fit_maxwell_slip(u, x, cycles.used, max_order, order_tolerance)
+    # the cycles far outside the others' spread are left out (a settling tail, a cycle that starts
+    # from the anchors a smaller one left): a model fitted to them would carry their transient
+    fit = fit_maxwell_slip(u, x, cycles.fitted, max_order, order_tolerance)
     measures = {
         "model_order": fit.model.order,
         "model_cycles": " / ".join(map(str, fit.cycles)),

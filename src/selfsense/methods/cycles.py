@@ -32,20 +32,25 @@ all cycles mixes the major loop with minor ones). The rules, applied in this ord
    over 1/50 of a period first. A cycle runs from one crossing to the next; the pieces before the
    first and after the last are whole cycles when a period long to within a sample, else
    "partial".
-3. **Warm-up.** The capture attribute ``warmup_s`` when the capture gives it, even as 0 (every
-   piece that starts before it is dropped as "warm-up"); else detected from x: among the
-   full-amplitude cycles (rule 4), in time order, the leading run whose offset of x from the drive
-   (the mean of x − g·U over a period from the cycle's start, g the least-squares gain of the
-   later half of the full cycles) or whose non-closure (the mean of x − g·U over the cycle's last
-   tenth minus over its first tenth) differs from the later half's median by more than the
-   largest of :attr:`CycleRules.warmup_tolerance` of the stroke, five times the cycle-to-cycle
-   scatter of the later half (from successive differences, which a trend does not widen), and
-   five times what x's own noise gives the measure. The windows are placed at the crossings'
-   fractional times, so that every cycle's sit at the same phase whichever sample its boundary
-   fell on. The warm-up ends with that run's last cycle, and every piece that starts before is
-   dropped as "warm-up". When the later half itself drifts (its first and last thirds differ by
-   more than the tolerance) or the run is more than half the full cycles, x drifts through the
-   record instead of settling: nothing is dropped, and the note says so.
+3. **Warm-up.** The capture attribute ``warmup_s`` when the capture gives it, even as 0 (every piece
+   that starts before it is dropped as "warm-up"); else the settling transient detected from x. Each
+   full cycle (rule 4), in time order, has three measures (:func:`steadiness_measures`): its offset
+   from the drive (the mean of x − g·U over a period from its start, g the least-squares gain of the
+   later half of the full cycles), its non-closure (the mean of x − g·U over its last tenth minus
+   over its first tenth) and its loop width (the largest branch gap). The windows are placed at the
+   crossings' fractional times, so that every cycle's sit at the same phase whichever sample its
+   boundary fell on. A slow drift moves the measures along a trend; a settling sensor moves a few
+   leading cycles far off it. Through each measure a trend v̂(t) = a + b·(t − t̄) is fitted
+   (:func:`robust_trend`: a robust line, the median of the slopes between cycles half the cycles
+   apart, then least squares through the cycles near it), with the robust scatter of the later half
+   about it, s = 1.4826·MAD. A leading cycle is settling while, for one measure, |v − v̂(t)| >
+   max(w·S, z·σ·√(1 + 1/m + (t − t̄)²/S_tt)), v̂ the trend of the m cycles after it (the prediction
+   interval of a straight-line fit: the trend's own uncertainty at t), σ the larger of s and what
+   x's noise gives the measure, S the stroke, w :attr:`CycleRules.warmup_tolerance` (the floor) and
+   z :attr:`CycleRules.settling_z` (:func:`settling_run`). The warm-up ends with the leading run's
+   last cycle, and every piece that starts before is dropped as "warm-up". The trend is the drift:
+   never dropped, reported (:attr:`Cycles.drift`). When the run would reach past the first half of
+   the full cycles, x has not settled by the later half: nothing is dropped, and the note says so.
 4. **Classes** of the pieces, by the drive's amplitude over each: the amplitude of the sinusoid at
    the drive's frequency that, with an offset, fits U over the piece by least squares (half the
    peak-to-peak for a sine or a raised cosine; insensitive to noise, to a single spike, and to a
@@ -59,6 +64,11 @@ all cycles mixes the major loop with minor ones). The rules, applied in this ord
    the others are "full" and are the cycles used. A reason later in this list wins: "warm-up"
    over "partial" over "pause" over "irregular" over "minor".
 
+5. **Outliers.** A used cycle whose measure lies off the used cycles' trend by more than
+   max(w·S, z·σ·√(1 + leverage)), z :attr:`CycleRules.outlier_z` (:func:`trend_outliers`), is
+   flagged (:attr:`Cycles.outliers`): still used for the stroke and loop width's median, least
+   and largest, left out of a model's fit (:attr:`Cycles.fitted`).
+
 Everything is vectorised numpy: a cycle's measures are cumulative sums, bincounts and
 ``reduceat``s over the samples, with no Python loop over samples (and none over cycles but building
 the slices); 2^20 samples take about 0.2 s.
@@ -67,10 +77,12 @@ the slices); 2^20 samples take about 0.2 s.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+
+from selfsense.methods.metrics import direction
 
 #: a period of fewer samples is not searched for (nor a cycle formed)
 MIN_PERIOD_SAMPLES = 8
@@ -78,6 +90,21 @@ MIN_PERIOD_SAMPLES = 8
 REASONS = ("warm-up", "partial", "pause", "irregular", "minor")
 #: the drive is smoothed over this fraction of a period before its crossings are found
 SMOOTH_FRACTION = 1 / 50
+#: a note names at most this many cycles
+MAX_NAMED = 8
+#: the drive's direction (a loop's branch) is taken on it smoothed over this fraction of a period
+#: (noise would flip it sample by sample)
+SMOOTH_PERIOD_FRACTION = 1 / 200
+#: a cycle of fewer samples is not measured alone (its peaks and its loop's middle fall between
+#: samples): its loop width is not judged, and characterise measures the used cycles together
+MIN_CYCLE_SAMPLES = 48
+#: a cycle's loop width: its branches in one bin per this many samples of the cycle, 8 to 40 bins
+SAMPLES_PER_BIN = 6
+#: a trend (a line) is fitted through this many cycles at least; through fewer, their median (a
+#: line through two or three leaves no scatter to judge a cycle by)
+TREND_MIN_CYCLES = 4
+#: σ of a normal scatter from its median absolute deviation: 1/Φ⁻¹(3/4)
+MAD_TO_SIGMA = 1.4826
 
 
 @dataclass(frozen=True)
@@ -92,9 +119,15 @@ class CycleRules:
     period_tolerance: float = 0.1
     #: periodic drive: U correlates with U one period later by at least this
     periodic_correlation: float = 0.8
-    #: warm-up: a full cycle's x offset or non-closure differs from the steady ones' by more than
-    #: this fraction of the stroke
+    #: warm-up and outliers: a difference in a cycle's offset, non-closure or loop width below this
+    #: fraction of the stroke is never a transient nor an outlier
     warmup_tolerance: float = 0.0025
+    #: warm-up: a leading cycle settles while a measure is off the later cycles' trend by more
+    #: than this robust z (this many × 1.4826·MAD, widened by the trend's own uncertainty)
+    settling_z: float = 5.0
+    #: outlier: a used cycle off the used cycles' trend by more than this robust z is flagged
+    #: and left out of the hysteresis model's fit
+    outlier_z: float = 5.0
     #: Schmitt trigger: ± this fraction of the drive's local amplitude
     hysteresis_fraction: float = 0.2
     #: Schmitt trigger: at least this many times the drive's noise
@@ -129,6 +162,12 @@ class Cycles:
     ``minor_amplitudes``: the minor cycles', in time order. ``measured_period_s``: the median
     interval between the crossings bounding the used cycles (the period itself when found from
     the drive; beside a given one, the drive's own).
+    ``outliers``: the used cycles far outside the others' spread (rule 5), still used for the
+    stroke and loop width's median, least and largest but left out of a model's fit
+    (:attr:`fitted`). ``drift``: x's trend through the used cycles [x's units], from the first's
+    middle to the last's, ``drift_s`` [s] apart (NaN without x); ``drift_floor``: the difference
+    below which rule 3 judges nothing (its floor, [x's units]): a drift beyond it is told in
+    :meth:`summary`.
     """
 
     fs: float
@@ -143,6 +182,16 @@ class Cycles:
     minor_amplitudes: list[float] = field(default_factory=list)
     measured_period_s: float = np.nan
     note: str = ""
+    outliers: list[slice] = field(default_factory=list)
+    drift: float = np.nan
+    drift_s: float = 0.0
+    drift_floor: float = np.nan
+
+    @property
+    def fitted(self) -> list[slice]:
+        """The used cycles without the outliers: the ones a model is fitted to."""
+        flagged = {(s.start, s.stop) for s in self.outliers}
+        return [s for s in self.used if (s.start, s.stop) not in flagged]
 
     @property
     def periodic(self) -> bool:
@@ -166,8 +215,9 @@ class Cycles:
         """The samples after the warm-up (the whole record without one)."""
         return slice(min(self.n, int(np.ceil(self.warmup_s * self.fs - 1e-9))), self.n)
 
-    def summary(self) -> str:
-        """One line: the period and its source, the cycles used and dropped and why."""
+    def summary(self, x_scale: float = 1.0, x_unit: str = "in x's units") -> str:
+        """One line: the period and its source, the cycles used and dropped and why, the outliers
+        and a drift beyond rule 3's floor (x × ``x_scale`` in ``x_unit``: the table's units)."""
         if not self.periodic:
             return self.note
         counts = self.counts()
@@ -176,6 +226,22 @@ class Cycles:
         text += f", {len(self.dropped)} dropped ({why})" if self.dropped else ", none dropped"
         if self.warmup_source:
             text += f"; warm-up {self.warmup_s:.4g} s ({self.warmup_source})"
+        if self.outliers:
+            at = ", ".join(f"{s.start / self.fs:.4g}" for s in self.outliers[:MAX_NAMED])
+            more = (
+                f", … ({len(self.outliers) - MAX_NAMED} more)"
+                if len(self.outliers) > MAX_NAMED
+                else ""
+            )
+            text += (
+                f"; {len(self.outliers)} used cycles far outside the others' spread (starting at "
+                f"{at}{more} s): left out of the hysteresis model's fit"
+            )
+        if abs(self.drift) > self.drift_floor:
+            text += (
+                f"; x drifts {self.drift * x_scale:+.3g} {x_unit} over the used cycles' "
+                f"{self.drift_s:.4g} s (a trend through them, not a warm-up: none dropped for it)"
+            )
         return text + (f"; {self.note}" if self.note else "")
 
 
@@ -371,9 +437,10 @@ def find_cycles(
     rules: CycleRules = RULES,
 ) -> Cycles:
     """The cycles of a recording of the drive ``u`` (and the displacement ``x``, for the warm-up's
-    detection), sampled at ``fs`` [Hz]. ``period_s``: the drive's period if known (else found
-    from u); ``warmup_s``: the capture's attribute (None: not given, detect it from x). See the
-    module's docstring for the rules."""
+    detection, the drift and the outliers), sampled at ``fs`` [Hz]. ``period_s``: the drive's
+    period if known (else found from u); ``warmup_s``: the capture's attribute (None: not given,
+    detect it from x). Five steps, the module's rules 1–5: the period, the boundaries, the
+    classes, the steadiness, and the cycles assembled."""
     u = filled(u)
     n = len(u)
     start = min(n, int(np.ceil(warmup_s * fs - 1e-9))) if warmup_s else 0
@@ -382,16 +449,63 @@ def find_cycles(
     period = float(period_s) if given else drive_period(u[start:], fs)[0]
     if not np.isfinite(period) or period * fs < MIN_PERIOD_SAMPLES:
         return _aperiodic(fs, n, warmup_s, "no periodic drive: the record is too short for one")
+    pieces = _boundary_step(u, fs, period, given, start, rules)
+    if isinstance(pieces, str):
+        return _aperiodic(fs, n, warmup_s, pieces, source)
+    reasons = _class_step(u, pieces, start, rules)
+    if isinstance(reasons, str):
+        return _aperiodic(fs, n, warmup_s, reasons, source)
+    steady = Steadiness()
+    if x is not None:
+        steady = _steadiness_step(u, filled(x), pieces, reasons, warmup_s is None, rules)
+    return _assemble_step(fs, n, source, pieces, reasons, steady, warmup_s, start)
+
+
+@dataclass
+class _Pieces:
+    """The record cut at the drive's upward crossings (rule 2), and each piece's drive amplitude
+    (rule 4, filled in by :func:`_class_step`).
+
+    ``times``: the crossings [samples, fractional]; piece k runs ``lengths[k]`` samples from
+    ``starts[k]`` (pieces 0 and the last: the record's ends); ``smooth``: the drive smoothed over
+    SMOOTH_FRACTION of a period; ``lag``: the period in whole samples; ``period`` [s] and
+    ``period_samples``: refined from the crossings unless ``given``; ``measured``: the median
+    regular interval [s]."""
+
+    period: float
+    given: bool
+    times: np.ndarray
+    starts: np.ndarray
+    lengths: np.ndarray
+    smooth: np.ndarray
+    lag: int
+    period_samples: float
+    measured: float
+    amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    whole: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+
+    def bounds(self, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The start and end [samples, fractional] of pieces ``k``: their crossings; at the
+        record's ends, a period from the other one."""
+        times = self.times
+        begin = np.where(k >= 1, times[np.clip(k - 1, 0, None)], times[0] - self.period_samples)
+        finish = np.where(k < len(times), times[np.clip(k, None, len(times) - 1)], np.nan)
+        return begin, np.where(np.isfinite(finish), finish, begin + self.period_samples)
+
+
+def _boundary_step(u, fs, period, given, start, rules) -> _Pieces | str:
+    """Rules 1 and 2: the period checked (periodic or not, and why not), the crossings and the
+    pieces between them; a note (str) when the drive is not periodic."""
+    n = len(u)
     lag = int(round(period * fs))
     what = f"the {'protocol' if given else 'drive'}'s period {period:.4g} s"
     if n - start < 2 * lag:
-        return _aperiodic(fs, n, warmup_s, f"no periodic drive: under two of {what}", source)
+        return f"no periodic drive: under two of {what}"
     # the drive less its running mean over a period, smoothed: its upward zero crossings (the
     # means of the warm-up given and of the rest apart: a hold before the drive would bias them)
     smooth = running_mean(u, int(round(lag * SMOOTH_FRACTION)))
     parts = [part for part in (slice(0, start), slice(start, n)) if part.stop > part.start]
     u_ac = np.concatenate([smooth[p] - running_mean(smooth[p], lag) for p in parts])
-
     # the local amplitude: √2 × the rms of each period-long block
     blocks = np.arange(0, n, lag)
     block_rms = np.sqrt(np.add.reduceat(u_ac * u_ac, blocks) / np.diff(np.append(blocks, n)))
@@ -406,8 +520,7 @@ def find_cycles(
         shape = np.where(moving, u_ac / np.where(moving, local, 1.0), 0.0)
         r = lag_correlation(shape[start:], lag, moving[start:])
     if not r >= rules.periodic_correlation:
-        note = f"no periodic drive: U correlates {r:.2f} with itself one period ({what}) later"
-        return _aperiodic(fs, n, warmup_s, note, source)
+        return f"no periodic drive: U correlates {r:.2f} with itself one period ({what}) later"
     sample = u_ac[start :: max(1, (n - start) // (1 << 16))]
     scale = 0.5 * float(np.subtract(*np.percentile(sample, [99.5, 0.5])))
     h = np.maximum(
@@ -418,7 +531,6 @@ def find_cycles(
     # piece k (0 < k < len(times)) runs from crossing k − 1 to crossing k: samples from the first
     # after one to the last before the next; pieces 0 and len(times) are the record's ends
     bounds = np.concatenate(([0], np.floor(times).astype(int) + 1, [n]))
-    starts, lengths = bounds[:-1], np.diff(bounds)
     period_samples = period * fs
     # the median whole cycle between two crossings refines a period found from the spectrum
     intervals = np.diff(times)
@@ -426,9 +538,19 @@ def find_cycles(
     measured = float(np.median(intervals[regular])) / fs if regular.any() else np.nan
     if not given and regular.sum() >= 3:  # fewer: a crossing next to a hold is off, keep P
         period, period_samples = measured, measured * fs
+    return _Pieces(
+        period, given, times, bounds[:-1], np.diff(bounds), smooth, lag, period_samples, measured
+    )
+
+
+def _class_step(u, pieces: _Pieces, start: int, rules: CycleRules) -> np.ndarray | str:
+    """Rule 4 (and rule 3's warm-up given): each piece's reason to be dropped, "" for a full
+    cycle; a note (str) when no whole cycle is found."""
+    n, starts, lengths = len(u), pieces.starts, pieces.lengths
+    period_samples = pieces.period_samples
     whole = np.abs(lengths - period_samples) <= rules.period_tolerance * period_samples + 1
     partial = np.zeros(len(starts), bool)
-    if len(times):
+    if len(pieces.times):
         # the pieces before the first crossing and after the last: whole only to within a sample
         tight = max(1.0, 0.002 * period_samples)
         partial[0] = abs(lengths[0] - period_samples) > tight
@@ -436,15 +558,18 @@ def find_cycles(
     else:
         partial[:] = True
     whole &= ~partial
-    amplitude = _fundamental(u, starts, lengths, period_samples)
+    pieces.amplitude = amplitude = _fundamental(u, starts, lengths, period_samples)
+    pieces.whole = whole
     in_warmup = starts < start
     candidates = whole & ~in_warmup
     if not candidates.any():
-        return _aperiodic(fs, n, warmup_s, f"no periodic drive: no whole cycle of {what}", source)
+        what = f"the {'protocol' if pieces.given else 'drive'}'s period {pieces.period:.4g} s"
+        return f"no periodic drive: no whole cycle of {what}"
     full_amplitude = float(amplitude[candidates].max())
     # still: the smoothed drive's slope, over ± a fiftieth of a period, under the pause fraction
     # of the full cycles' peak slope
-    w = min(max(1, int(round(lag * SMOOTH_FRACTION))), (n - 1) // 2)
+    smooth = pieces.smooth
+    w = min(max(1, int(round(pieces.lag * SMOOTH_FRACTION))), (n - 1) // 2)
     slope = np.abs(smooth[2 * w :] - smooth[: -2 * w]) / (2 * w)
     slope = np.concatenate((np.full(w, slope[0]), slope, np.full(w, slope[-1])))
     still = slope < rules.pause_fraction * 2 * np.pi * full_amplitude / period_samples
@@ -463,30 +588,65 @@ def find_cycles(
         (in_warmup, "warm-up"),
     ):
         reasons[mask] = reason  # later rules override earlier ones: warm-up wins
-    warmup_source = "" if warmup_s is None else "capture attribute warmup_s"
-    warmup_end, note = start, ""
-    if warmup_s is None and x is not None:
-        # the full cycles' start and end [samples]: the crossings; at the record's ends, a period
-        # from the other one
-        full = np.flatnonzero(reasons == "")
-        k = np.arange(len(starts))
-        begin = np.where(k >= 1, times[np.clip(k - 1, 0, None)], times[0] - period_samples)
-        finish = np.where(k < len(times), times[np.clip(k, None, len(times) - 1)], np.nan)
-        finish = np.where(np.isfinite(finish), finish, begin + period_samples)
-        run, note = settling_run(
-            u, np.asarray(x, float), begin[full], finish[full], period_samples, rules
-        )
+    return reasons
+
+
+def _steadiness_step(
+    u: np.ndarray,
+    x: np.ndarray,
+    pieces: _Pieces,
+    reasons: np.ndarray,
+    detect: bool,
+    rules: CycleRules,
+) -> Steadiness:
+    """Rules 3 and 5 on the full cycles: with ``detect`` (no warm-up given), the settling
+    transient (:func:`settling_run`), dropped as warm-up by setting ``reasons``; then the trend
+    through the cycles left and the ones far outside their spread (:func:`trend_outliers`)."""
+    full = np.flatnonzero(reasons == "")
+    if not full.size:
+        return Steadiness()
+    begin, finish = pieces.bounds(full)
+    measures = steadiness_measures(u, x, begin, finish, pieces.period_samples)
+    mid = 0.5 * (begin + finish)
+    run, note = 0, ""
+    if detect:
+        run, note = settling_run(mid, measures, rules)
         if run:
-            warmup_end = int(starts[full[run - 1]] + lengths[full[run - 1]])
-            reasons[starts < warmup_end] = "warm-up"
-            warmup_source = "detected"
+            reasons[full[:run]] = "warm-up"
+            ends = pieces.starts[full[run - 1]] + pieces.lengths[full[run - 1]]
+            reasons[pieces.starts < ends] = "warm-up"  # and the pieces before it
+    kept = np.flatnonzero(reasons[full] == "")
+    left = {k: replace(m, values=m.values[kept]) for k, m in measures.items()}
+    flagged, drift = trend_outliers(mid[kept], left, rules)
+    return Steadiness(
+        detected=run,
+        outliers=[int(i) for i in full[kept][flagged]],
+        drift=drift,
+        drift_span=float(mid[kept][-1] - mid[kept][0]) if kept.size else 0.0,
+        drift_floor=rules.warmup_tolerance * measures["offset"].stroke,
+        note=note,
+    )
+
+
+def _assemble_step(fs, n, source, pieces, reasons, steady, warmup_s, start) -> Cycles:
+    """Rule 1's period from the used cycles' crossings, and the cycles as index ranges."""
+    starts, lengths, times = pieces.starts, pieces.lengths, pieces.times
     slices = [slice(int(s), int(s + k)) for s, k in zip(starts, lengths)]
     used = [s for s, why in zip(slices, reasons) if why == ""]
+    period, measured = pieces.period, pieces.measured
     # the period measured: the median interval between the crossings that bound the used cycles
     inner = np.flatnonzero(reasons[1:-1] == "") + 1
     if inner.size:
         measured = float(np.median(times[inner] - times[inner - 1])) / fs
-        period = measured if not given and inner.size >= 3 else period
+        period = measured if not pieces.given and inner.size >= 3 else period
+    warmup_end = start
+    if steady.detected:
+        last = int(np.flatnonzero(reasons == "warm-up")[-1])
+        warmup_end = int(starts[last] + lengths[last])
+    if warmup_s is not None:
+        warmup_source = "capture attribute warmup_s"
+    else:
+        warmup_source = "detected" if steady.detected else ""
     return Cycles(
         fs,
         n,
@@ -496,11 +656,43 @@ def find_cycles(
         [(s, str(why)) for s, why in zip(slices, reasons) if why != ""],
         warmup_s=float(warmup_s) if warmup_s is not None else warmup_end / fs,
         warmup_source=warmup_source,
-        amplitude=float(np.median(amplitude[reasons == ""])) if used else np.nan,
-        minor_amplitudes=[float(a) for a in amplitude[reasons == "minor"]],
+        amplitude=float(np.median(pieces.amplitude[reasons == ""])) if used else np.nan,
+        minor_amplitudes=[float(a) for a in pieces.amplitude[reasons == "minor"]],
         measured_period_s=measured,
-        note=note,
+        note=steady.note,
+        outliers=[slices[i] for i in steady.outliers],
+        drift=steady.drift,
+        drift_s=steady.drift_span / fs,
+        drift_floor=steady.drift_floor,
     )
+
+
+@dataclass(frozen=True)
+class Steadiness:
+    """Rules 3 and 5's answer: how many leading full cycles were detected as settling, the used
+    pieces flagged as outliers (indices of the pieces), x's drift through the used cycles [x's
+    units] over ``drift_span`` [samples] between the first's and the last's middles, rule 3's
+    floor [x's units], and a note."""
+
+    detected: int = 0
+    outliers: list[int] = field(default_factory=list)
+    drift: float = np.nan
+    drift_span: float = 0.0
+    drift_floor: float = np.nan
+    note: str = ""
+
+
+def rising_with_period(u: np.ndarray, period_samples: float) -> np.ndarray:
+    """+1 where the drive rises, −1 where it falls, on the drive smoothed over
+    SMOOTH_PERIOD_FRACTION of its period [samples] (noise would flip it sample by sample)."""
+    width = max(1, int(round(period_samples * SMOOTH_PERIOD_FRACTION)))
+    smooth = np.convolve(u, np.ones(width) / width, mode="same") if width > 1 else u
+    return direction(smooth)
+
+
+def loop_bins(per_cycle: float) -> int:
+    """The bins of a cycle's loop of ``per_cycle`` samples: one per SAMPLES_PER_BIN, 8 to 40."""
+    return int(np.clip(per_cycle // SAMPLES_PER_BIN, 8, 40))
 
 
 def _aligned_sums(c: np.ndarray, t0: np.ndarray, m: int) -> np.ndarray:
@@ -518,25 +710,35 @@ def _aligned_sums(c: np.ndarray, t0: np.ndarray, m: int) -> np.ndarray:
     return (1 - f) * window(i0) + f * window(i0 + 1)
 
 
-def settling_run(
-    u: np.ndarray,
-    x: np.ndarray,
-    begin: np.ndarray,
-    end: np.ndarray,
-    period_samples: float,
-    rules: CycleRules = RULES,
-) -> tuple[int, str]:
-    """How many of the leading full cycles are still settling, and a note. The full cycles, in
-    time order, run from ``begin`` to ``end`` [samples, fractional: the drive's crossings]; a
-    cycle settles while its x offset from the drive (the mean of x − g·U over one period after
-    its start) or its non-closure (the mean over its last tenth minus over its first) differs
-    from the later half's median by more than the tolerance (module docstring, rule 3). The
-    windows sit at the same phase of every cycle, to a fraction of a sample."""
-    if len(begin) < 4:
-        return 0, ""
-    x = filled(x)
-    later = slice(len(begin) // 2, None)
-    span = int(np.floor(period_samples)) - 1
+@dataclass(frozen=True)
+class Measure:
+    """One measure of every full cycle, in time order, [x's units]: its values, the scatter x's
+    white noise alone gives each (σ/√m for a mean of m samples), and the floor below which a
+    difference is never a transient nor an outlier (``floor`` × the stroke, rule 3)."""
+
+    values: np.ndarray
+    noise: float
+    stroke: float
+
+
+def steadiness_measures(
+    u: np.ndarray, x: np.ndarray, begin: np.ndarray, end: np.ndarray, period_samples: float
+) -> dict[str, Measure]:
+    """The three measures of rule 3 on the full cycles that run from ``begin`` to ``end``
+    [samples, fractional: the drive's crossings], in x's units:
+
+    - "offset": the mean of x − g·U over one period from the cycle's start, g the least-squares
+      gain of the later half of the cycles (a sensor's settling offset moves it);
+    - "closure": the mean of x − g·U over the cycle's last tenth minus over its first tenth (a
+      transient that decays within the cycle leaves its loop open);
+    - "loop width": the largest distance between the cycle's rising and falling branches
+      (:func:`cycle_loops`; a transient within the cycle widens it), when a cycle has
+      MIN_CYCLE_SAMPLES samples at least (fewer: its branches cannot be binned, left out).
+
+    The windows sit at the same phase of every cycle, to a fraction of a sample."""
+    count = len(begin)
+    later = slice(count // 2, None)
+    span = max(1, int(np.floor(period_samples)) - 1)
     tenth = max(1, int(round(period_samples / 10)))
     cums = {k: np.concatenate(([0.0], np.cumsum(v))) for k, v in (("u", u), ("x", x))}
 
@@ -553,34 +755,224 @@ def settling_run(
     gain = c[0, 1] / c[0, 0] if c[0, 0] > 0 else 0.0
     offset = whole["x"] - gain * whole["u"]
     closure = (tail["x"] - gain * tail["u"]) - (head["x"] - gain * head["u"])
-    edges = np.ravel(np.ceil(np.column_stack((begin[later], end[later]))).astype(int))
-    edges = np.clip(edges, 0, len(x) - 1)  # [begin, end) at the even places
-    top, bottom = np.maximum.reduceat(x, edges)[0::2], np.minimum.reduceat(x, edges)[0::2]
-    stroke_ref = float(np.median(top - bottom))
-    bad, drifts = np.zeros(len(begin), bool), False
-    # the scatter x's noise alone gives either measure (a window of m samples: σ/√m)
+    lo = np.clip(np.ceil(begin).astype(int), 0, len(x) - 1)
+    hi = np.clip(np.ceil(end).astype(int), lo + 1, len(x))
+    cycles = [slice(int(a), int(b)) for a, b in zip(lo, hi)]
+    strokes, gaps = cycle_loops(
+        u, x, rising_with_period(u, period_samples), cycles, loop_bins(span)
+    )
+    stroke = float(np.nanmedian(strokes[later])) if count else np.nan
+    # the scatter x's noise alone gives each measure: a mean of m samples σ/√m, a difference of
+    # two means of m σ·√(2/m); a branch gap the difference of two branch means of a bin each,
+    # span/(2·bins) samples
     sigma = noise_sigma(x)
-    for value, noise in ((offset, sigma / np.sqrt(span)), (closure, sigma * np.sqrt(2 / tenth))):
-        steady = value[later][np.isfinite(value[later])]
-        if steady.size < 2:
-            return 0, ""
-        centre = float(np.median(steady))
-        # the scatter from one cycle to the next (a trend does not widen it)
-        step = np.diff(steady)
-        spread = 1.4826 * float(np.median(np.abs(step - np.median(step)))) / np.sqrt(2)
-        tolerance = max(rules.warmup_tolerance * stroke_ref, 5 * spread, 5 * noise)
-        bad |= ~(np.abs(value - centre) <= tolerance)
-        third = max(1, steady.size // 3)
-        drifts |= abs(np.median(steady[-third:]) - np.median(steady[:third])) > tolerance
-    run = int(np.argmin(bad)) if not bad.all() else len(bad)
-    if drifts or run > len(begin) // 2:
-        drift = float(np.nanmax(offset) - np.nanmin(offset))
+    out = {
+        "offset": Measure(offset, sigma / np.sqrt(span), stroke),
+        "closure": Measure(closure, sigma * np.sqrt(2 / tenth), stroke),
+    }
+    if span + 1 >= MIN_CYCLE_SAMPLES:
+        bins = loop_bins(span)
+        out["loop width"] = Measure(gaps, sigma * np.sqrt(4 * bins / span), stroke)
+    return out
+
+
+@dataclass(frozen=True)
+class _Trend:
+    """A measure's trend through some cycles (:func:`robust_trend`): v̂(t) = a + b·(t − t̄), fitted
+    on m cycles with p parameters (2: a line, 1: a constant), S_tt = Σ(t − t̄)² over them, s the
+    robust scatter of their residuals, ``kept`` the cycles the second fit was made on."""
+
+    a: float
+    b: float
+    t_bar: float
+    s_tt: float
+    s: float
+    m: int
+    p: int
+    kept: np.ndarray
+
+    def at(self, t: np.ndarray) -> np.ndarray:
+        return self.a + self.b * (t - self.t_bar)
+
+    def leverage(self, t: np.ndarray) -> np.ndarray:
+        """The trend's own variance at t over σ²: 1/m + (t − t̄)²/S_tt (a line), 1/m (constant)."""
+        return 1 / self.m + ((t - self.t_bar) ** 2 / self.s_tt if self.p == 2 else 0.0)
+
+
+def _line(t: np.ndarray, v: np.ndarray, robust: bool = False) -> _Trend | None:
+    """The straight line v ≈ a + b·(t − t̄) through the finite values: by least squares, or with
+    ``robust`` b the median of the slopes between each value and the one half the values later
+    and a the median of v − b·(t − t̄) (a quarter of the values may lie anywhere and leave it
+    where the rest are; a settling transient pulls a least-squares line toward itself). A
+    constant, their median, with fewer than TREND_MIN_CYCLES (a line through two or three leaves
+    no scatter to judge by). With the robust scatter of its residuals s = 1.4826·MAD·√(m/(m − p)):
+    the MAD about the residuals' median, 1.4826 making it σ for a normal scatter, √(m/(m − p))
+    undoing the p fitted parameters' shrinking of the residuals. None without two values."""
+    ok = np.isfinite(v) & np.isfinite(t)
+    t, v = t[ok], v[ok]
+    m = len(v)
+    if m < 2:
+        return None
+    t_bar = float(t.mean())
+    s_tt = float(np.sum((t - t_bar) ** 2))
+    if m >= TREND_MIN_CYCLES and s_tt > 0 and robust:
+        half = m // 2
+        b = float(np.median((v[half : 2 * half] - v[:half]) / (t[half : 2 * half] - t[:half])))
+        a, p = float(np.median(v - b * (t - t_bar))), 2
+    elif m >= TREND_MIN_CYCLES and s_tt > 0:
+        a, b, p = float(v.mean()), float(np.sum((t - t_bar) * (v - v.mean())) / s_tt), 2
+    else:
+        a, b, p = float(np.median(v)), 0.0, 1
+    r = v - (a + b * (t - t_bar))
+    s = MAD_TO_SIGMA * float(np.median(np.abs(r - np.median(r)))) * np.sqrt(m / (m - p))
+    return _Trend(a, b, t_bar, s_tt, s, m, p, ok)
+
+
+def robust_trend(
+    t: np.ndarray, measure: Measure, z: float, floor: float, scale: float | None = None
+) -> _Trend | None:
+    """A measure's trend through cycles at ``t`` (the slow drift, which is never a transient):
+    a robust line first (:func:`_line`), then by least squares (the more precise) through the
+    cycles whose residual from it is within the tolerance max(floor, z·σ),
+    σ the larger of the robust scatter (``scale`` where given, else the first fit's) and what x's
+    noise gives the measure."""
+    first = _line(t, measure.values, robust=True)
+    if first is None:
+        return None
+    residual = measure.values - first.at(t)
+    spread = first.s if scale is None else scale
+    near = np.abs(residual) <= max(floor, z * max(spread, measure.noise))
+    second = _line(t[near], measure.values[near])
+    if second is None:
+        return first
+    kept = np.zeros(len(t), bool)
+    kept[np.flatnonzero(near)[second.kept]] = True
+    return replace(second, kept=kept)
+
+
+def _off(t, measures, z, floor, reference, scales=None):
+    """Which cycles are off the trend of the cycles ``reference`` for any measure: the residual
+    beyond max(floor·S, z·σ·√(1 + leverage)) (S the stroke; σ the larger of the measure's
+    robust scatter, ``scales[name]`` or else the trend's, and x's noise's; the leverage the
+    trend's own uncertainty at the cycle, the prediction interval of a straight-line fit). A NaN
+    measure is off."""
+    off = np.zeros(len(t), bool)
+    for name, measure in measures.items():
+        scale = None if scales is None else scales[name]
+        trend = robust_trend(
+            t[reference],
+            replace(measure, values=measure.values[reference]),
+            z,
+            floor * measure.stroke,
+            scale,
+        )
+        if trend is None:
+            continue
+        sigma = max(trend.s if scale is None else scale, measure.noise)
+        tolerance = np.maximum(floor * measure.stroke, z * sigma * np.sqrt(1 + trend.leverage(t)))
+        off |= ~(np.abs(measure.values - trend.at(t)) <= tolerance)
+    return off
+
+
+def _suffix_off(
+    t: np.ndarray, measure: Measure, scale: float, z: float, floor: float, kept: np.ndarray
+) -> np.ndarray:
+    """Which cycles are off the least-squares trend of the ``kept`` cycles after them (each
+    judged against the later ones alone): the residual beyond max(floor, z·σ·√(1 + leverage)), σ
+    the larger of ``scale`` and x's noise's, the leverage 1/m + (t − t̄)²/S_tt of the m cycles
+    after it (a constant, their mean, while fewer than TREND_MIN_CYCLES). Sums from the record's
+    end: every cycle's trend at once."""
+    v = measure.values
+    ok = np.isfinite(v) & kept
+    w, tv, vv = ok.astype(float), np.where(ok, t, 0.0), np.where(ok, v, 0.0)
+
+    def after(a):  # Σ over the cycles after each: reversed cumulative sums, shifted by one
+        c = np.cumsum(a[::-1])[::-1]
+        return np.append(c[1:], 0.0)
+
+    m, st, sv = after(w), after(tv), after(vv)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t_bar, v_bar = st / m, sv / m
+        s_tt = after(tv * tv) - m * t_bar**2
+        s_tv = after(tv * vv) - m * t_bar * v_bar
+        line = (m >= TREND_MIN_CYCLES) & (s_tt > 0)
+        b = np.where(line, s_tv / np.where(line, s_tt, 1.0), 0.0)
+        lever = 1 / m + np.where(line, (t - t_bar) ** 2 / np.where(line, s_tt, 1.0), 0.0)
+        residual = v - (v_bar + b * (t - t_bar))
+        sigma = max(scale, measure.noise)
+        tolerance = np.maximum(floor, z * sigma * np.sqrt(1 + lever))
+        return ~(np.abs(residual) <= tolerance) & (m >= 2)
+
+
+def settling_run(
+    t: np.ndarray, measures: Mapping[str, Measure], rules: CycleRules = RULES
+) -> tuple[int, str]:
+    """How many of the leading full cycles (their middles at ``t`` [samples], in time order) are
+    a settling transient, and a note (rule 3).
+
+    Each measure's robust scatter s is that of the later half of the cycles about their trend
+    (:func:`robust_trend`). A leading cycle is off when, for any measure, it is off the trend of
+    all the cycles after it (:func:`_suffix_off`: judged against the later cycles, with z
+    :attr:`CycleRules.settling_z` and the floor :attr:`CycleRules.warmup_tolerance` of the
+    stroke); the settling transient is the leading run of cycles off. The run is then extended
+    while the first cycle after it is off the robust trend of the cycles from it on (a long
+    transient's later cycles pull the least-squares trend toward the earlier ones; the robust
+    trend leaves them out). None when the run would reach past the first half of the cycles:
+    then x has not settled by the later half, and the note says so. The trend itself is the
+    slow drift, fitted and never dropped."""
+    count = len(t)
+    if count < 4:
+        return 0, ""
+    later = np.arange(count) >= count // 2
+    scales = {}
+    for name, measure in measures.items():
+        trend = robust_trend(
+            t[later],
+            replace(measure, values=measure.values[later]),
+            rules.settling_z,
+            rules.warmup_tolerance * measure.stroke,
+        )
+        scales[name] = trend.s if trend is not None else np.inf
+    off = np.zeros(count, bool)
+    for name, measure in measures.items():
+        floor = rules.warmup_tolerance * measure.stroke
+        # the later cycles a leading one is judged against: those near the robust trend of all
+        # (a far one, settling or an outlier, would pull the least-squares trend toward itself)
+        whole = robust_trend(t, measure, rules.settling_z, floor, scales[name])
+        kept = whole.kept if whole is not None else np.isfinite(measure.values)
+        off |= _suffix_off(t, measure, scales[name], rules.settling_z, floor, kept)
+    run = int(np.argmin(off)) if not off.all() else count
+    while run < count // 2:
+        reference = np.arange(count) >= run
+        off = _off(t, measures, rules.settling_z, rules.warmup_tolerance, reference, scales)
+        if not off[run]:
+            break
+        run += int(np.argmin(off[run:])) if not off[run:].all() else count - run
+    if run > count // 2:
         return 0, (
-            f"x drifts through the record (its offset from the drive changes by {drift:.3g} in "
-            f"x's units, beyond {100 * rules.warmup_tolerance:g} % of the stroke, and has not "
-            "settled in the later half of the cycles): no warm-up dropped"
+            "x has not settled by the later half of the full cycles (their first "
+            f"{run} of {count} differ from the rest): no warm-up dropped"
         )
     return run, ""
+
+
+def trend_outliers(
+    t: np.ndarray, measures: Mapping[str, Measure], rules: CycleRules = RULES
+) -> tuple[np.ndarray, float]:
+    """The used cycles far outside the others' spread (rule 5), and x's drift through them.
+
+    Through each measure's values a trend is fitted (:func:`robust_trend`); a cycle is an outlier
+    where, for any measure, its residual exceeds max(w·S, z·σ·√(1 + leverage)) (:func:`_off`, z
+    :attr:`CycleRules.outlier_z`). Returns the outliers' mask and the drift: the offset trend's
+    change from the first cycle's middle to the last's [x's units] (NaN without two cycles)."""
+    count = len(t)
+    if count < 2:
+        return np.zeros(count, bool), np.nan
+    flagged = _off(t, measures, rules.outlier_z, rules.warmup_tolerance, np.ones(count, bool))
+    offset = measures["offset"]
+    trend = robust_trend(t, offset, rules.outlier_z, rules.warmup_tolerance * offset.stroke)
+    drift = float(trend.b * (t[-1] - t[0])) if trend is not None else np.nan
+    return flagged, drift
 
 
 def cycle_loops(
