@@ -11,20 +11,21 @@ from selfsense.io.provenance import script_logging, write_table
 from selfsense.verify.tracking_budget import capture_tracking_budget
 
 
-def main(runs, tables, omega_c, log=None):
-    """runs: {capture path: (its protocol, whether its loop is closed, whether it is P1, counted
-    per segment)}; tables: {"tracking", "controller": path}."""
+def main(captures, protocols, controls, profiles, tables, omega_c, log=None):
+    """protocols, controls, profiles: {run: its protocol, control, profile}; tables: {"tracking",
+    "controller": path}."""
     logger = script_logging(log)
     rows = {name: [] for name in tables}
-    for k, (capture, (protocol, closed, p1)) in enumerate(runs.items(), 1):
-        for name, budget in capture_tracking_budget(capture, protocol, closed, omega_c, p1).items():
-            rows[name] += [
-                {"run": Path(capture).stem, "segment": s or None} | row for s, row in budget.items()
-            ]
+    for k, capture in enumerate(captures, 1):
+        run = Path(capture).stem
+        closed, p1 = controls[run] == "closed_loop", profiles[run] == "P1"
+        budgets = capture_tracking_budget(capture, protocols[run], closed, omega_c, p1)
+        for name, budget in budgets.items():
+            rows[name] += [{"run": run, "segment": s or None} | row for s, row in budget.items()]
             logger.info(
                 "%d/%d %s, %s: %s",
                 k,
-                len(runs),
+                len(captures),
                 capture,
                 name,
                 ", ".join(
@@ -32,20 +33,16 @@ def main(runs, tables, omega_c, log=None):
                 ),
             )
     for name, path in tables.items():
-        write_table(pd.DataFrame(rows[name]), path, inputs=list(runs), config={"omega_c": omega_c})
+        write_table(pd.DataFrame(rows[name]), path, inputs=captures, config={"omega_c": omega_c})
 
 
 if "snakemake" in globals():
     p = snakemake.params
     main(
-        {
-            c: (
-                p.protocols[Path(c).stem],
-                p.controls[Path(c).stem] == "closed_loop",
-                p.profiles[Path(c).stem] == "P1",
-            )
-            for c in snakemake.input.capture
-        },
+        list(snakemake.input.capture),
+        p.protocols,
+        p.controls,
+        p.profiles,
         dict(snakemake.output.items()),
         p.omega_c,
         snakemake.log[0],
