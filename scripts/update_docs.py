@@ -24,15 +24,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.scorecard.render import (
-    combined_envelope,
-    counts_markdown,
-    deviations_markdown,
-    envelope_markdown,
-    envelope_rows_markdown,
-    replace_block,
-)
-from selfsense.verify.envelope import Design
+from selfsense.envelope.design import Design
+from selfsense.envelope.render import combined_envelope, envelope_markdown, envelope_rows_markdown
+from selfsense.scorecard.render import counts_markdown, deviations_markdown, replace_block
 
 SNAPSHOT = Path("docs/snapshot")
 PAGES = {
@@ -124,25 +118,30 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         for p in sorted(snapshot.glob("scorecard_*.csv"))
         if p.name != "scorecard_counts.csv"
     }
-    folders = sorted((snapshot / "envelope").iterdir(), key=_dataset_s_own_first)
-    designs = [
-        (pd.read_csv(f / "scorecard.csv"), json.loads((f / "provenance.json").read_text()))
-        for f in folders
-    ]
+    designs = sorted(
+        (_snapshot_design(f) for f in (snapshot / "envelope").iterdir()),
+        key=_dataset_s_own_first,
+    )
     return {
         "counts": counts_markdown(counts, campaign),
         "deviations": deviations_markdown(cards),
         "calibration": calibration_markdown(cards, campaign),
         "recovery": recovery_markdown(cards, campaign),
         "envelope": envelope_markdown(designs),
-        "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _ in designs])),
+        "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _, _ in designs])),
     }
 
 
-def _dataset_s_own_first(folder: Path) -> tuple[bool, str]:
+def _snapshot_design(folder: Path) -> tuple[pd.DataFrame, Design, dict]:
+    """(envelope scorecard, design, provenance) of one design under snapshot/envelope/."""
+    provenance = json.loads((folder / "provenance.json").read_text())
+    return pd.read_csv(folder / "scorecard.csv"), Design(**provenance["design"]), provenance
+
+
+def _dataset_s_own_first(snapshot: tuple[pd.DataFrame, Design, dict]) -> tuple[bool, str]:
     """The dataset's own design (named after it) first: its card is the one the others fill."""
-    design = json.loads((folder / "provenance.json").read_text())["design"]
-    return Design.from_config(design).name != design["dataset"], folder.name
+    design = snapshot[1]
+    return design.name != design.dataset, design.name
 
 
 def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> None:
@@ -152,7 +151,7 @@ def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> Non
     if given."""
     sidecar = json.loads((folder / "scorecard.csv.json").read_text())
     results = folder.parents[1]
-    target = snapshot / "envelope" / Design.from_config(sidecar["design"]).name
+    target = snapshot / "envelope" / Design(**sidecar["design"]).name
     target.mkdir(parents=True, exist_ok=True)
     for name in ENVELOPE_FILES:
         shutil.copy(folder / name, target / name)

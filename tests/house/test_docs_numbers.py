@@ -68,5 +68,7 @@ def test_an_envelope_design_is_snapshot_in_a_folder_of_its_name(tmp_path):
     assert record["code"] == "abc1234" and record["design"] == design and record["wall_s"] == 12.5
     assert record["members_code"] == ["0ab0ab0"]
     columns = ["chapter", "source", "quantity", "envelope verdict", "verdict"]
-    line = module.envelope_markdown([(pd.DataFrame(columns=columns), record)])
+    line = module.envelope_markdown(
+        [(pd.DataFrame(columns=columns), module.Design(**record["design"]), record)]
+    )
     assert "code abc1234 (its members 0ab0ab0)" in line

@@ -13,36 +13,36 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from selfsense import stages
-from selfsense.io.manifest import (
-    ManifestError,
-    catalogue,
-    load_config,
-    load_dataset,
-    validate_document,
+from selfsense.envelope.design import (
+    Design,
+    envelope,
+    held_unknowns,
+    member_manifest,
+    member_roles,
+    physical,
+    sampling_plan,
+    varied_unknowns,
 )
-from selfsense.io.unknowns import Unknown, load_unknowns
-from selfsense.scorecard.envelope import (
+from selfsense.envelope.render import combined_envelope, envelope_rows_markdown
+from selfsense.envelope.unknowns import Unknown, load_unknowns
+from selfsense.envelope.verdicts import (
     envelope_counts,
     envelope_scorecard,
     envelope_summary,
     judge,
     judge_envelope,
     member_values,
+    morris_screening,
     nominal_outside,
     on_the_edge,
     row_key,
 )
-from selfsense.scorecard.render import combined_envelope, envelope_rows_markdown
-from selfsense.verify.envelope import (
-    Design,
-    envelope,
-    held_unknowns,
-    member_manifest,
-    member_roles,
-    morris_screening,
-    physical,
-    sampling_plan,
-    varied_unknowns,
+from selfsense.io.manifest import (
+    ManifestError,
+    catalogue,
+    load_config,
+    load_dataset,
+    validate_document,
 )
 
 from ..helpers import ROOT
@@ -72,7 +72,7 @@ def shipped():
 # --- draws ----------------------------------------------------------------------------------------
 
 
-# no deadline: the first draw of a normal imports scipy.stats (selfsense.verify.envelope.physical)
+# no deadline: the first draw of a normal imports scipy.stats (selfsense.envelope.design.physical)
 @settings(deadline=None)
 @given(st.floats(0.0, 1.0))
 def test_quantiles_map_into_each_range(u):
@@ -235,14 +235,15 @@ def test_protocol_override_must_name_a_number(shipped):
 
 def test_shipped_envelope_is_drawn_and_valid(shipped):
     config, manifests, unknowns = shipped
-    drawn = envelope(config["envelope"], manifests, unknowns)
+    the_design = Design.from_config(config["envelope"])
+    drawn = envelope(the_design, manifests, unknowns)
     groups = len(config["envelope"]["groups"])
     morris = config["envelope"]["members"] // (groups + 1) * (groups + 1)
     assert len(drawn.manifests) == morris + config["envelope"]["spread"]
     assert not {u.id for u in drawn.varied} & {u.id for u in drawn.held}
     for u in drawn.varied:  # every draw inside its declared range
         assert drawn.plan[u.id].between(u.low, u.high).all()
-    again = envelope(config["envelope"], manifests, unknowns)  # the plan is the seed's
+    again = envelope(the_design, manifests, unknowns)  # the plan is the seed's
     pd.testing.assert_frame_equal(drawn.plan, again.plan)
 
 
@@ -261,11 +262,11 @@ CH7 = {
 def test_a_named_design_keeps_its_members_apart(shipped):
     config, manifests, unknowns = shipped
     section = config["envelope"] | CH7
-    drawn = envelope(section, manifests, unknowns)
+    drawn = envelope(Design.from_config(section), manifests, unknowns)
     assert list(drawn.manifests) == [f"pi_p885_ch7~{k:02d}" for k in range(1, 9)]  # 2 × (3 + 1)
     assert {u.group for u in drawn.varied} == set(CH7["groups"])
     assert not {u.id for u in drawn.varied} & {
-        u.id for u in envelope(config["envelope"], manifests, unknowns).varied
+        u.id for u in envelope(Design.from_config(config["envelope"]), manifests, unknowns).varied
     }
     member = drawn.manifests["pi_p885_ch7~01"]
     plan = stages.plan_stages(member, catalogue(member, "thesis"))

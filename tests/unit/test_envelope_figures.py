@@ -10,9 +10,7 @@ import pytest
 from matplotlib import cbook
 from matplotlib.image import imread
 
-from selfsense.scorecard.envelope import COLUMNS as ENVELOPE_COLUMNS
-from selfsense.scorecard.envelope import NOMINAL_COLUMNS
-from selfsense.scorecard.envelope_figures import (
+from selfsense.envelope.figures import (
     EMPTY_SENSITIVITY,
     beyond,
     cut,
@@ -27,9 +25,11 @@ from selfsense.scorecard.envelope_figures import (
     tornado,
     tornado_figure,
 )
+from selfsense.envelope.verdicts import COLUMNS as ENVELOPE_COLUMNS
+from selfsense.envelope.verdicts import NOMINAL_COLUMNS
 
 NAN = math.nan
-# the envelope scorecard's columns, as selfsense.scorecard.envelope writes them (verdict aside)
+# the envelope scorecard's columns, as selfsense.envelope.verdicts writes them (verdict aside)
 COLUMNS = [c for c in NOMINAL_COLUMNS if c != "verdict"] + ENVELOPE_COLUMNS
 
 

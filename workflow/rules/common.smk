@@ -19,8 +19,8 @@ from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, catalogue, channel_scalin
 from selfsense.scorecard.calibration import load_targets
 from selfsense.scorecard.reference_values import tables_read as reference_tables
 from selfsense.scorecard.registry import applicable, parse_registry, tables_read
-from selfsense.io.unknowns import load_unknowns
-from selfsense.verify.envelope import envelope
+from selfsense.envelope.design import Design, envelope
+from selfsense.envelope.unknowns import load_unknowns
 from selfsense import stages
 
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
@@ -152,7 +152,8 @@ FIGURE_PDF = config["figures"]["pdf"]
 # report's summary reads (NOMINAL): only `snakemake envelope` asks for them.
 NOMINAL = list(DATASETS)
 UNKNOWNS = "workflow/unknowns.yaml"
-ENVELOPE = envelope(config["envelope"], DATASETS, load_unknowns(UNKNOWNS, raw_dir=RAW))
+# the design read from config here, once: the envelope rules take it as their param
+ENVELOPE = envelope(Design.from_config(config["envelope"]), DATASETS, load_unknowns(UNKNOWNS, raw_dir=RAW))
 DATASETS |= ENVELOPE.manifests
 
 

@@ -43,7 +43,7 @@ rule envelope_plan:
                     category="Envelope", subcategory="Plan"),
         unit=f"{ENVELOPE_FOLDER}/unit.csv",
     params:
-        envelope=config["envelope"],
+        design=ENVELOPE.design.record(),
         raw_dir=config["raw_dir"],
     log:
         f"logs/envelope/{ENVELOPE.design.name}/plan.log",
@@ -79,7 +79,7 @@ rule envelope:
                        category="Envelope", subcategory="Scorecard"),
     params:
         pdf=FIGURE_PDF,
-        envelope=config["envelope"],
+        design=ENVELOPE.design.record(),
         members=list(ENVELOPE.manifests),
         raw_dir=config["raw_dir"],
     log:

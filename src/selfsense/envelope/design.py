@@ -1,5 +1,5 @@
-"""The reproduction envelope's members: which unknowns vary, the sampling plan, each member's
-manifest, and the Morris screening of what drives each published number.
+"""The reproduction envelope's design and members: which unknowns vary, the sampling plan, each
+member's manifest.
 
 An envelope member is the nominal dataset with every varied unknown (workflow/unknowns.yaml) set
 to one draw: a dataset of its own, ``<dataset>~NN``, whose manifest this module writes, run by the
@@ -18,7 +18,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,9 +26,9 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from selfsense.envelope.unknowns import MODEL_PREFIX, PROTOCOL_PATH, Unknown
 from selfsense.io.manifest import ManifestError, validate_document
 from selfsense.io.provenance import atomic_path
-from selfsense.io.unknowns import MODEL_PREFIX, PROTOCOL_PATH, Unknown
 
 #: between a dataset's name and a member's number: pi_p885~07
 MEMBER_MARK = "~"
@@ -59,6 +59,9 @@ class Design:
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any]) -> Design:
+        """The design of config.yaml's ``envelope:`` section (validated by the config schema):
+        the one reading of that section; the workflow passes the result on as
+        :meth:`record`, and every output keeps that record in its provenance."""
         return cls(
             name=section.get("name") or section["dataset"],
             dataset=section["dataset"],
@@ -71,6 +74,11 @@ class Design:
             chapters=[str(c) for c in section.get("chapters", ())],
             spread=int(section.get("spread", 0)) if section["method"] == "morris" else 0,
         )
+
+    def record(self) -> dict[str, Any]:
+        """The design as plain data (a rule's param, a provenance's ``design``): ``Design(**it)``
+        is the design again."""
+        return asdict(self)
 
     def judges(self, chapter: Any) -> bool:
         """Whether the design judges the emergent rows of ``chapter`` (every chapter's when it
@@ -270,36 +278,6 @@ def write_member_manifest(manifest: Mapping[str, Any], path: str | Path) -> None
         tmp.write_text(text, encoding="utf-8")
 
 
-def morris_screening(
-    varied: Sequence[Unknown],
-    design: Design,
-    unit: pd.DataFrame,
-    outputs: pd.DataFrame,
-) -> pd.DataFrame:
-    """Morris's μ* and σ of every output (a column of ``outputs``, members × outputs) for every
-    group: rows (output, factor, mu_star, sigma), in the outputs' units per unit of the
-    group's declared range. An output a member did not give (NaN) is screened on none: its
-    trajectories would be broken."""
-    # here, not at the top: SALib's analysis imports scipy.stats, a second of every workflow parse
-    from SALib.analyze import morris as morris_analysis
-
-    spec = problem(varied, design)
-    rows = []
-    x = unit.loc[outputs.index].to_numpy()
-    for column in outputs.columns:
-        y = outputs[column].to_numpy(dtype=float)
-        if not np.isfinite(y).all():
-            continue
-        result = morris_analysis.analyze(
-            spec, x, y, num_levels=design.levels, seed=design.seed, print_to_console=False
-        )
-        for factor, mu_star, sigma in zip(
-            result["names"], result["mu_star"], result["sigma"], strict=True
-        ):
-            rows.append((column, str(factor), float(mu_star), float(sigma)))
-    return pd.DataFrame(rows, columns=["output", "factor", "mu_star", "sigma"])
-
-
 @dataclass(frozen=True)
 class Envelope:
     """An envelope as the workflow runs it: its design, what varies and what is held, the
@@ -314,13 +292,12 @@ class Envelope:
 
 
 def envelope(
-    section: Mapping[str, Any],
+    design: Design,
     datasets: Mapping[str, Mapping[str, Any]],
     unknowns: Sequence[Unknown],
 ) -> Envelope:
-    """The envelope of config.yaml's ``envelope:`` section over the run's ``datasets`` (their
-    manifests): every member's manifest, validated as a dataset manifest."""
-    design = Design.from_config(section)
+    """The envelope of ``design`` over the run's ``datasets`` (their manifests): every member's
+    manifest, validated as a dataset manifest."""
     varied = varied_unknowns(unknowns, design)
     held = held_unknowns(unknowns, design)
     base = datasets.get(design.dataset)

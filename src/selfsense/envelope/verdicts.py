@@ -1,5 +1,6 @@
 """The envelope's verdicts: every emergent number of the nominal scorecard against the spread of
-the same number over the envelope's members (selfsense.verify.envelope).
+the same number over the envelope's members (:mod:`selfsense.envelope.design`), and the Morris
+screening of what drives each.
 
 A published number is ``consistent`` when it lies inside the members' 2.5–97.5 percentile
 envelope (a Morris design's Latin hypercube members when it draws them: ``Design.spread``), the
@@ -23,21 +24,20 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from selfsense.io.unknowns import Unknown
-from selfsense.scorecard.registry import EMERGENT, Entry, last_digit
-from selfsense.verify.envelope import (
+from selfsense.envelope.design import (
     Design,
     held_unknowns,
     member_roles,
-    morris_screening,
+    problem,
     trajectories,
     varied_unknowns,
 )
+from selfsense.envelope.unknowns import Unknown
+from selfsense.scorecard.registry import EMERGENT, Entry, last_digit
 
 #: an envelope wider than ± this % of the published value makes a consistent verdict uninformative
 INFORMATIVE = 25.0
@@ -195,6 +195,36 @@ def envelope_scorecard(
         out.append(row)
     extra = pd.DataFrame(out, index=card.index, columns=COLUMNS)
     return pd.concat([card[NOMINAL_COLUMNS], extra], axis=1).reset_index(drop=True)
+
+
+def morris_screening(
+    varied: Sequence[Unknown],
+    design: Design,
+    unit: pd.DataFrame,
+    outputs: pd.DataFrame,
+) -> pd.DataFrame:
+    """Morris's μ* and σ of every output (a column of ``outputs``, members × outputs) for every
+    group: rows (output, factor, mu_star, sigma), in the outputs' units per unit of the
+    group's declared range. An output a member did not give (NaN) is screened on none: its
+    trajectories would be broken."""
+    # here, not at the top: SALib's analysis imports scipy.stats, a second of every workflow parse
+    from SALib.analyze import morris as morris_analysis
+
+    spec = problem(varied, design)
+    rows = []
+    x = unit.loc[outputs.index].to_numpy()
+    for column in outputs.columns:
+        y = outputs[column].to_numpy(dtype=float)
+        if not np.isfinite(y).all():
+            continue
+        result = morris_analysis.analyze(
+            spec, x, y, num_levels=design.levels, seed=design.seed, print_to_console=False
+        )
+        for factor, mu_star, sigma in zip(
+            result["names"], result["mu_star"], result["sigma"], strict=True
+        ):
+            rows.append((column, str(factor), float(mu_star), float(sigma)))
+    return pd.DataFrame(rows, columns=["output", "factor", "mu_star", "sigma"])
 
 
 def sensitivity_table(screening: pd.DataFrame, card: pd.DataFrame) -> pd.DataFrame:
@@ -379,7 +409,7 @@ class EnvelopeResult:
 
 
 def envelope_result(
-    section: Mapping[str, Any],
+    design: Design,
     nominal: pd.DataFrame,
     members: Mapping[str, pd.DataFrame],
     unit: pd.DataFrame,
@@ -387,9 +417,8 @@ def envelope_result(
     entries: Sequence[Entry],
     unknowns_sha256: str,
 ) -> EnvelopeResult:
-    """The envelope of config.yaml's ``envelope:`` section (its design; the unknowns it varies and
-    holds) over the members' scorecards, against the nominal scorecard."""
-    design = Design.from_config(section)
+    """The envelope of ``design`` (the unknowns it varies and holds) over the members'
+    scorecards, against the nominal scorecard."""
     varied, held = varied_unknowns(unknowns, design), held_unknowns(unknowns, design)
     card, sensitivity = judge_envelope(nominal, members, unit, varied, design, entries)
     misses = calibration_misses(members)
