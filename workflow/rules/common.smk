@@ -17,8 +17,8 @@ from selfsense.methods.cycles import protocol_period
 from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, catalogue, channel_scalings, load_dataset, load_yaml,
                                     needs_identification, protocol_duration, validate_config)
 from selfsense.scorecard.calibration import load_targets
-from selfsense.scorecard.reference_values import tables_read as reference_tables
-from selfsense.scorecard.registry import applicable, parse_registry, tables_read
+from selfsense.scorecard.card import dataset_tables
+from selfsense.scorecard.registry import applicable, parse_registry
 from selfsense.envelope.design import Design, envelope
 from selfsense.envelope.unknowns import load_unknowns
 from selfsense import stages
@@ -584,7 +584,7 @@ def scorecard_tables(dataset):
                                   if e.kind in ("emergent", "calibration") and e.locate
                                   and ENVELOPE.design.judges(e.chapter)))
     else:
-        read = tables_read(entries) + reference_tables(DATASETS[dataset])
+        read = dataset_tables(SCORECARD, DATASETS[dataset])
     return [t for t in (f"results/{dataset}/{t}" for t in read) if t in stage_outputs()]
 
 
