@@ -13,22 +13,33 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
   (``--envelope``: the results/envelope/<name>/ folder of a `snakemake envelope` run, copied
   there with its provenance: commit, workflow/unknowns.yaml's sha256, members; a design of its
   own, such as Chapter 7's, judges the rows the others have no envelope for).
+
+``--rejudge-envelope`` remakes the snapshot's envelope verdicts from the percentiles it keeps,
+with the registry as it is now (selfsense.envelope.verdicts.rejudge: a change of the judge alone),
+before writing the blocks.
 """
 
 import argparse
 import json
 import math
 import shutil
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
 
+from selfsense.envelope import figures
 from selfsense.envelope.design import Design
 from selfsense.envelope.render import combined_envelope, envelope_markdown, envelope_rows_markdown
+from selfsense.envelope.verdicts import envelope_summary, rejudge
+from selfsense.io.manifest import load_dataset, load_yaml
+from selfsense.io.provenance import code_version, write_table
+from selfsense.scorecard.registry import applicable, parse_registry
 from selfsense.scorecard.render import counts_markdown, deviations_markdown, replace_block
 
 SNAPSHOT = Path("docs/snapshot")
+REGISTRY = "workflow/scorecard.yaml"
 PAGES = {
     "counts": Path("README.md"),
     "deviations": Path("docs/deviations.md"),
@@ -147,8 +158,8 @@ def _dataset_s_own_first(snapshot: tuple[pd.DataFrame, Design, dict]) -> tuple[b
 def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> None:
     """Copy an envelope's results into snapshot/envelope/<name>/ with their provenance: the
     commit, the unknowns' sha256, the design, the members, the commits that made the members'
-    scorecards (the verdicts may be remade later from the same members) and the run's wall time,
-    if given."""
+    scorecards (the verdicts may be remade later from the same members), how many members have
+    a calibration row out of band, and the run's wall time, if given."""
     sidecar = json.loads((folder / "scorecard.csv.json").read_text())
     results = folder.parents[1]
     target = snapshot / "envelope" / Design(**sidecar["design"]).name
@@ -169,22 +180,61 @@ def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> Non
         ),
         "varied": plan["varied"],
         "held": plan["held"],
+        "calibration_misses": sidecar["calibration_misses"],
         "campaign": json.loads((snapshot / "campaign.json").read_text())["campaign"],
         "wall_s": wall_s,
     }
     (target / "provenance.json").write_text(json.dumps(record, indent=1) + "\n")
 
 
+def rejudge_envelopes(snapshot: Path = SNAPSHOT, raw: Path = Path("raw")) -> None:
+    """Remake every snapshot envelope's scorecard, summary and forest plot from the percentiles
+    its scorecard keeps, judged with the registry as it is now; its provenance then names the
+    commit that judged (``code``) beside those that made the members (``members_code``)."""
+    entries = parse_registry(load_yaml(REGISTRY), REGISTRY)
+    code = code_version()["git_describe"]
+    for folder in sorted((snapshot / "envelope").iterdir()):
+        old, design, record = _snapshot_design(folder)
+        card = rejudge(old, applicable(entries, load_dataset(raw, design.dataset)))
+        members = len(record["members"])
+        summary = envelope_summary(
+            card,
+            design,
+            record["held"],
+            len(record["varied"]),
+            record["calibration_misses"],
+            record["unknowns_sha256"],
+            members,
+        )
+        with tempfile.TemporaryDirectory() as scratch:  # the writers' sidecars stay behind
+            write_table(card, Path(scratch) / "scorecard.csv")
+            title = f"{design.dataset}: {members} envelope members"
+            figures.forest_figure(card, Path(scratch) / "forest.png", title, pdf=False)
+            for name in ("scorecard.csv", "forest.png"):
+                shutil.copy(Path(scratch) / name, folder / name)
+        (folder / "envelope_summary.rst").write_text(summary, encoding="utf-8")
+        record["members_code"] = sorted(set(record.get("members_code", [record["code"]])))
+        record["code"] = code
+        (folder / "provenance.json").write_text(json.dumps(record, indent=1) + "\n")
+
+
 def main(
-    results: Path | None, snapshot: Path = SNAPSHOT, envelope: Path | None = None, wall_s=None
+    results: Path | None,
+    snapshot: Path = SNAPSHOT,
+    envelope: Path | None = None,
+    wall_s=None,
+    rejudge_envelope: bool = False,
 ):
     """Snapshot the run's scorecards (``results``; None: keep the snapshot's) and an envelope's
-    results (``envelope``), then write every page's blocks from the snapshot."""
+    results (``envelope``), remake the envelopes' verdicts if asked, then write every page's
+    blocks from the snapshot."""
     snapshot.mkdir(exist_ok=True)
     if results is not None:
         _snapshot_scorecards(results, snapshot)
     if envelope is not None:
         snapshot_envelope(envelope, snapshot, wall_s)
+    if rejudge_envelope:
+        rejudge_envelopes(snapshot)
     for name, body in render(snapshot).items():
         PAGES[name].write_text(
             replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8"
@@ -217,6 +267,17 @@ if __name__ == "__main__":
         help="snapshot the envelope alone, keeping the snapshot's scorecards (a design run "
         "apart from the campaign, such as Chapter 7's)",
     )
+    cli.add_argument(
+        "--rejudge-envelope",
+        action="store_true",
+        help="remake the snapshot's envelope verdicts from the percentiles it keeps (a change of "
+        "the judge alone), keeping the snapshot's scorecards",
+    )
     args = cli.parse_args()
-    results = None if args.envelope_only else args.results
-    main(results, envelope=args.envelope, wall_s=args.envelope_wall_s)
+    results = None if args.envelope_only or args.rejudge_envelope else args.results
+    main(
+        results,
+        envelope=args.envelope,
+        wall_s=args.envelope_wall_s,
+        rejudge_envelope=args.rejudge_envelope,
+    )

@@ -25,6 +25,7 @@ def main(design, i, o, member_names, raw_dir, log=None, pdf=True):
     result = envelope_result(design, pd.read_csv(i.nominal), members, unit, unknowns, entries, sha)
     inputs = [i.nominal, i.plan, i.unit, i.registry, i.unknowns, *i.members]
     extra = {"unknowns_sha256": sha, "members": member_names, "design": design.record()}
+    extra["calibration_misses"] = result.misses
     write_table(result.card, o.card, inputs=inputs, **extra)
     write_table(result.sensitivity, o.sensitivity, inputs=inputs, **extra)
     title = f"{design.dataset}: {len(members)} envelope members"
@@ -38,13 +39,5 @@ def main(design, i, o, member_names, raw_dir, log=None, pdf=True):
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        Design(**p.design),
-        snakemake.input,
-        snakemake.output,
-        list(p.members),
-        p.raw_dir,
-        snakemake.log[0],
-        pdf=p.pdf,
-    )
+    p, i, o = snakemake.params, snakemake.input, snakemake.output
+    main(Design(**p.design), i, o, list(p.members), p.raw_dir, snakemake.log[0], pdf=p.pdf)

@@ -36,6 +36,7 @@ VERDICT_COLOURS: dict[str, str | None] = {
     "consistent": "#2ca02c",
     "consistent (uninformative)": "#b7d7a8",
     "inconsistent": "#d62728",
+    "no verdict": "#c7c7c7",  # the registry gives none: the envelope shown for information
     "no envelope": None,
 }
 #: a verdict the module does not know is still drawn, in neutral grey

@@ -11,7 +11,14 @@ from typing import Any
 import pandas as pd
 
 from selfsense.envelope.design import Design
-from selfsense.envelope.verdicts import VERDICTS, edge_note, edge_rows
+from selfsense.envelope.verdicts import (
+    INCONSISTENT,
+    NO_ENVELOPE,
+    VERDICTS,
+    edge_note,
+    edge_rows,
+    findings,
+)
 from selfsense.scorecard.render import chapter_label
 
 
@@ -22,13 +29,13 @@ def combined_envelope(cards: Sequence[pd.DataFrame]) -> pd.DataFrame:
     error: which of the two verdicts stands would be a choice nobody declared."""
     key = ["source", "quantity"]
     combined = cards[0].set_index(key)
-    judged = combined["envelope verdict"] != "no envelope"
+    judged = combined["envelope verdict"] != NO_ENVELOPE
     for card in cards[1:]:
         other = card.set_index(key)
         missing = other.index.difference(combined.index)
         if len(missing):
             raise ValueError(f"envelope rows of no other design: {list(missing)}")
-        theirs = other.index[other["envelope verdict"] != "no envelope"]
+        theirs = other.index[other["envelope verdict"] != NO_ENVELOPE]
         twice = theirs[judged.loc[theirs].to_numpy()]
         if len(twice):
             raise ValueError(f"envelope rows judged by two designs: {list(twice)}")
@@ -38,15 +45,16 @@ def combined_envelope(cards: Sequence[pd.DataFrame]) -> pd.DataFrame:
 
 
 def envelope_markdown(designs: Sequence[tuple[pd.DataFrame, Design, Mapping[str, Any]]]) -> str:
-    """The README's envelope counts: per chapter, the emergent numbers consistent (informative),
-    consistent (uninformative), inconsistent and without an envelope, the nominal twin's within
-    band beside them, over the designs' envelope scorecards (:func:`combined_envelope`); each
+    """The README's envelope counts: per chapter, the emergent rows and the findings among them (a
+    row and its algebraic twins are one), the findings consistent (informative), consistent
+    (uninformative), inconsistent, without a verdict and without an envelope, the nominal twin's
+    within band beside them, over the designs' envelope scorecards (:func:`combined_envelope`); each
     design named with the chapters it gave verdicts for, its members and its code (``designs``:
     (scorecard, design, provenance) of each)."""
     card = combined_envelope([c for c, _, _ in designs])
     named = []
     for design_card, design, provenance in designs:
-        judged = design_card.loc[design_card["envelope verdict"] != "no envelope", "chapter"]
+        judged = design_card.loc[design_card["envelope verdict"] != NO_ENVELOPE, "chapter"]
         chapters = list(dict.fromkeys(str(c) for c in judged))
         word = "Chapter" if len(chapters) == 1 else "Chapters"
         method = design.method + (f" and {design.spread} latin" if design.spread else "")
@@ -62,27 +70,28 @@ def envelope_markdown(designs: Sequence[tuple[pd.DataFrame, Design, Mapping[str,
         f"The reproduction envelope of `{designs[0][1].dataset}` "
         f"on the `{designs[0][2]['campaign']}` campaign ({'; '.join(named)}):",
         "",
-        "| chapter | emergent | consistent | consistent (uninformative) | inconsistent "
-        "| no envelope | nominal: within band |",
-        "|---|---|---|---|---|---|---|",
+        "| chapter | emergent rows | findings | consistent | consistent (uninformative) "
+        "| inconsistent | no verdict | no envelope | nominal: within band |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     parts = [(str(c), p) for c, p in card.groupby("chapter", sort=False)] + [("total", card)]
     for chapter, part in parts:
-        tally = part["envelope verdict"].value_counts()
+        own = part[findings(part)]
+        tally = own["envelope verdict"].value_counts()
         name = "**total**" if chapter == "total" else chapter_label(chapter)
-        cells = [str(int(tally.get(v, 0))) for v in VERDICTS]
-        within = int((part["verdict"] == "within band").sum())
-        lines.append(f"| {name} | {len(part)} | " + " | ".join(cells) + f" | {within} |")
+        cells = [str(len(part)), str(len(own)), *(str(int(tally.get(v, 0))) for v in VERDICTS)]
+        within = int((own["verdict"] == "within band").sum())
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {within} |")
     return "\n".join(lines)
 
 
 def envelope_rows_markdown(card: pd.DataFrame) -> str:
-    """docs/envelope.md's list: every inconsistent number with its envelope, distance (and
-    whether it is on the edge) and drivers, per chapter."""
-    out = card[card["envelope verdict"] == "inconsistent"]
+    """docs/envelope.md's list: every inconsistent finding (a row with its algebraic twins) with
+    its envelope, distance (and whether it is on the edge) and drivers, per chapter."""
+    out = card[findings(card) & (card["envelope verdict"] == INCONSISTENT)]
     edge = int(edge_rows(out).sum())
     on_edge = f"; {edge} of them on the edge, where one member's draw decides" if edge else ""
-    lines = [f"{len(out)} emergent numbers are inconsistent with the envelope{on_edge}.", ""]
+    lines = [f"{len(out)} findings are inconsistent with the envelope{on_edge}.", ""]
     for chapter, part in out.groupby("chapter", sort=False):
         lines.append(f"- {chapter_label(chapter)}:")
         for _, row in part.iterrows():
