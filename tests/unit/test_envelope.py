@@ -29,6 +29,7 @@ from selfsense.envelope.verdicts import (
     COLUMNS,
     NOMINAL_COLUMNS,
     Target,
+    edge_counts,
     envelope_counts,
     envelope_scorecard,
     envelope_summary,
@@ -606,6 +607,10 @@ def test_remade_verdicts_from_the_cards_percentiles():
     assert remade.loc["error", "on the edge"] == True  # noqa: E712
     assert remade.loc["error, % of stroke", "twin of"] == "error"
     assert envelope_counts(remade.reset_index())["findings"] == 3
+    assert edge_counts(remade.reset_index()).endswith(
+        "of 2 findings (consistent 0, "
+        "consistent (uninformative) 0, inconsistent 1); not known for 1"
+    )
 
 
 def test_a_design_judges_its_own_chapters_only():

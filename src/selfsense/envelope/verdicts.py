@@ -418,12 +418,15 @@ def edge_rows(card: pd.DataFrame) -> pd.Series:
 
 def edge_counts(card: pd.DataFrame) -> str:
     """The judged findings ``on the edge``, by verdict: "k of n findings (consistent a,
-    consistent (uninformative) b, inconsistent c)"."""
+    consistent (uninformative) b, inconsistent c)", and how many are not known (a card judged
+    again from its percentiles alone, :func:`rejudge`, or made before the column existed)."""
     own = card[findings(card)]
     edge = own[edge_rows(own)]
     tally = edge["envelope verdict"].value_counts()
     parts = ", ".join(f"{v} {int(tally.get(v, 0))}" for v in VERDICTS[:3])
-    return f"{len(edge)} of {len(own)} findings ({parts})"
+    unknown = int(own[EDGE].isna().sum()) if EDGE in own else len(own)
+    known = f"{len(edge)} of {len(own) - unknown} findings ({parts})"
+    return known + (f"; not known for {unknown}" if unknown else "")
 
 
 def edge_note(row: pd.Series) -> str:
