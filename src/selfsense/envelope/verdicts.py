@@ -425,6 +425,8 @@ def edge_counts(card: pd.DataFrame) -> str:
     tally = edge["envelope verdict"].value_counts()
     parts = ", ".join(f"{v} {int(tally.get(v, 0))}" for v in VERDICTS[:3])
     unknown = int(own[EDGE].isna().sum()) if EDGE in own else len(own)
+    if unknown == len(own):
+        return f"not known for the {unknown} findings"
     known = f"{len(edge)} of {len(own) - unknown} findings ({parts})"
     return known + (f"; not known for {unknown}" if unknown else "")
 
@@ -496,7 +498,8 @@ def envelope_summary(
         f"{int(band.get('out of band', 0))} out of band.",
         "",
         f"On the edge (the verdict changes when an edge moves by the gap between the two "
-        f"members its percentile lies between): {edge_counts(judged)}.",
+        f"members its percentile lies between): "
+        f"{edge_counts(judged[judged['envelope verdict'] != NO_VERDICT])}.",
         "",
         f"The nominal twin's own value lies outside its envelope in "
         f"{len(nominal_outside(judged))} of the {len(judged)} findings with an envelope.",
