@@ -48,11 +48,16 @@ PAGES = {
     "envelope": Path("README.md"),
     "envelope_rows": Path("docs/envelope.md"),
 }
-#: what an envelope's snapshot keeps of results/envelope/<name>/
+#: what an envelope's snapshot keeps of results/envelope/<name>/: its verdicts and figures, and
+#: the ensemble's tables (members × inputs, as drawn and in the unit hypercube; members × rows;
+#: members × signatures), from which any later method re-judges without running a member again
 ENVELOPE_FILES = (
     "scorecard.csv",
     "sensitivity.csv",
     "plan.csv",
+    "unit.csv",
+    "values.csv",
+    "signatures.csv",
     "forest.png",
     "tornado.png",
     "envelope_summary.rst",

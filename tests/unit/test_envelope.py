@@ -27,10 +27,12 @@ from selfsense.envelope.render import combined_envelope, envelope_markdown, enve
 from selfsense.envelope.unknowns import Unknown, load_unknowns
 from selfsense.envelope.verdicts import (
     COLUMNS,
+    MEMBER,
     NOMINAL_COLUMNS,
     Target,
     edge_counts,
     envelope_counts,
+    envelope_result,
     envelope_scorecard,
     envelope_summary,
     judge,
@@ -49,6 +51,7 @@ from selfsense.io.manifest import (
     load_dataset,
     validate_document,
 )
+from selfsense.io.provenance import write_table
 from selfsense.scorecard.registry import Band, Entry, Tolerance
 
 from ..helpers import ROOT
@@ -157,7 +160,7 @@ def test_percentiles_come_from_the_spread_members_and_drivers_from_the_trajector
     y = 10 * unit["a"]
     nominal = card([("T", "y", 5.0, 5.0)])
     members = {m: card([("T", "y", 5.0, v)]) for m, v in y.items()}
-    out, sensitivity = judge_envelope(nominal, members, unit, items, the_design, [])
+    out, sensitivity, _ = judge_envelope(nominal, members, unit, items, the_design, [])
     spread_values = y.iloc[4:].to_numpy()
     assert out.loc[0, "members"] == 4
     assert out.loc[0, "p2.5"] == pytest.approx(np.percentile(spread_values, 2.5))
@@ -167,7 +170,7 @@ def test_percentiles_come_from_the_spread_members_and_drivers_from_the_trajector
     assert "8 members (Morris, 2 trajectories of 1 groups, the drivers; a Latin" in summary
     assert "lies outside its envelope in 0 of the 1 findings" in summary
     low_nominal = card([("T", "y", 5.0, -1.0)])
-    out, _ = judge_envelope(low_nominal, members, unit, items, the_design, [])
+    out, _, _ = judge_envelope(low_nominal, members, unit, items, the_design, [])
     assert len(nominal_outside(out)) == 1
 
 
@@ -611,6 +614,34 @@ def test_remade_verdicts_from_the_cards_percentiles():
         "of 2 findings (consistent 0, "
         "consistent (uninformative) 0, inconsistent 1); not known for 1"
     )
+
+
+def test_the_ensembles_tables_remake_the_verdicts_without_the_members(tmp_path):
+    """Five members' synthetic scorecards (two emergent rows, one a member lacks, and a
+    calibration signature): the envelope keeps members × rows and members × signatures; read back
+    from their CSVs they give the same envelope scorecard."""
+    items = [unknown("a", group="A")]
+    the_design = design(["A"], method="latin", members=5)
+    _, unit = sampling_plan(items, the_design)
+    signature = card([("S", "loop width", 5.0, 5.0)]).assign(kind="calibration")
+    nominal = pd.concat([card([("T", "x", 1.0, 1.0), ("T", "y", 2.0, 2.0)]), signature])
+    members = {}
+    for k, m in enumerate(unit.index):
+        rows = [("T", "x", 1.0, 0.8 + 0.1 * k)] + ([("T", "y", 2.0, 2.0 + k)] if k else [])
+        members[m] = pd.concat([card(rows), signature.assign(reproduced=4.0 + k)])
+    entries = [entry("x", Tolerance(rel=10)), entry("y", Tolerance(rel=10), published=2.0)]
+    result = envelope_result(the_design, nominal, members, unit, items, entries, "0" * 64)
+    assert list(result.values.index) == list(unit.index)
+    assert list(result.values.columns) == [row_key("T", "x"), row_key("T", "y")]
+    assert np.isnan(result.values.iloc[0, 1]) and result.values.iloc[4, 1] == 6.0
+    assert list(result.signatures.columns) == [row_key("S", "loop width")]
+    assert list(result.signatures.iloc[:, 0]) == [4.0, 5.0, 6.0, 7.0, 8.0]
+    for name, table in (("values", result.values), ("signatures", result.signatures)):
+        write_table(table.reset_index(), tmp_path / f"{name}.csv")
+    values = pd.read_csv(tmp_path / "values.csv", index_col=MEMBER)
+    assert pd.read_csv(tmp_path / "signatures.csv", index_col=MEMBER).shape == (5, 1)
+    again = envelope_scorecard(nominal, values, pd.DataFrame(), entries)
+    pd.testing.assert_frame_equal(again, result.card)
 
 
 def test_a_design_judges_its_own_chapters_only():

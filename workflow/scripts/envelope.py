@@ -1,5 +1,5 @@
 """Rule `envelope`: the nominal scorecard's emergent numbers against the members' (envelope_result
-of selfsense.envelope.verdicts): the envelope scorecard, sensitivity, figures and summary."""
+of selfsense.envelope.verdicts): envelope scorecard, sensitivity, ensemble, figures, summary."""
 
 from pathlib import Path
 
@@ -28,6 +28,8 @@ def main(design, i, o, member_names, raw_dir, log=None, pdf=True):
     extra["calibration_misses"] = result.misses
     write_table(result.card, o.card, inputs=inputs, **extra)
     write_table(result.sensitivity, o.sensitivity, inputs=inputs, **extra)
+    for table, path in ((result.values, o.values), (result.signatures, o.signatures)):
+        write_table(table.reset_index(), path, inputs=inputs, **extra)
     title = f"{design.dataset}: {len(members)} envelope members"
     figures.forest_figure(result.card, o.forest, title, inputs=inputs, pdf=pdf)
     figures.tornado_figure(

@@ -71,6 +71,8 @@ DRIVERS = 3
 EDGE = "on the edge"
 #: the column naming the row (its quantity, of the same source) a row is an algebraic twin of
 TWIN = "twin of"
+#: the ensemble tables' first column (members × rows, members × signatures)
+MEMBER = "member"
 
 #: the nominal scorecard's columns an envelope scorecard keeps, before its own (:data:`COLUMNS`)
 NOMINAL_COLUMNS = ["chapter", "source", "quantity", "unit", "published", "reproduced", "verdict"]
@@ -182,18 +184,22 @@ def verdict_columns(published: float, low: float, high: float, entry: Entry | No
     }
 
 
-def member_values(cards: Mapping[str, pd.DataFrame], keys: Sequence[str]) -> pd.DataFrame:
-    """members × rows: each member's reproduced value of every row (NaN where it gave none)."""
+def member_values(
+    cards: Mapping[str, pd.DataFrame], keys: Sequence[str], kind: str = EMERGENT
+) -> pd.DataFrame:
+    """members × rows: each member's reproduced value of every row of ``kind`` named in ``keys``
+    (NaN where it gave none), indexed by member."""
     frame = {}
     for member, card in cards.items():
-        emergent = card[card["kind"] == EMERGENT]
-        values = pd.to_numeric(emergent["reproduced"], errors="coerce")
+        rows = card[card["kind"] == kind]
+        values = pd.to_numeric(rows["reproduced"], errors="coerce")
         named = pd.Series(
             values.to_numpy(),
-            index=[row_key(s, q) for s, q in zip(emergent["source"], emergent["quantity"])],
+            index=[row_key(s, q) for s, q in zip(rows["source"], rows["quantity"])],
         )
         frame[member] = named.reindex(list(keys))
-    return pd.DataFrame(frame).T.reindex(columns=list(keys))
+    table = pd.DataFrame(frame, index=list(keys)).T.reindex(columns=list(keys))
+    return table.rename_axis(index=MEMBER)
 
 
 def drivers(screening: pd.DataFrame, published: Mapping[str, float]) -> dict[str, str]:
@@ -344,11 +350,11 @@ def judge_envelope(
     varied: Sequence[Unknown],
     design: Design,
     entries: Sequence[Entry],
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(envelope scorecard, sensitivity table) of a nominal scorecard and its members' cards
-    ({member: card}; ``unit``: the members' draws in the unit hypercube, as SALib drew them).
-    Only the design's chapters are judged: a chapter whose unknowns it holds would get an
-    envelope of the noise alone."""
+) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """(envelope scorecard, sensitivity table, members × rows) of a nominal scorecard and its
+    members' cards ({member: card}; ``unit``: the members' draws in the unit hypercube, as SALib
+    drew them). Only the design's chapters are judged: a chapter whose unknowns it holds would
+    get an envelope of the noise alone."""
     nominal = nominal[nominal["chapter"].map(design.judges)]
     emergent = nominal[nominal["kind"] == EMERGENT]
     keys = [row_key(s, q) for s, q in zip(emergent["source"], emergent["quantity"])]
@@ -360,7 +366,7 @@ def judge_envelope(
         else pd.DataFrame(columns=["output", "factor", "mu_star", "sigma"])
     )
     card = envelope_scorecard(nominal, values.loc[spread], screening, entries)
-    return card, sensitivity_table(screening, card)
+    return card, sensitivity_table(screening, card), values
 
 
 def nominal_outside(card: pd.DataFrame) -> pd.DataFrame:
@@ -539,12 +545,17 @@ def envelope_summary(
 @dataclass(frozen=True)
 class EnvelopeResult:
     """What rule `envelope` writes: the envelope scorecard, the sensitivity table, the summary,
-    and how many members have a calibration row out of band (its provenance keeps the count)."""
+    how many members have a calibration row out of band (its provenance keeps the count), and
+    the ensemble's tables a later method re-judges from without running a member again: every
+    member's value of every judged emergent row (``values``) and of every calibration signature
+    (``signatures``), members × rows (the members × inputs table is the plan's)."""
 
     card: pd.DataFrame
     sensitivity: pd.DataFrame
     summary: str
     misses: int
+    values: pd.DataFrame
+    signatures: pd.DataFrame
 
 
 def envelope_result(
@@ -559,10 +570,14 @@ def envelope_result(
     """The envelope of ``design`` (the unknowns it varies and holds) over the members'
     scorecards, against the nominal scorecard."""
     varied, held = varied_unknowns(unknowns, design), held_unknowns(unknowns, design)
-    card, sensitivity = judge_envelope(nominal, members, unit, varied, design, entries)
+    card, sensitivity, values = judge_envelope(nominal, members, unit, varied, design, entries)
+    judged = nominal[nominal["chapter"].map(design.judges)]
+    calibration = judged[judged["kind"] == "calibration"]
+    keys = [row_key(s, q) for s, q in zip(calibration["source"], calibration["quantity"])]
+    signatures = member_values(members, keys, "calibration")
     misses = len(calibration_misses(members))
     held_ids = [u.id for u in held]
     text = envelope_summary(
         card, design, held_ids, len(varied), misses, unknowns_sha256, len(members)
     )
-    return EnvelopeResult(card, sensitivity, text, misses)
+    return EnvelopeResult(card, sensitivity, text, misses, values, signatures)
