@@ -4,6 +4,7 @@ protocol overrides (and what the stage plan makes of its stages: list), Morris's
 a function with known effects, and the verdicts of a published number against an envelope."""
 
 import dataclasses
+import hashlib
 import math
 
 import numpy as np
@@ -14,14 +15,19 @@ from hypothesis import strategies as st
 
 from selfsense import stages
 from selfsense.envelope.design import (
+    MANIFEST_SHA,
     Design,
+    check_chapters,
+    check_member_manifests,
     envelope,
     held_unknowns,
     member_manifest,
     member_roles,
+    members_asked,
     physical,
     sampling_plan,
     varied_unknowns,
+    write_member_manifest,
 )
 from selfsense.envelope.render import combined_envelope, envelope_markdown, envelope_rows_markdown
 from selfsense.envelope.unknowns import Unknown, load_unknowns
@@ -254,6 +260,80 @@ def test_shipped_envelope_is_drawn_and_valid(shipped):
         assert drawn.plan[u.id].between(u.low, u.high).all()
     again = envelope(the_design, manifests, unknowns)  # the plan is the seed's
     pd.testing.assert_frame_equal(drawn.plan, again.plan)
+
+
+@pytest.mark.parametrize(
+    ("changes", "key", "said"),
+    [
+        ({"name": "ch7\n"}, "envelope.name", "'ch7\\n' is not a name"),
+        ({"name": "a" * 254}, "envelope.name", "of at most 64 characters"),
+        ({"dataset": "pi_p885\n"}, "envelope.dataset", "is not a name"),
+        ({"members": 400, "spread": 200}, "envelope.spread", "more than the 500 one design"),
+    ],
+)
+def test_the_design_refuses_names_and_sizes_in_one_line(shipped, changes, key, said):
+    config = shipped[0]
+    with pytest.raises(ManifestError) as err:
+        Design.from_config(config["envelope"] | changes, "c.yaml")
+    assert str(err.value).startswith(f"c.yaml: key {key}: ") and "\n" not in str(err.value)
+    assert said in str(err.value)
+    assert err.value.key == key
+
+
+def test_the_config_schema_bounds_the_envelope(shipped):
+    config = shipped[0]
+    for changes, said in (
+        ({"members": 10_000}, "envelope.members: 10000 is greater than the maximum of 500"),
+        ({"spread": 501}, "envelope.spread: 501 is greater than the maximum of 500"),
+        ({"name": "a" * 254}, "envelope.name: "),
+    ):
+        with pytest.raises(ManifestError, match=said):
+            validate_document(config | {"envelope": config["envelope"] | changes},
+                              "config.schema.yaml", "c.yaml")  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("targets", "asked"),
+    [
+        ((), False),  # the default run: rule all
+        (("all", "results/pi_p885/scorecard.csv", "report"), False),
+        (("envelope",), True),
+        (("results/envelope/pi_p885_ch7/scorecard.csv",), True),
+        (("results/pi_p885~07/scorecard.csv",), True),
+        (("TargetSpec(rulename='simulate', wildcards_dict={'dataset': 'pi_p885~07'})",), True),
+    ],
+)
+def test_members_are_drawn_only_for_a_target_that_needs_them(targets, asked):
+    assert members_asked(targets) is asked
+
+
+def test_a_chapter_no_emergent_row_has_is_refused():
+    check_chapters(Design(**{**design(["A"]).__dict__, "chapters": ["7"]}), ["5", "7"])
+    with pytest.raises(
+        ManifestError, match=r"key envelope.chapters: '99' is no chapter .*\(5, 7\)"
+    ):
+        check_chapters(Design(**{**design(["A"]).__dict__, "chapters": ["99"]}), ["5", "7", "7"])
+
+
+def test_a_member_manifest_edited_by_hand_is_refused(shipped, tmp_path):
+    """Members written from the plan pass; one edited by hand is refused naming its file; one an
+    earlier plan recorded (a draw the workflow will write again) passes."""
+    _, manifests, unknowns = shipped
+    drawn = envelope(design(["creep"], "latin", members=2), manifests, unknowns)
+    assert drawn.plan[MANIFEST_SHA].str.fullmatch("[0-9a-f]{64}").all()
+    plan = tmp_path / "plan.csv"
+    drawn.plan.reset_index().to_csv(plan, index=False)
+    for name, manifest in drawn.manifests.items():
+        write_member_manifest(manifest, tmp_path / name / "dataset.yaml")
+    check_member_manifests(drawn, tmp_path, plan)
+    first = tmp_path / "pi_p885~01" / "dataset.yaml"
+    first.write_text(first.read_text().replace("stages:", "# edited\nstages:"))
+    with pytest.raises(ManifestError, match=r"pi_p885~01/dataset.yaml: differs from its draw"):
+        check_member_manifests(drawn, tmp_path, plan)
+    recorded = pd.read_csv(plan)
+    recorded.loc[0, MANIFEST_SHA] = hashlib.sha256(first.read_bytes()).hexdigest()
+    recorded.to_csv(plan, index=False)  # the earlier plan wrote it so: rewritten, not refused
+    check_member_manifests(drawn, tmp_path, plan)
 
 
 #: Chapter 7's own design (docs/envelope.md): only what its rows depend on varies, and its thermal
