@@ -13,28 +13,33 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
   (``--envelope``: the results/envelope/<name>/ folder of a `snakemake envelope` run, copied
   there with its provenance: commit, workflow/unknowns.yaml's sha256, members; a design of its
   own, such as Chapter 7's, judges the rows the others have no envelope for).
+
+``--rejudge-envelope`` remakes the snapshot's envelope verdicts from the percentiles it keeps,
+with the registry as it is now (selfsense.envelope.verdicts.rejudge: a change of the judge alone),
+before writing the blocks.
 """
 
 import argparse
 import json
 import math
 import shutil
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
 
-from selfsense.scorecard.render import (
-    combined_envelope,
-    counts_markdown,
-    deviations_markdown,
-    envelope_markdown,
-    envelope_rows_markdown,
-    replace_block,
-)
-from selfsense.verify.envelope import Design
+from selfsense.envelope import figures
+from selfsense.envelope.design import Design
+from selfsense.envelope.render import combined_envelope, envelope_markdown, envelope_rows_markdown
+from selfsense.envelope.verdicts import envelope_summary, rejudge
+from selfsense.io.manifest import load_dataset, load_yaml
+from selfsense.io.provenance import code_version, write_table
+from selfsense.scorecard.registry import applicable, parse_registry
+from selfsense.scorecard.render import counts_markdown, deviations_markdown, replace_block
 
 SNAPSHOT = Path("docs/snapshot")
+REGISTRY = "workflow/scorecard.yaml"
 PAGES = {
     "counts": Path("README.md"),
     "deviations": Path("docs/deviations.md"),
@@ -43,11 +48,16 @@ PAGES = {
     "envelope": Path("README.md"),
     "envelope_rows": Path("docs/envelope.md"),
 }
-#: what an envelope's snapshot keeps of results/envelope/<name>/
+#: what an envelope's snapshot keeps of results/envelope/<name>/: its verdicts and figures, and
+#: the ensemble's tables (members × inputs, as drawn and in the unit hypercube; members × rows;
+#: members × signatures), from which any later method re-judges without running a member again
 ENVELOPE_FILES = (
     "scorecard.csv",
     "sensitivity.csv",
     "plan.csv",
+    "unit.csv",
+    "values.csv",
+    "signatures.csv",
     "forest.png",
     "tornado.png",
     "envelope_summary.rst",
@@ -124,35 +134,40 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         for p in sorted(snapshot.glob("scorecard_*.csv"))
         if p.name != "scorecard_counts.csv"
     }
-    folders = sorted((snapshot / "envelope").iterdir(), key=_dataset_s_own_first)
-    designs = [
-        (pd.read_csv(f / "scorecard.csv"), json.loads((f / "provenance.json").read_text()))
-        for f in folders
-    ]
+    designs = sorted(
+        (_snapshot_design(f) for f in (snapshot / "envelope").iterdir()),
+        key=_dataset_s_own_first,
+    )
     return {
         "counts": counts_markdown(counts, campaign),
         "deviations": deviations_markdown(cards),
         "calibration": calibration_markdown(cards, campaign),
         "recovery": recovery_markdown(cards, campaign),
         "envelope": envelope_markdown(designs),
-        "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _ in designs])),
+        "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _, _ in designs])),
     }
 
 
-def _dataset_s_own_first(folder: Path) -> tuple[bool, str]:
+def _snapshot_design(folder: Path) -> tuple[pd.DataFrame, Design, dict]:
+    """(envelope scorecard, design, provenance) of one design under snapshot/envelope/."""
+    provenance = json.loads((folder / "provenance.json").read_text())
+    return pd.read_csv(folder / "scorecard.csv"), Design(**provenance["design"]), provenance
+
+
+def _dataset_s_own_first(snapshot: tuple[pd.DataFrame, Design, dict]) -> tuple[bool, str]:
     """The dataset's own design (named after it) first: its card is the one the others fill."""
-    design = json.loads((folder / "provenance.json").read_text())["design"]
-    return Design.from_config(design).name != design["dataset"], folder.name
+    design = snapshot[1]
+    return design.name != design.dataset, design.name
 
 
 def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> None:
     """Copy an envelope's results into snapshot/envelope/<name>/ with their provenance: the
     commit, the unknowns' sha256, the design, the members, the commits that made the members'
-    scorecards (the verdicts may be remade later from the same members) and the run's wall time,
-    if given."""
+    scorecards (the verdicts may be remade later from the same members), how many members have
+    a calibration row out of band, and the run's wall time, if given."""
     sidecar = json.loads((folder / "scorecard.csv.json").read_text())
     results = folder.parents[1]
-    target = snapshot / "envelope" / Design.from_config(sidecar["design"]).name
+    target = snapshot / "envelope" / Design(**sidecar["design"]).name
     target.mkdir(parents=True, exist_ok=True)
     for name in ENVELOPE_FILES:
         shutil.copy(folder / name, target / name)
@@ -170,22 +185,61 @@ def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> Non
         ),
         "varied": plan["varied"],
         "held": plan["held"],
+        "calibration_misses": sidecar["calibration_misses"],
         "campaign": json.loads((snapshot / "campaign.json").read_text())["campaign"],
         "wall_s": wall_s,
     }
     (target / "provenance.json").write_text(json.dumps(record, indent=1) + "\n")
 
 
+def rejudge_envelopes(snapshot: Path = SNAPSHOT, raw: Path = Path("raw")) -> None:
+    """Remake every snapshot envelope's scorecard, summary and forest plot from the percentiles
+    its scorecard keeps, judged with the registry as it is now; its provenance then names the
+    commit that judged (``code``) beside those that made the members (``members_code``)."""
+    entries = parse_registry(load_yaml(REGISTRY), REGISTRY)
+    code = code_version()["git_describe"]
+    for folder in sorted((snapshot / "envelope").iterdir()):
+        old, design, record = _snapshot_design(folder)
+        card = rejudge(old, applicable(entries, load_dataset(raw, design.dataset)))
+        members = len(record["members"])
+        summary = envelope_summary(
+            card,
+            design,
+            record["held"],
+            len(record["varied"]),
+            record["calibration_misses"],
+            record["unknowns_sha256"],
+            members,
+        )
+        with tempfile.TemporaryDirectory() as scratch:  # the writers' sidecars stay behind
+            write_table(card, Path(scratch) / "scorecard.csv")
+            title = f"{design.dataset}: {members} envelope members"
+            figures.forest_figure(card, Path(scratch) / "forest.png", title, pdf=False)
+            for name in ("scorecard.csv", "forest.png"):
+                shutil.copy(Path(scratch) / name, folder / name)
+        (folder / "envelope_summary.rst").write_text(summary, encoding="utf-8")
+        record["members_code"] = sorted(set(record.get("members_code", [record["code"]])))
+        record["code"] = code
+        (folder / "provenance.json").write_text(json.dumps(record, indent=1) + "\n")
+
+
 def main(
-    results: Path | None, snapshot: Path = SNAPSHOT, envelope: Path | None = None, wall_s=None
+    results: Path | None,
+    snapshot: Path = SNAPSHOT,
+    envelope: Path | None = None,
+    wall_s=None,
+    rejudge_envelope: bool = False,
 ):
     """Snapshot the run's scorecards (``results``; None: keep the snapshot's) and an envelope's
-    results (``envelope``), then write every page's blocks from the snapshot."""
+    results (``envelope``), remake the envelopes' verdicts if asked, then write every page's
+    blocks from the snapshot."""
     snapshot.mkdir(exist_ok=True)
     if results is not None:
         _snapshot_scorecards(results, snapshot)
     if envelope is not None:
         snapshot_envelope(envelope, snapshot, wall_s)
+    if rejudge_envelope:
+        rejudge_envelopes(snapshot)
     for name, body in render(snapshot).items():
         PAGES[name].write_text(
             replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8"
@@ -218,6 +272,17 @@ if __name__ == "__main__":
         help="snapshot the envelope alone, keeping the snapshot's scorecards (a design run "
         "apart from the campaign, such as Chapter 7's)",
     )
+    cli.add_argument(
+        "--rejudge-envelope",
+        action="store_true",
+        help="remake the snapshot's envelope verdicts from the percentiles it keeps (a change of "
+        "the judge alone), keeping the snapshot's scorecards",
+    )
     args = cli.parse_args()
-    results = None if args.envelope_only else args.results
-    main(results, envelope=args.envelope, wall_s=args.envelope_wall_s)
+    results = None if args.envelope_only or args.rejudge_envelope else args.results
+    main(
+        results,
+        envelope=args.envelope,
+        wall_s=args.envelope_wall_s,
+        rejudge_envelope=args.rejudge_envelope,
+    )

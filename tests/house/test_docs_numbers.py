@@ -49,7 +49,7 @@ def test_an_envelope_design_is_snapshot_in_a_folder_of_its_name(tmp_path):
     design = {"dataset": "pi_p885", "name": "pi_p885_ch7", "chapters": ["7"], "members": 8}
     design |= {"method": "morris", "seed": 1, "levels": 4, "groups": ["thermal"], "stages": []}
     sidecar = {"code": {"git_describe": "abc1234"}, "unknowns_sha256": "0" * 64}
-    sidecar |= {"design": design, "members": ["pi_p885_ch7~01"]}
+    sidecar |= {"design": design, "members": ["pi_p885_ch7~01"], "calibration_misses": 1}
     (run / "scorecard.csv.json").write_text(json.dumps(sidecar))
     (run / "plan.csv.json").write_text(json.dumps({"varied": ["a"], "held": ["b"]}))
     # the member was made by an earlier commit than the verdicts
@@ -66,7 +66,9 @@ def test_an_envelope_design_is_snapshot_in_a_folder_of_its_name(tmp_path):
     )
     record = json.loads((target / "provenance.json").read_text())
     assert record["code"] == "abc1234" and record["design"] == design and record["wall_s"] == 12.5
-    assert record["members_code"] == ["0ab0ab0"]
+    assert record["members_code"] == ["0ab0ab0"] and record["calibration_misses"] == 1
     columns = ["chapter", "source", "quantity", "envelope verdict", "verdict"]
-    line = module.envelope_markdown([(pd.DataFrame(columns=columns), record)])
+    line = module.envelope_markdown(
+        [(pd.DataFrame(columns=columns), module.Design(**record["design"]), record)]
+    )
     assert "code abc1234 (its members 0ab0ab0)" in line

@@ -83,7 +83,7 @@ def test_parsing_the_workflow_imports_no_plotting_compiler_or_solver():
             )
         }
     )
-    assert "selfsense.verify.envelope" in modules, modules
+    assert "selfsense.envelope.design" in modules, modules
     probe = (
         f"import sys, {', '.join(modules)}; "
         f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY})))"

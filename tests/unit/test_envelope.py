@@ -4,6 +4,7 @@ protocol overrides (and what the stage plan makes of its stages: list), Morris's
 a function with known effects, and the verdicts of a published number against an envelope."""
 
 import dataclasses
+import hashlib
 import math
 
 import numpy as np
@@ -13,6 +14,42 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from selfsense import stages
+from selfsense.envelope.design import (
+    MANIFEST_SHA,
+    Design,
+    check_chapters,
+    check_member_manifests,
+    envelope,
+    held_unknowns,
+    member_manifest,
+    member_roles,
+    members_asked,
+    physical,
+    sampling_plan,
+    varied_unknowns,
+    write_member_manifest,
+)
+from selfsense.envelope.render import combined_envelope, envelope_markdown, envelope_rows_markdown
+from selfsense.envelope.unknowns import Unknown, load_unknowns
+from selfsense.envelope.verdicts import (
+    COLUMNS,
+    MEMBER,
+    NOMINAL_COLUMNS,
+    Target,
+    edge_counts,
+    envelope_counts,
+    envelope_result,
+    envelope_scorecard,
+    envelope_summary,
+    judge,
+    judge_envelope,
+    member_values,
+    morris_screening,
+    nominal_outside,
+    on_the_edge,
+    rejudge,
+    row_key,
+)
 from selfsense.io.manifest import (
     ManifestError,
     catalogue,
@@ -20,30 +57,8 @@ from selfsense.io.manifest import (
     load_dataset,
     validate_document,
 )
-from selfsense.io.unknowns import Unknown, load_unknowns
-from selfsense.scorecard.envelope import (
-    envelope_counts,
-    envelope_scorecard,
-    envelope_summary,
-    judge,
-    judge_envelope,
-    member_values,
-    nominal_outside,
-    on_the_edge,
-    row_key,
-)
-from selfsense.scorecard.render import combined_envelope, envelope_rows_markdown
-from selfsense.verify.envelope import (
-    Design,
-    envelope,
-    held_unknowns,
-    member_manifest,
-    member_roles,
-    morris_screening,
-    physical,
-    sampling_plan,
-    varied_unknowns,
-)
+from selfsense.io.provenance import write_table
+from selfsense.scorecard.registry import Band, Entry, Tolerance
 
 from ..helpers import ROOT
 
@@ -72,7 +87,7 @@ def shipped():
 # --- draws ----------------------------------------------------------------------------------------
 
 
-# no deadline: the first draw of a normal imports scipy.stats (selfsense.verify.envelope.physical)
+# no deadline: the first draw of a normal imports scipy.stats (selfsense.envelope.design.physical)
 @settings(deadline=None)
 @given(st.floats(0.0, 1.0))
 def test_quantiles_map_into_each_range(u):
@@ -151,17 +166,17 @@ def test_percentiles_come_from_the_spread_members_and_drivers_from_the_trajector
     y = 10 * unit["a"]
     nominal = card([("T", "y", 5.0, 5.0)])
     members = {m: card([("T", "y", 5.0, v)]) for m, v in y.items()}
-    out, sensitivity = judge_envelope(nominal, members, unit, items, the_design, [])
+    out, sensitivity, _ = judge_envelope(nominal, members, unit, items, the_design, [])
     spread_values = y.iloc[4:].to_numpy()
     assert out.loc[0, "members"] == 4
     assert out.loc[0, "p2.5"] == pytest.approx(np.percentile(spread_values, 2.5))
     assert out.loc[0, "p97.5"] == pytest.approx(np.percentile(spread_values, 97.5))
     assert sensitivity.loc[0, "mu_star"] == pytest.approx(10.0)  # per unit of a's range
-    summary = envelope_summary(out, the_design, [], items, {}, "0" * 64, 8)
+    summary = envelope_summary(out, the_design, [], len(items), 0, "0" * 64, 8)
     assert "8 members (Morris, 2 trajectories of 1 groups, the drivers; a Latin" in summary
-    assert "lies outside its envelope in 0 of the 1 rows" in summary
+    assert "lies outside its envelope in 0 of the 1 findings" in summary
     low_nominal = card([("T", "y", 5.0, -1.0)])
-    out, _ = judge_envelope(low_nominal, members, unit, items, the_design, [])
+    out, _, _ = judge_envelope(low_nominal, members, unit, items, the_design, [])
     assert len(nominal_outside(out)) == 1
 
 
@@ -235,15 +250,90 @@ def test_protocol_override_must_name_a_number(shipped):
 
 def test_shipped_envelope_is_drawn_and_valid(shipped):
     config, manifests, unknowns = shipped
-    drawn = envelope(config["envelope"], manifests, unknowns)
+    the_design = Design.from_config(config["envelope"])
+    drawn = envelope(the_design, manifests, unknowns)
     groups = len(config["envelope"]["groups"])
     morris = config["envelope"]["members"] // (groups + 1) * (groups + 1)
     assert len(drawn.manifests) == morris + config["envelope"]["spread"]
     assert not {u.id for u in drawn.varied} & {u.id for u in drawn.held}
     for u in drawn.varied:  # every draw inside its declared range
         assert drawn.plan[u.id].between(u.low, u.high).all()
-    again = envelope(config["envelope"], manifests, unknowns)  # the plan is the seed's
+    again = envelope(the_design, manifests, unknowns)  # the plan is the seed's
     pd.testing.assert_frame_equal(drawn.plan, again.plan)
+
+
+@pytest.mark.parametrize(
+    ("changes", "key", "said"),
+    [
+        ({"name": "ch7\n"}, "envelope.name", "'ch7\\n' is not a name"),
+        ({"name": "a" * 254}, "envelope.name", "of at most 64 characters"),
+        ({"dataset": "pi_p885\n"}, "envelope.dataset", "is not a name"),
+        ({"members": 400, "spread": 200}, "envelope.spread", "more than the 500 one design"),
+    ],
+)
+def test_the_design_refuses_names_and_sizes_in_one_line(shipped, changes, key, said):
+    config = shipped[0]
+    with pytest.raises(ManifestError) as err:
+        Design.from_config(config["envelope"] | changes, "c.yaml")
+    assert str(err.value).startswith(f"c.yaml: key {key}: ") and "\n" not in str(err.value)
+    assert said in str(err.value)
+    assert err.value.key == key
+
+
+def test_the_config_schema_bounds_the_envelope(shipped):
+    config = shipped[0]
+    for changes, said in (
+        ({"members": 10_000}, "envelope.members: 10000 is greater than the maximum of 500"),
+        ({"spread": 501}, "envelope.spread: 501 is greater than the maximum of 500"),
+        ({"name": "a" * 254}, "envelope.name: "),
+    ):
+        with pytest.raises(ManifestError, match=said):
+            validate_document(config | {"envelope": config["envelope"] | changes},
+                              "config.schema.yaml", "c.yaml")  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("targets", "asked"),
+    [
+        ((), False),  # the default run: rule all
+        (("all", "results/pi_p885/scorecard.csv", "report"), False),
+        (("envelope",), True),
+        (("results/envelope/pi_p885_ch7/scorecard.csv",), True),
+        (("results/pi_p885~07/scorecard.csv",), True),
+        (("TargetSpec(rulename='simulate', wildcards_dict={'dataset': 'pi_p885~07'})",), True),
+    ],
+)
+def test_members_are_drawn_only_for_a_target_that_needs_them(targets, asked):
+    assert members_asked(targets) is asked
+
+
+def test_a_chapter_no_emergent_row_has_is_refused():
+    check_chapters(Design(**{**design(["A"]).__dict__, "chapters": ["7"]}), ["5", "7"])
+    with pytest.raises(
+        ManifestError, match=r"key envelope.chapters: '99' is no chapter .*\(5, 7\)"
+    ):
+        check_chapters(Design(**{**design(["A"]).__dict__, "chapters": ["99"]}), ["5", "7", "7"])
+
+
+def test_a_member_manifest_edited_by_hand_is_refused(shipped, tmp_path):
+    """Members written from the plan pass; one edited by hand is refused naming its file; one an
+    earlier plan recorded (a draw the workflow will write again) passes."""
+    _, manifests, unknowns = shipped
+    drawn = envelope(design(["creep"], "latin", members=2), manifests, unknowns)
+    assert drawn.plan[MANIFEST_SHA].str.fullmatch("[0-9a-f]{64}").all()
+    plan = tmp_path / "plan.csv"
+    drawn.plan.reset_index().to_csv(plan, index=False)
+    for name, manifest in drawn.manifests.items():
+        write_member_manifest(manifest, tmp_path / name / "dataset.yaml")
+    check_member_manifests(drawn, tmp_path, plan)
+    first = tmp_path / "pi_p885~01" / "dataset.yaml"
+    first.write_text(first.read_text().replace("stages:", "# edited\nstages:"))
+    with pytest.raises(ManifestError, match=r"pi_p885~01/dataset.yaml: differs from its draw"):
+        check_member_manifests(drawn, tmp_path, plan)
+    recorded = pd.read_csv(plan)
+    recorded.loc[0, MANIFEST_SHA] = hashlib.sha256(first.read_bytes()).hexdigest()
+    recorded.to_csv(plan, index=False)  # the earlier plan wrote it so: rewritten, not refused
+    check_member_manifests(drawn, tmp_path, plan)
 
 
 #: Chapter 7's own design (docs/envelope.md): only what its rows depend on varies, and its thermal
@@ -261,11 +351,11 @@ CH7 = {
 def test_a_named_design_keeps_its_members_apart(shipped):
     config, manifests, unknowns = shipped
     section = config["envelope"] | CH7
-    drawn = envelope(section, manifests, unknowns)
+    drawn = envelope(Design.from_config(section), manifests, unknowns)
     assert list(drawn.manifests) == [f"pi_p885_ch7~{k:02d}" for k in range(1, 9)]  # 2 × (3 + 1)
     assert {u.group for u in drawn.varied} == set(CH7["groups"])
     assert not {u.id for u in drawn.varied} & {
-        u.id for u in envelope(config["envelope"], manifests, unknowns).varied
+        u.id for u in envelope(Design.from_config(config["envelope"]), manifests, unknowns).varied
     }
     member = drawn.manifests["pi_p885_ch7~01"]
     plan = stages.plan_stages(member, catalogue(member, "thesis"))
@@ -302,51 +392,78 @@ def test_screening_skips_an_output_a_member_lacks():
 # --- verdicts -------------------------------------------------------------------------------------
 
 
+def value(published, half=0.0):
+    """The target of a value row without a band: its printed value ± ``half``."""
+    return Target(published - half, published + half, math.nan)
+
+
 def test_judge_analytic():
-    assert judge(1.0, 0.5, 1.5, 0.0, None).verdict == "consistent"
-    outside = judge(2.0, 0.5, 1.5, 0.0, None)
+    assert judge(0.5, 1.5, value(1.0)).verdict == "consistent"
+    outside = judge(0.5, 1.5, value(2.0))
     assert outside.verdict == "inconsistent" and outside.distance == pytest.approx(0.5)
     # the printed precision widens the published value: 1.6 ± 0.15 reaches 1.5, ± 0.04 misses it
-    assert judge(1.6, 0.5, 1.5, 0.15, None).verdict == "consistent"
-    assert judge(1.6, 0.5, 1.5, 0.04, None).distance == pytest.approx(0.06)
-    # a published upper bound is met when some of the envelope is below it
-    assert judge(1.0, 0.9, 5.0, 0.0, "upper").verdict == "consistent"
-    assert judge(1.0, 1.2, 5.0, 0.0, "upper").distance == pytest.approx(0.2 / 3.8)
-    assert judge(1.0, 0.1, 0.5, 0.0, "lower").distance == pytest.approx(0.5 / 0.4)
-    assert math.isinf(judge(2.0, 1.0, 1.0, 0.0, None).distance)
+    assert judge(0.5, 1.5, value(1.6, 0.15)).verdict == "consistent"
+    assert judge(0.5, 1.5, value(1.6, 0.04)).distance == pytest.approx(0.06)
+    # a bound is met when some of the envelope meets it
+    assert judge(0.9, 5.0, Target(-math.inf, 1.0, math.nan)).verdict == "consistent"
+    assert judge(1.2, 5.0, Target(-math.inf, 1.0, math.nan)).distance == pytest.approx(0.2 / 3.8)
+    assert judge(0.1, 0.5, Target(1.0, math.inf, math.nan)).distance == pytest.approx(0.5 / 0.4)
+    assert math.isinf(judge(1.0, 1.0, value(2.0)).distance)
+    # wider than the row's band: uninformative; as wide or narrower: informative
+    assert judge(0.5, 1.5, Target(1.0, 1.0, 0.9)).verdict == "consistent (uninformative)"
+    assert judge(0.5, 1.5, Target(1.0, 1.0, 1.0)).verdict == "consistent"
 
 
 @pytest.mark.parametrize(
-    ("published", "bound", "edge"),
+    ("aim", "edge"),
     [
-        (11.5, None, False),  # mid-envelope
-        (2.0, None, False),  # inside by more than a gap: 0.575 + 1 < 2
-        (1.2, None, True),  # inside by less than a gap: the edge moved in passes it
-        (0.0, None, True),  # outside by less than a gap: the edge moved out reaches it
-        (-5.0, None, False),  # outside by more than a gap
-        (23.0, None, True),  # the upper edge, 22.425, the same way
-        (0.3, "upper", True),  # a bound "< 0.3": met once the lower edge moves out by a gap
-        (0.3, "lower", False),  # "> 0.3": met by the upper edge, far away
+        (value(11.5), False),  # mid-envelope
+        (value(2.0), False),  # inside by more than a gap: 0.575 + 1 < 2
+        (value(1.2), True),  # inside by less than a gap: the edge moved in passes it
+        (value(0.0), True),  # outside by less than a gap: the edge moved out reaches it
+        (value(-5.0), False),  # outside by more than a gap
+        (value(23.0), True),  # the upper edge, 22.425, the same way
+        (Target(-math.inf, 0.3, math.nan), True),  # "< 0.3": met once the lower edge moves out
+        (Target(0.3, math.inf, math.nan), False),  # "> 0.3": met by the upper edge, far away
+        (Target(11.0, 12.0, 1.0), False),  # uninformative or not is no change of the verdict
     ],
 )
-def test_on_the_edge_analytic(published, bound, edge):
+def test_on_the_edge_analytic(aim, edge):
     # 24 members 0, 1, …, 23: the 2.5 and 97.5 percentiles are 0.575 and 22.425, each between
     # the outermost two members on its side, a gap of 1
-    assert on_the_edge(published, np.arange(24.0), 0.0, bound) is edge
+    assert on_the_edge(np.arange(24.0), aim) is edge
 
 
 def test_on_the_edge_moves_by_the_gap_its_percentile_lies_in():
     # one far member: the lower edge (-100 + 0.575 · 100 = -42.5) rests on it, a gap of 100
     lone = np.r_[-100.0, np.arange(23.0)]
-    assert on_the_edge(-60.0, lone, 0.0, None) and on_the_edge(-30.0, lone, 0.0, None)
-    assert not on_the_edge(-150.0, lone, 0.0, None)
+    assert on_the_edge(lone, value(-60.0)) and on_the_edge(lone, value(-30.0))
+    assert not on_the_edge(lone, value(-150.0))
     # 81 members: the 2.5 percentile is the third member, 2, a gap of 1 from the fourth; the far
     # first member no longer sets the gap (with it, 0.5 would be on the edge)
     many = np.r_[-100.0, np.arange(1.0, 81.0)]
     assert np.percentile(many, 2.5) == pytest.approx(2.0)
-    assert on_the_edge(2.5, many, 0.0, None) and not on_the_edge(0.5, many, 0.0, None)
+    assert on_the_edge(many, value(2.5)) and not on_the_edge(many, value(0.5))
     # the printed precision counts as in the verdict: 1.6 ± 0.5 is 0.9 from the edge moved in
-    assert not on_the_edge(1.6, np.arange(24.0), 0.5, None)
+    assert not on_the_edge(np.arange(24.0), value(1.6, 0.5))
+
+
+def entry(quantity, tolerance, bound=None, twin=None, source="T", published=1.0, printed=None):
+    """A registry entry of an emergent row of source ``source`` (chapter 6, µm)."""
+    return Entry(
+        section="published",
+        kind="emergent",
+        chapter="6",
+        source=source,
+        model="stack",
+        quantity=quantity,
+        unit="µm",
+        published=published,
+        band=Band("a band", "why", tolerance, bound),
+        bound=bound,
+        printed=printed,
+        twin=twin,
+    )
 
 
 def card(rows):
@@ -389,7 +506,8 @@ def test_envelope_scorecard_verdicts():
     keys = [row_key("T", q) for q in ("narrow", "wide", "far", "few")]
     values = member_values(members, keys)
     assert values[row_key("T", "few")].notna().sum() == 1
-    out = envelope_scorecard(nominal, values, pd.DataFrame(), []).set_index("quantity")
+    bands = [entry(q, Tolerance(rel=25)) for q in ("narrow", "wide", "far", "few")]
+    out = envelope_scorecard(nominal, values, pd.DataFrame(), bands).set_index("quantity")
     assert out.loc["narrow", "envelope verdict"] == "consistent"
     assert out.loc["narrow", "p50"] == pytest.approx(np.percentile([0.9, 1.0, 1.1, 1.05], 50))
     assert out.loc["wide", "envelope verdict"] == "consistent (uninformative)"
@@ -399,16 +517,18 @@ def test_envelope_scorecard_verdicts():
         "consistent": 1,
         "consistent (uninformative)": 1,
         "inconsistent": 1,
+        "no verdict": 0,
         "no envelope": 1,
+        "findings": 4,
         "rows": 4,
     }
     # "far" is 9 envelope widths out, "narrow" well inside; "wide" (0.2 … 3.0, published 1.0)
     # too; "few" has no envelope to be on the edge of
     assert out["on the edge"].tolist()[:3] == [False, False, False]
     assert pd.isna(out.loc["few", "on the edge"])
-    summary = envelope_summary(out.reset_index(), design(["X"]), [], [], {}, "0" * 64, 4)
+    summary = envelope_summary(out.reset_index(), design(["X"]), [], 0, 0, "0" * 64, 4)
     assert "the 4 members behind the percentiles gave a value for:\n\n- T, few: 1 of 4\n" in summary
-    assert "On the edge" in summary and ": 0 of 3 rows (consistent 0," in summary
+    assert "On the edge" in summary and ": 0 of 3 findings (consistent 0," in summary
 
 
 def test_a_row_on_the_edge_is_marked_in_the_lists(tmp_path):
@@ -421,8 +541,10 @@ def test_a_row_on_the_edge_is_marked_in_the_lists(tmp_path):
     out = envelope_scorecard(nominal, values, pd.DataFrame(), [])
     assert out["envelope verdict"].tolist() == ["inconsistent", "inconsistent"]
     assert out["on the edge"].tolist() == [True, False]
-    summary = envelope_summary(out, design(["X"]), [], [], {}, "0" * 64, 24)
-    assert ": 1 of 2 rows (consistent 0, consistent (uninformative) 0, inconsistent 1)" in summary
+    summary = envelope_summary(out, design(["X"]), [], 0, 0, "0" * 64, 24)
+    assert (
+        ": 1 of 2 findings (consistent 0, consistent (uninformative) 0, inconsistent 1)" in summary
+    )
     assert "widths, on the edge; no screening)" in summary
     # the docs' list reads the card back from its CSV
     out.to_csv(tmp_path / "card.csv", index=False)
@@ -432,6 +554,174 @@ def test_a_row_on_the_edge_is_marked_in_the_lists(tmp_path):
         True,
         False,
     ]
+
+
+def judged_rows(rows, entries, members=24):
+    """The envelope scorecard of rows (quantity, published, members' values from low to high,
+    evenly), each with its registry entry."""
+    nominal = card([("T", q, pub, pub) for q, pub, _, _ in rows])
+    cards = {
+        f"m~{k:02d}": card(
+            [("T", q, pub, lo + (hi - lo) * k / (members - 1)) for q, pub, lo, hi in rows]
+        )
+        for k in range(members)
+    }
+    values = member_values(cards, [row_key("T", q) for q, *_ in rows])
+    return envelope_scorecard(nominal, values, pd.DataFrame(), entries).set_index("quantity")
+
+
+def test_a_bound_is_judged_against_its_registry_band():
+    """The fitted curve "≤ 1.5 µm" (published 0, band abs 1.5 upper) is met by an envelope from
+    1.2 µm, missed by one from 1.6 µm (half an envelope width beyond); a p "≥ published − 0.28"
+    (0.33, a band from 0.05) is met by members up to 0.243; a bound is never uninformative."""
+    curve = Tolerance(abs=1.5)
+    entries = [
+        entry("curve met", curve, "upper", published=0.0),
+        entry("curve missed", curve, "upper", published=0.0),
+        entry("p", Tolerance(abs=0.28), "lower", published=0.33),
+        entry("wide bound", Tolerance(abs=0.0), "upper"),
+    ]
+    rows = [
+        ("curve met", 0.0, 1.2, 4.0),
+        ("curve missed", 0.0, 1.6, 1.8),
+        ("p", 0.33, 0.0, 0.243),
+        ("wide bound", 1.0, -10.0, 300.0),
+    ]
+    out = judged_rows(rows, entries)
+    assert out.loc["curve met", "envelope verdict"] == "consistent"
+    assert out.loc["curve missed", "envelope verdict"] == "inconsistent"
+    low, high = out.loc["curve missed", ["p2.5", "p97.5"]]
+    assert out.loc["curve missed", "distance [widths]"] == pytest.approx((low - 1.5) / (high - low))
+    assert out.loc["p", "envelope verdict"] == "consistent"
+    assert out.loc["wide bound", "envelope verdict"] == "consistent"
+    assert out["width / band"].isna().all()  # a bound has no band width to be wider than
+
+
+def test_a_row_the_registry_gives_no_verdict_gets_none():
+    entries = [entry("b0", None), entry("R²", Tolerance(rel=1))]
+    out = judged_rows([("b0", 1.0, 5.0, 9.0), ("R²", 1.0, 0.99, 1.01)], entries)
+    assert out.loc["b0", "envelope verdict"] == "no verdict"
+    assert out.loc["b0", "p50"] == pytest.approx(7.0)  # its envelope shown for information
+    assert out.loc["b0", "on the edge"] == False  # noqa: E712 (a verdict it does not have)
+    counts = envelope_counts(out.reset_index())
+    assert counts["no verdict"] == 1 and counts["inconsistent"] == 0
+
+
+def test_uninformative_is_relative_to_the_rows_own_band():
+    """Envelope 0.7–1.5 around 1.0 (a half-width of 40 %) inside a position-error band 0.625–1.6
+    says as much as the band: informative; 0.95–1.05 (5 %) against a band of half a printed
+    digit, 0.995–1.005, is ten times wider than it: uninformative."""
+    entries = [
+        entry("position", Tolerance(abs=0.6, scale="log")),
+        entry("digit", Tolerance(digit=0.5), printed="1.00"),
+    ]
+    # 24 members evenly: p2.5 and p97.5 lie 0.0225 · span inside the given ends
+    out = judged_rows([("position", 1.0, 0.68, 1.52), ("digit", 1.0, 0.948, 1.052)], entries)
+    assert out.loc["position", "envelope verdict"] == "consistent"
+    assert out.loc["position", "width / band"] < 1 < out.loc["position", "half-width [%]"] / 25
+    assert out.loc["digit", "envelope verdict"] == "consistent (uninformative)"
+    assert out.loc["digit", "width / band"] == pytest.approx(10.0, rel=0.05)
+
+
+def test_algebraic_twins_are_one_finding(tmp_path):
+    """A % of stroke row is counted with its µm row, by the µm row's verdict; a twin whose verdict
+    differs is named in the summary; the docs' list and the README's table count findings."""
+    entries = [
+        entry("error", Tolerance(rel=10)),
+        entry("error, % of stroke", Tolerance(rel=10), twin="error"),
+        entry("other", Tolerance(rel=10)),
+    ]
+    rows = [("error", 1.0, 2.0, 3.0), ("error, % of stroke", 3.0, 2.9, 3.1), ("other", 1.0, 5, 6)]
+    out = judged_rows(rows, entries).reset_index()
+    assert list(out["twin of"]) == ["", "error", ""]
+    counts = envelope_counts(out)
+    assert counts["inconsistent"] == 2 and counts["consistent"] == 0
+    assert counts["findings"] == 2 and counts["rows"] == 3
+    summary = envelope_summary(out, design(["X"]), [], 0, 0, "0" * 64, 24)
+    assert "Emergent rows: 3, findings: 2" in summary
+    assert "- T, error, % of stroke: consistent; error: inconsistent" in summary
+    out.to_csv(tmp_path / "card.csv", index=False)  # the twin column read back from its CSV
+    back = pd.read_csv(tmp_path / "card.csv")
+    assert envelope_rows_markdown(back).startswith("2 findings are inconsistent")
+    record = {"code": "abc", "members": ["m"] * 24, "campaign": "thesis"}
+    table = envelope_markdown([(back, design(["X"]), record)]).splitlines()
+    assert table[-1].startswith("| **total** | 3 | 2 | 0 | 0 | 2 | 0 | 0 |")
+
+
+def test_remade_verdicts_from_the_cards_percentiles():
+    """A card judged before the registry's bands were used: its bound row on the printed value,
+    its coefficient judged, its twin counted; remade from its own percentiles, the bound meets
+    its band (its edge unknown without the members' values), the coefficient has no verdict, the
+    value row keeps its verdict and edge."""
+    entries = [
+        entry("curve", Tolerance(abs=1.5), "upper", published=0.0),
+        entry("b0", None),
+        entry("error", Tolerance(rel=10), printed="1.00"),
+        entry("error, % of stroke", Tolerance(rel=10), twin="error"),
+    ]
+    old = pd.DataFrame(
+        {
+            "chapter": "5",
+            "source": "T",
+            "quantity": ["curve", "b0", "error", "error, % of stroke"],
+            "unit": "µm",
+            "published": [0.0, 1.0, 1.0, 3.0],
+            "reproduced": [2.4, 2.0, 1.0, 3.0],
+            "verdict": "out of band",
+            "members": 24,
+            "p2.5": [1.2, 0.5, 1.1, 3.3],
+            "p50": [2.0, 1.0, 1.5, 4.5],
+            "p97.5": [4.0, 1.5, 2.0, 6.0],
+            "half-width [%]": [np.inf, 50.0, 45.0, 45.0],
+            "envelope verdict": ["inconsistent", "consistent", "inconsistent", "inconsistent"],
+            "distance [widths]": [0.3, np.nan, 0.1, 0.1],
+            "on the edge": [True, False, True, False],
+            "driven by": "",
+        }
+    )
+    remade = rejudge(old, entries)
+    assert list(remade.columns) == NOMINAL_COLUMNS + COLUMNS
+    remade = remade.set_index("quantity")
+    assert remade.loc["curve", "envelope verdict"] == "consistent"
+    assert pd.isna(remade.loc["curve", "on the edge"])
+    assert remade.loc["b0", "envelope verdict"] == "no verdict"
+    assert remade.loc["b0", "on the edge"] == False  # noqa: E712
+    assert remade.loc["error", "envelope verdict"] == "inconsistent"
+    assert remade.loc["error", "on the edge"] == True  # noqa: E712
+    assert remade.loc["error, % of stroke", "twin of"] == "error"
+    assert envelope_counts(remade.reset_index())["findings"] == 3
+    assert edge_counts(remade.reset_index()).endswith(
+        "of 2 findings (consistent 0, "
+        "consistent (uninformative) 0, inconsistent 1); not known for 1"
+    )
+
+
+def test_the_ensembles_tables_remake_the_verdicts_without_the_members(tmp_path):
+    """Five members' synthetic scorecards (two emergent rows, one a member lacks, and a
+    calibration signature): the envelope keeps members × rows and members × signatures; read back
+    from their CSVs they give the same envelope scorecard."""
+    items = [unknown("a", group="A")]
+    the_design = design(["A"], method="latin", members=5)
+    _, unit = sampling_plan(items, the_design)
+    signature = card([("S", "loop width", 5.0, 5.0)]).assign(kind="calibration")
+    nominal = pd.concat([card([("T", "x", 1.0, 1.0), ("T", "y", 2.0, 2.0)]), signature])
+    members = {}
+    for k, m in enumerate(unit.index):
+        rows = [("T", "x", 1.0, 0.8 + 0.1 * k)] + ([("T", "y", 2.0, 2.0 + k)] if k else [])
+        members[m] = pd.concat([card(rows), signature.assign(reproduced=4.0 + k)])
+    entries = [entry("x", Tolerance(rel=10)), entry("y", Tolerance(rel=10), published=2.0)]
+    result = envelope_result(the_design, nominal, members, unit, items, entries, "0" * 64)
+    assert list(result.values.index) == list(unit.index)
+    assert list(result.values.columns) == [row_key("T", "x"), row_key("T", "y")]
+    assert np.isnan(result.values.iloc[0, 1]) and result.values.iloc[4, 1] == 6.0
+    assert list(result.signatures.columns) == [row_key("S", "loop width")]
+    assert list(result.signatures.iloc[:, 0]) == [4.0, 5.0, 6.0, 7.0, 8.0]
+    for name, table in (("values", result.values), ("signatures", result.signatures)):
+        write_table(table.reset_index(), tmp_path / f"{name}.csv")
+    values = pd.read_csv(tmp_path / "values.csv", index_col=MEMBER)
+    assert pd.read_csv(tmp_path / "signatures.csv", index_col=MEMBER).shape == (5, 1)
+    again = envelope_scorecard(nominal, values, pd.DataFrame(), entries)
+    pd.testing.assert_frame_equal(again, result.card)
 
 
 def test_a_design_judges_its_own_chapters_only():

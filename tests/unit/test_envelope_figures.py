@@ -10,9 +10,7 @@ import pytest
 from matplotlib import cbook
 from matplotlib.image import imread
 
-from selfsense.scorecard.envelope import COLUMNS as ENVELOPE_COLUMNS
-from selfsense.scorecard.envelope import NOMINAL_COLUMNS
-from selfsense.scorecard.envelope_figures import (
+from selfsense.envelope.figures import (
     EMPTY_SENSITIVITY,
     beyond,
     cut,
@@ -27,26 +25,28 @@ from selfsense.scorecard.envelope_figures import (
     tornado,
     tornado_figure,
 )
+from selfsense.envelope.verdicts import COLUMNS as ENVELOPE_COLUMNS
+from selfsense.envelope.verdicts import NOMINAL_COLUMNS
 
 NAN = math.nan
-# the envelope scorecard's columns, as selfsense.scorecard.envelope writes them (verdict aside)
+# the envelope scorecard's columns, as selfsense.envelope.verdicts writes them (verdict aside)
 COLUMNS = [c for c in NOMINAL_COLUMNS if c != "verdict"] + ENVELOPE_COLUMNS
 
 
 def _card() -> pd.DataFrame:
     rows = [
         # chapter, source, quantity, unit, published, reproduced, members, p2.5, p50, p97.5,
-        # half-width, verdict, distance, on the edge, driven by
-        ("6", "Table 6.1", "C_e", "uF", 10.0, 10.2, 12, 9.0, 10.5, 12.0, 15.0, "consistent",
-         NAN, False, "geometry"),
-        ("6", "Table 6.1", "ripple $U_0$ amplitude", "V", 4.0, 20.0, 12, 5.0, 6.0, 7.0, 12.0,
-         "inconsistent", 2.5, True, "drive"),
-        ("6", "Table 6.2", "offset", "V", 0.0, 0.1, 12, -0.1, 0.0, 0.1, NAN, "consistent",
-         NAN, False, ""),
-        ("3", "Table 3.1", "loss", "W", -4.0, -9.0, 2, NAN, NAN, NAN, NAN, "no envelope",
-         NAN, NAN, ""),
-        ("Ronkanen", "Fig 5", "stroke", "um", 50.0, NAN, 12, 0.0, 50.0, 400.0, 400.0,
-         "consistent (uninformative)", NAN, False, "stiffness"),
+        # half-width, width / band, verdict, distance, on the edge, twin of, driven by
+        ("6", "Table 6.1", "C_e", "uF", 10.0, 10.2, 12, 9.0, 10.5, 12.0, 15.0, 0.5, "consistent",
+         NAN, False, "", "geometry"),
+        ("6", "Table 6.1", "ripple $U_0$ amplitude", "V", 4.0, 20.0, 12, 5.0, 6.0, 7.0, 12.0, 0.4,
+         "inconsistent", 2.5, True, "", "drive"),
+        ("6", "Table 6.2", "offset", "V", 0.0, 0.1, 12, -0.1, 0.0, 0.1, NAN, 0.2, "consistent",
+         NAN, False, "", ""),
+        ("3", "Table 3.1", "loss", "W", -4.0, -9.0, 2, NAN, NAN, NAN, NAN, NAN, "no envelope",
+         NAN, NAN, "", ""),
+        ("Ronkanen", "Fig 5", "stroke", "um", 50.0, NAN, 12, 0.0, 50.0, 400.0, 400.0, 8.0,
+         "consistent (uninformative)", NAN, False, "", "stiffness"),
     ]  # fmt: skip
     return pd.DataFrame(rows, columns=COLUMNS)
 

@@ -341,6 +341,19 @@ EXPECTED = {
 }
 
 
+def test_the_registry_declares_its_algebraic_twins(registry):
+    """Every % of stroke row beside a µm row of its source, and every adjusted R² beside its R², is
+    declared its twin (the envelope counts each pair once)."""
+    twins = {(e.source, e.quantity): e.twin for e in registry if e.twin}
+    quantities = {(e.source, e.quantity) for e in registry}
+    assert twins[("Table 6.2", "P2a, ε_OCL, % of stroke")] == "P2a, ε_OCL"
+    assert twins[("Table 5.1", "Γ order 5, adjusted R²")] == "Γ order 5, R²"
+    for source, quantity in quantities:
+        if "adjusted R²" in quantity:
+            assert (source, quantity) in twins, quantity
+    assert len(twins) == 34
+
+
 def test_the_registry_lists_every_published_table(registry):
     found = pd.Series([(e.model, e.source) for e in registry]).value_counts().to_dict()
     assert {k: found.get(k, 0) for k in EXPECTED} == EXPECTED
@@ -552,6 +565,21 @@ def test_a_cause_reads_the_spread_over_tests_or_quotes_another_tables_columns():
                 entries=[{"quantity": "a", "published": 1, "centre": {"table": "t.csv"}}],
             ),
             "column",
+        ),
+        (group(entries=[{"quantity": "a", "published": 1, "twin": "b"}]), "twin 'b' is no entry"),
+        (
+            group(entries=[{"quantity": "a", "published": 1, "twin": "a"}]),
+            "twin 'a' must be another entry",
+        ),
+        (
+            group(
+                entries=[
+                    {"quantity": "a", "published": 1},
+                    {"quantity": "b", "published": 1, "twin": "a"},
+                    {"quantity": "c", "published": 1, "twin": "b"},
+                ]
+            ),
+            "twin 'b' must be another entry of the same kind that names no twin itself",
         ),
     ],
 )

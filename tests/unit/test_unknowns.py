@@ -13,9 +13,9 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from selfsense.envelope.design import physical
+from selfsense.envelope.unknowns import load_unknowns, unknowns_hash
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
-from selfsense.io.unknowns import load_unknowns, unknowns_hash
-from selfsense.verify.envelope import physical
 
 from ..helpers import ROOT
 

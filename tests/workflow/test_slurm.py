@@ -23,8 +23,8 @@ import pandas as pd
 import pytest
 import yaml
 
+from selfsense.envelope.unknowns import unknowns_hash
 from selfsense.io.manifest import load_yaml
-from selfsense.io.unknowns import unknowns_hash
 
 from ..helpers import ROOT, SMOKE_CONFIG, copy_smoke_tree, run_snakemake, snakemake_command
 

@@ -5,6 +5,7 @@ import ast
 import json
 import os
 import re
+import sys
 import threading
 from functools import cache
 from pathlib import Path
@@ -17,10 +18,11 @@ from selfsense.methods.cycles import protocol_period
 from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, catalogue, channel_scalings, load_dataset, load_yaml,
                                     needs_identification, protocol_duration, validate_config)
 from selfsense.scorecard.calibration import load_targets
-from selfsense.scorecard.reference_values import tables_read as reference_tables
-from selfsense.scorecard.registry import applicable, parse_registry, tables_read
-from selfsense.io.unknowns import load_unknowns
-from selfsense.verify.envelope import envelope
+from selfsense.scorecard.card import dataset_tables
+from selfsense.scorecard.registry import applicable, parse_registry
+from selfsense.envelope.design import (Design, check_chapters, check_member_manifests, envelope, members_asked,
+                                      undrawn)
+from selfsense.envelope.unknowns import load_unknowns
 from selfsense import stages
 from selfsense.io import roles
 
@@ -150,14 +152,37 @@ FIGURE_PDF = config["figures"]["pdf"]
 # ---- The envelope (workflow/rules/envelope.smk): its members are datasets of their own,
 # <dataset>~NN, each the envelope dataset's manifest with one draw of the unknowns, run by the
 # same rules as any dataset. They are in DATASETS for the rules, in no list rule all or the
-# report's summary reads (NOMINAL): only `snakemake envelope` asks for them.
+# report's summary reads (NOMINAL): only `snakemake envelope` asks for them, so they are drawn
+# (and their manifests checked against the plan) only when a target names the envelope or a
+# member; any other run's parse pays for none of it, whatever the envelope's size.
 NOMINAL = list(DATASETS)
 UNKNOWNS = "workflow/unknowns.yaml"
-ENVELOPE = envelope(config["envelope"], DATASETS, load_unknowns(UNKNOWNS, raw_dir=RAW))
+# the design read from config here, once: the envelope rules take it as their param
+ENVELOPE_DESIGN = Design.from_config(config["envelope"], CONFIG_SOURCE)
+ENVELOPE_FOLDER = f"results/envelope/{ENVELOPE_DESIGN.name}"
+
+
+def requested_targets():
+    """The run's target rules, files and jobs (a cluster job's --target-jobs), from its command
+    line: Snakemake hands them to the workflow only after the Snakefile is parsed, and whether the
+    members are datasets must be known while it is. None when the command line is not
+    Snakemake's (the API): then every target may be asked."""
+    from snakemake.cli import get_argument_parser  # built already by this run: no cost
+
+    try:
+        args = get_argument_parser().parse_known_args(sys.argv[1:])[0]
+    except SystemExit:
+        return None
+    return [str(t) for t in (*args.targets, *(args.target_jobs or ()))]
+
+
+TARGETS = requested_targets()
+if TARGETS is None or members_asked(TARGETS):
+    ENVELOPE = envelope(ENVELOPE_DESIGN, DATASETS, load_unknowns(UNKNOWNS, raw_dir=RAW))
+    check_member_manifests(ENVELOPE, RAW, f"{ENVELOPE_FOLDER}/plan.csv")
+else:
+    ENVELOPE = undrawn(ENVELOPE_DESIGN)
 DATASETS |= ENVELOPE.manifests
-
-
-ENVELOPE_FOLDER = f"results/envelope/{ENVELOPE.design.name}"
 
 
 def envelope_inputs(wildcards):
@@ -528,6 +553,7 @@ SCORECARD_REGISTRY = "workflow/scorecard.yaml"
 
 # parsed once here so that a bad registry stops the workflow with one line before anything runs
 SCORECARD = parse_registry(load_yaml(SCORECARD_REGISTRY), SCORECARD_REGISTRY)
+check_chapters(ENVELOPE.design, [e.chapter for e in SCORECARD if e.kind == "emergent"], CONFIG_SOURCE)
 
 #: the thesis's printed Γ (Table 5.2, j = 5) and Γ_T (Table 7.3, n = 5 with T) against ours, compared
 #: as curves: per fit, the folder, the registry's source and coefficient names, the records compared
@@ -577,7 +603,7 @@ def scorecard_tables(dataset):
                                   if e.kind in ("emergent", "calibration") and e.locate
                                   and ENVELOPE.design.judges(e.chapter)))
     else:
-        read = tables_read(entries) + reference_tables(DATASETS[dataset])
+        read = dataset_tables(SCORECARD, DATASETS[dataset])
     return [t for t in (f"results/{dataset}/{t}" for t in read) if t in stage_outputs()]
 
 

@@ -43,7 +43,7 @@ rule envelope_plan:
                     category="Envelope", subcategory="Plan"),
         unit=f"{ENVELOPE_FOLDER}/unit.csv",
     params:
-        envelope=config["envelope"],
+        design=ENVELOPE.design.record(),
         raw_dir=config["raw_dir"],
     log:
         f"logs/envelope/{ENVELOPE.design.name}/plan.log",
@@ -59,8 +59,9 @@ rule envelope_plan:
 
 rule envelope:
     """Every emergent number of the nominal scorecard against its envelope over the members:
-    percentiles, half-width, verdict (consistent, consistent (uninformative), inconsistent) and
-    the Morris groups that drive it; the forest and tornado figures; the opening's counts."""
+    percentiles, verdict (consistent, consistent (uninformative), inconsistent, no verdict) and
+    the Morris groups that drive it; the ensemble's tables; the forest and tornado figures; the
+    opening's counts."""
     input:
         unpack(envelope_inputs),
         registry=SCORECARD_REGISTRY,
@@ -71,6 +72,10 @@ rule envelope:
                     category="Envelope", subcategory="Scorecard"),
         sensitivity=report(f"{ENVELOPE_FOLDER}/sensitivity.csv", caption="../report/envelope_sensitivity.rst",
                            category="Envelope", subcategory="Scorecard"),
+        # the ensemble's tables (members × rows, members × signatures; members × inputs is the
+        # plan): a later method re-judges from them without running a member again
+        values=f"{ENVELOPE_FOLDER}/values.csv",
+        signatures=f"{ENVELOPE_FOLDER}/signatures.csv",
         forest=report(f"{ENVELOPE_FOLDER}/forest.png", caption="../report/envelope_forest.rst",
                       category="Envelope", subcategory="Figures"),
         tornado=report(f"{ENVELOPE_FOLDER}/tornado.png", caption="../report/envelope_tornado.rst",
@@ -79,7 +84,7 @@ rule envelope:
                        category="Envelope", subcategory="Scorecard"),
     params:
         pdf=FIGURE_PDF,
-        envelope=config["envelope"],
+        design=ENVELOPE.design.record(),
         members=list(ENVELOPE.manifests),
         raw_dir=config["raw_dir"],
     log:

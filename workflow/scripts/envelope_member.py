@@ -1,9 +1,9 @@
 """Rule `envelope_member`: one envelope member's manifest, raw/<member>/dataset.yaml (the
-envelope dataset's with the member's draws: selfsense.verify.envelope.member_manifest, made when
+envelope dataset's with the member's draws: selfsense.envelope.design.member_manifest, made when
 the workflow is parsed and passed here as the rule's param)."""
 
+from selfsense.envelope.design import write_member_manifest
 from selfsense.io.provenance import script_logging
-from selfsense.verify.envelope import write_member_manifest
 
 
 def main(manifest, output, log=None):

@@ -1,35 +1,35 @@
-"""Rule `envelope_plan`: the envelope's sampling plan (selfsense.verify.envelope.envelope):
+"""Rule `envelope_plan`: the envelope's sampling plan (selfsense.envelope.design.envelope):
 results/envelope/<name>/plan.csv (each member's values) and unit.csv (the same draws in the
 unit hypercube, as SALib drew them)."""
 
 from pathlib import Path
 
+from selfsense.envelope.design import Design, envelope
+from selfsense.envelope.unknowns import load_unknowns, unknowns_hash
 from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import script_logging, write_table
-from selfsense.io.unknowns import load_unknowns, unknowns_hash
-from selfsense.verify.envelope import envelope
 
 
-def main(section, base, unknowns, raw_dir, plan, unit, log=None):
+def main(design, base, unknowns, raw_dir, plan, unit, log=None):
     logger = script_logging(log)
     manifest = load_manifest(base)
-    drawn = envelope(
-        section, {manifest["name"]: manifest}, load_unknowns(unknowns, raw_dir=raw_dir)
-    )
+    drawn = envelope(design, {manifest["name"]: manifest}, load_unknowns(unknowns, raw_dir=raw_dir))
     extra = {
         "unknowns_sha256": unknowns_hash(unknowns),
         "varied": [u.id for u in drawn.varied],
         "held": [u.id for u in drawn.held],
     }
     for frame, path in ((drawn.plan, plan), (drawn.unit, unit)):
-        write_table(frame.reset_index(), path, inputs=[base, unknowns], config=section, **extra)
+        write_table(
+            frame.reset_index(), path, inputs=[base, unknowns], config=design.record(), **extra
+        )
     logger.info("%d members, %d unknowns varied", len(drawn.plan), len(drawn.varied))
 
 
 if "snakemake" in globals():
     i, o = snakemake.input, snakemake.output
     main(
-        dict(snakemake.params.envelope),
+        Design(**snakemake.params.design),
         i.base,
         i.unknowns,
         Path(snakemake.params.raw_dir),

@@ -1,5 +1,5 @@
 """Rule `scorecard`: every published number beside its reproduction for one dataset (CSV + page;
-selfsense.scorecard.reference_values.dataset_scorecard)."""
+selfsense.scorecard.card.dataset_scorecard)."""
 
 from pathlib import Path
 
@@ -7,7 +7,7 @@ import pandas as pd
 
 from selfsense.io.manifest import load_dataset, load_yaml
 from selfsense.io.provenance import atomic_path, provenance, script_logging, write_json, write_table
-from selfsense.scorecard.reference_values import dataset_scorecard, dataset_tables
+from selfsense.scorecard.card import dataset_scorecard, dataset_tables
 from selfsense.scorecard.registry import parse_registry
 from selfsense.scorecard.render import scorecard_html
 from selfsense.scorecard.scoring import counts

@@ -4,7 +4,7 @@
 - ``scoring``: each entry's reproduced value, band and verdict, and the counts;
 - ``render``: the report's pages and the documentation's quoted blocks;
 - ``reference_values``: a measured dataset's own reference numbers as entries;
-- ``calibration``: the twin's calibration signatures judged the same way;
-- ``envelope``: every emergent number against its envelope over the members (verdicts, drivers);
-- ``envelope_figures``: the envelope's forest and tornado figures.
+- ``card``: a dataset's whole scorecard (the registry's rows and its reference values') and
+  the tables it reads;
+- ``calibration``: the twin's calibration signatures judged the same way.
 """

@@ -6,18 +6,18 @@ They replace the source's published numbers for that dataset
 its own data sheet, not the PI P-885's. The rows have the scorecard's columns and
 ``kind: emergent`` (the value comes out of the analysis of the captures, nothing in the pipeline
 was set to give it); each band is the manifest's, set by whoever wrote the reference down, before
-the result. :func:`dataset_scorecard` puts them after the registry's rows: a dataset's whole card.
+the result. :func:`selfsense.scorecard.card.dataset_scorecard` puts them after the registry's
+rows: a dataset's whole card.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import pandas as pd
 
-from selfsense.scorecard.registry import Band, Entry, Locator, Tolerance, applicable
-from selfsense.scorecard.registry import tables_read as registry_tables
+from selfsense.scorecard.registry import Band, Entry, Locator, Tolerance
 from selfsense.scorecard.scoring import scorecard
 
 SECTION = "reference values"
@@ -112,21 +112,3 @@ def entries(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> 
 def reference_rows(manifest: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """The scorecard rows of the dataset's reference values (empty when it gives none)."""
     return scorecard(entries(manifest, tables), tables, manifest)
-
-
-def dataset_tables(registry: Sequence[Entry], manifest: Mapping[str, Any]) -> list[str]:
-    """Every table (relative to results/<dataset>/) a dataset's scorecard reads: those of the
-    ``registry``'s entries that apply to it, then those of its own reference values."""
-    return registry_tables(applicable(registry, manifest)) + tables_read(manifest)
-
-
-def dataset_scorecard(
-    registry: Sequence[Entry], tables: Mapping[str, pd.DataFrame], manifest: Mapping[str, Any]
-) -> pd.DataFrame:
-    """A dataset's scorecard: one row per ``registry`` entry that applies to it
-    (:func:`selfsense.scorecard.scoring.scorecard`), then its reference values' rows
-    (:func:`reference_rows`)."""
-    card, own = scorecard(registry, tables, manifest), reference_rows(manifest, tables)
-    if own.empty:  # concatenating an empty frame would turn the float columns to object (no %.10g)
-        return card
-    return own if card.empty else pd.concat([card, own], ignore_index=True)

@@ -280,6 +280,9 @@ class Entry:
         None  # the model on the twin's truth the band is centred on, if not the published
     )
     built: str | None = None  # twin recovery against the model on truth: the built value's column
+    #: the quantity of the same source's entry this one is an algebraic function of (a % of
+    #: stroke beside its µm row): one finding with it wherever findings are counted
+    twin: str | None = None
 
     @property
     def key(self) -> tuple[str, str, str]:
@@ -318,7 +321,25 @@ def parse_registry(doc: Any, source: str = "workflow/scorecard.yaml") -> list[En
                 f"model {entry.model}"
             )
         seen.add(entry.key)
+    _check_twins(entries, source)
     return entries
+
+
+def _check_twins(entries: Sequence[Entry], source: str) -> None:
+    """Every ``twin`` names an entry of the same model and source, of the same kind, that is no
+    twin itself (a pair, not a chain: the pair is counted by the named entry's verdict)."""
+    by_key = {e.key: e for e in entries}
+    for entry in entries:
+        if entry.twin is None:
+            continue
+        where = f"{source}: {entry.source}, {entry.quantity!r}: twin {entry.twin!r}"
+        other = by_key.get((entry.model, entry.source, entry.twin))
+        if other is None:
+            raise RegistryError(f"{where} is no entry of the same source and model")
+        if other.twin is not None or other.kind != entry.kind or other is entry:
+            raise RegistryError(
+                f"{where} must be another entry of the same kind that names no twin itself"
+            )
 
 
 def _band(doc: Mapping[str, Any], where: str) -> Band:
@@ -397,6 +418,7 @@ def _entry(group: Mapping[str, Any], item: Mapping[str, Any], where: str) -> Ent
         cause=cause,
         centre=centre,
         built=built,
+        twin=item.get("twin"),
     )
 
 

@@ -13,8 +13,6 @@ from typing import Any
 
 import pandas as pd
 
-from selfsense.scorecard.envelope import VERDICTS as ENVELOPE_VERDICTS
-from selfsense.scorecard.envelope import edge_note, edge_rows
 from selfsense.scorecard.registry import (
     BIAS,
     CAUSE_MARK,
@@ -30,7 +28,6 @@ from selfsense.scorecard.registry import (
     WITHIN,
 )
 from selfsense.scorecard.scoring import bias_verdicts, counts
-from selfsense.verify.envelope import Design
 
 #: where a row's note has a measured cause (Cause.note), which comes last: the pages count by it,
 #: and the HTML page shows it apart
@@ -254,7 +251,7 @@ def _table(table: pd.DataFrame, title: str) -> list[str]:
     for _, row in table.iterrows():
         lines += [
             f"   * - {_rst(row['dataset'])}",
-            f"     - {_chapter(row['chapter'])}",
+            f"     - {chapter_label(row['chapter'])}",
             *(f"     - {row[v]}" for v in (WITHIN, OUT, NOT_YET)),
         ]
     return lines
@@ -333,7 +330,7 @@ def _pending(card: pd.DataFrame) -> list[str]:
     for chapter, part in pending.groupby("chapter", sort=False):
         per_source = part.groupby("source", sort=False).size()
         lines.append(
-            f"  - {_chapter(chapter)}: "
+            f"  - {chapter_label(chapter)}: "
             + ", ".join(f"{_rst(src)} ({n})" for src, n in per_source.items())
         )
     return lines + [""]
@@ -360,7 +357,8 @@ def _by_source(rows: pd.DataFrame, describe) -> list[str]:
     return lines
 
 
-def _chapter(chapter: Any) -> str:
+def chapter_label(chapter: Any) -> str:
+    """A chapter as the pages name it ("Chapter 3", a paper's name), escaped for them."""
     return _rst(_chapter_title(chapter))
 
 
@@ -729,7 +727,7 @@ def counts_markdown(counts_: pd.DataFrame, campaign: str) -> str:
     ]
     for (dataset, chapter), part in counts_.groupby(["dataset", "chapter"], sort=False):
         cells = {row["kind"]: f"{row[WITHIN]} / {row['reproduced']}" for _, row in part.iterrows()}
-        name = "**total**" if chapter == "total" else _chapter(chapter)
+        name = "**total**" if chapter == "total" else chapter_label(chapter)
         lines.append(
             f"| {dataset} | {name} | " + " | ".join(cells.get(k, "–") for k in kinds) + " |"
         )
@@ -744,7 +742,7 @@ def deviations_markdown(cards: Mapping[str, pd.DataFrame]) -> str:
         out = card[(card["kind"] == EMERGENT) & (card["verdict"] == OUT)]
         lines += [f"**{dataset}**: {len(out)} emergent numbers out of band.", ""]
         for chapter, part in out.groupby("chapter", sort=False):
-            lines.append(f"- {_chapter(chapter)}:")
+            lines.append(f"- {chapter_label(chapter)}:")
             for _, row in part.iterrows():
                 unit = f" {row['unit']}" if row["unit"] else ""
                 lines.append(
@@ -763,86 +761,3 @@ def replace_block(text: str, name: str, body: str) -> str:
     if not (sep and sep2):
         raise ValueError(f"no block {name!r} ({begin} … {end})")
     return f"{head}{begin}\n{body}\n{end}{tail}"
-
-
-def combined_envelope(cards: Sequence[pd.DataFrame]) -> pd.DataFrame:
-    """One envelope scorecard from several designs' (a design of its own for Chapter 7, whose
-    records are too long to run in the others' members): each emergent row takes its columns from
-    the design that judged it, the first card's where none did. A row two designs judged is an
-    error: which of the two verdicts stands would be a choice nobody declared."""
-    key = ["source", "quantity"]
-    combined = cards[0].set_index(key)
-    judged = combined["envelope verdict"] != "no envelope"
-    for card in cards[1:]:
-        other = card.set_index(key)
-        missing = other.index.difference(combined.index)
-        if len(missing):
-            raise ValueError(f"envelope rows of no other design: {list(missing)}")
-        theirs = other.index[other["envelope verdict"] != "no envelope"]
-        twice = theirs[judged.loc[theirs].to_numpy()]
-        if len(twice):
-            raise ValueError(f"envelope rows judged by two designs: {list(twice)}")
-        combined.loc[theirs, other.columns] = other.loc[theirs]
-        judged.loc[theirs] = True
-    return combined.reset_index()[cards[0].columns]
-
-
-def envelope_markdown(designs: Sequence[tuple[pd.DataFrame, Mapping[str, Any]]]) -> str:
-    """The README's envelope counts: per chapter, the emergent numbers consistent (informative),
-    consistent (uninformative), inconsistent and without an envelope, the nominal twin's within
-    band beside them, over the designs' envelope scorecards (:func:`combined_envelope`); each
-    design named with the chapters it gave verdicts for, its members and its code (``designs``:
-    (scorecard, provenance) of each)."""
-    card = combined_envelope([c for c, _ in designs])
-    named = []
-    for design_card, provenance in designs:
-        design = Design.from_config(provenance["design"])
-        judged = design_card.loc[design_card["envelope verdict"] != "no envelope", "chapter"]
-        chapters = list(dict.fromkeys(str(c) for c in judged))
-        word = "Chapter" if len(chapters) == 1 else "Chapters"
-        method = design.method + (f" and {design.spread} latin" if design.spread else "")
-        code = provenance["code"]
-        made = [c for c in provenance.get("members_code", []) if c != code]
-        if made:
-            code = f"{code} (its members {', '.join(made)})"
-        named.append(
-            f"{word} {', '.join(chapters)}: {len(provenance['members'])} members, "
-            f"{method}, `docs/snapshot/envelope/{design.name}/`, code {code}"
-        )
-    lines = [
-        f"The reproduction envelope of `{Design.from_config(designs[0][1]['design']).dataset}` "
-        f"on the `{designs[0][1]['campaign']}` campaign ({'; '.join(named)}):",
-        "",
-        "| chapter | emergent | consistent | consistent (uninformative) | inconsistent "
-        "| no envelope | nominal: within band |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    parts = [(str(c), p) for c, p in card.groupby("chapter", sort=False)] + [("total", card)]
-    for chapter, part in parts:
-        tally = part["envelope verdict"].value_counts()
-        name = "**total**" if chapter == "total" else _chapter(chapter)
-        cells = [str(int(tally.get(v, 0))) for v in ENVELOPE_VERDICTS]
-        within = int((part["verdict"] == "within band").sum())
-        lines.append(f"| {name} | {len(part)} | " + " | ".join(cells) + f" | {within} |")
-    return "\n".join(lines)
-
-
-def envelope_rows_markdown(card: pd.DataFrame) -> str:
-    """docs/envelope.md's list: every inconsistent number with its envelope, distance (and
-    whether it is on the edge) and drivers, per chapter."""
-    out = card[card["envelope verdict"] == "inconsistent"]
-    edge = int(edge_rows(out).sum())
-    on_edge = f"; {edge} of them on the edge, where one member's draw decides" if edge else ""
-    lines = [f"{len(out)} emergent numbers are inconsistent with the envelope{on_edge}.", ""]
-    for chapter, part in out.groupby("chapter", sort=False):
-        lines.append(f"- {_chapter(chapter)}:")
-        for _, row in part.iterrows():
-            unit = f" {row['unit']}" if isinstance(row["unit"], str) and row["unit"] else ""
-            drivers = row["driven by"] if isinstance(row["driven by"], str) else ""
-            lines.append(
-                f"  - {row['source']}, {row['quantity']}: published {row['published']:.4g}, "
-                f"envelope {row['p2.5']:.4g} to {row['p97.5']:.4g}{unit} "
-                f"({row['distance [widths]']:.2g} widths{edge_note(row)}); "
-                f"driven by {drivers or '–'}"
-            )
-    return "\n".join(lines)

@@ -8,7 +8,5 @@ with. Everything here reads a simulated capture's ``/truth``; the analyses never
 - ``loop_leak``: the closed loop's drive in the ripple channels;
 - ``hysteresis_truth``: the twin's own rate-independent feedforward, for the Maxwell model fit;
 - ``studies``: the ripple estimator's error against np and the ripple's wander;
-- ``signatures``: the calibration signatures measured on short twin runs;
-- ``envelope``: the envelope's members: the unknowns varied, SALib's plan, each member's manifest
-  and the Morris screening.
+- ``signatures``: the calibration signatures measured on short twin runs.
 """

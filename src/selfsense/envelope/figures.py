@@ -21,9 +21,9 @@ import pandas as pd
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from selfsense.envelope.verdicts import EDGE, edge_rows
 from selfsense.io import figures  # before pyplot: it chooses the Agg backend
 from selfsense.io.provenance import save_figure
-from selfsense.scorecard.envelope import EDGE, edge_rows
 
 plt = figures.plt
 
@@ -36,6 +36,7 @@ VERDICT_COLOURS: dict[str, str | None] = {
     "consistent": "#2ca02c",
     "consistent (uninformative)": "#b7d7a8",
     "inconsistent": "#d62728",
+    "no verdict": "#c7c7c7",  # the registry gives none: the envelope shown for information
     "no envelope": None,
 }
 #: a verdict the module does not know is still drawn, in neutral grey
@@ -206,7 +207,7 @@ def _forest_panel(ax, rows: pd.DataFrame, axis: tuple[float, float]) -> None:
         lo, hi = row["p2.5 [%]"], row["p97.5 [%]"]
         if colour is not None and np.isfinite(lo) and np.isfinite(hi):
             left, right = np.clip([lo, hi], *axis)
-            # hatched: a verdict one member's draw decides (selfsense.scorecard.envelope)
+            # hatched: a verdict one member's draw decides (selfsense.envelope.verdicts)
             hatch = EDGE_HATCH if row[EDGE] else None
             ink = EDGE_INK if hatch else colour
             ax.barh(

@@ -1,5 +1,5 @@
-"""The reproduction envelope's members: which unknowns vary, the sampling plan, each member's
-manifest, and the Morris screening of what drives each published number.
+"""The reproduction envelope's design and members: which unknowns vary, the sampling plan, each
+member's manifest.
 
 An envelope member is the nominal dataset with every varied unknown (workflow/unknowns.yaml) set
 to one draw: a dataset of its own, ``<dataset>~NN``, whose manifest this module writes, run by the
@@ -16,9 +16,10 @@ Pure functions apart from :func:`write_member_manifest`.
 from __future__ import annotations
 
 import copy
+import hashlib
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,14 +27,24 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from selfsense.io.manifest import ManifestError, validate_document
+from selfsense.envelope.unknowns import MODEL_PREFIX, PROTOCOL_PATH, Unknown
+from selfsense.io.manifest import DATASET_NAME, ManifestError, validate_document
 from selfsense.io.provenance import atomic_path
-from selfsense.io.unknowns import MODEL_PREFIX, PROTOCOL_PATH, Unknown
 
 #: between a dataset's name and a member's number: pi_p885~07
 MEMBER_MARK = "~"
 #: the sampling methods an envelope may use
 METHODS = ("morris", "latin")
+#: the most members (trajectories' and spread's) one design may draw: the config schema's bound
+#: on each, and on their sum here (the schema says why)
+MAX_MEMBERS = 500
+#: an envelope's and its dataset's names: a dataset's, matched whole (a trailing newline too),
+#: at most this long (<name>~NN and results/envelope/<name>/ stay short file names)
+MAX_NAME = 64
+#: what a run's targets must name for it to need the members (see :func:`members_asked`)
+ENVELOPE_WORD = "envelope"
+#: the plan's column holding the sha256 of each member's manifest as rule envelope_member writes it
+MANIFEST_SHA = "manifest sha256"
 
 
 @dataclass(frozen=True)
@@ -58,7 +69,30 @@ class Design:
     spread: int = 0
 
     @classmethod
-    def from_config(cls, section: Mapping[str, Any]) -> Design:
+    def from_config(cls, section: Mapping[str, Any], source: str = "config.yaml") -> Design:
+        """The design of config.yaml's ``envelope:`` section (validated by the config schema):
+        the one reading of that section; the workflow passes the result on as
+        :meth:`record`, and every output keeps that record in its provenance. Its names must be
+        whole dataset names of at most :data:`MAX_NAME` characters, and it may draw at most
+        :data:`MAX_MEMBERS` members in all; else one line naming ``source`` and the key."""
+        for key in ("dataset", "name"):
+            value = section.get(key) or ""
+            if (key == "dataset" or value) and not (
+                DATASET_NAME.fullmatch(value) and len(value) <= MAX_NAME
+            ):
+                raise ManifestError(
+                    f"{source}: key envelope.{key}: {value[:MAX_NAME]!r}"
+                    f"{'…' if len(value) > MAX_NAME else ''} is not a name of letters, digits, "
+                    f"'_' and '-' of at most {MAX_NAME} characters",
+                    f"envelope.{key}",
+                )
+        spread = int(section.get("spread", 0)) if section["method"] == "morris" else 0
+        if int(section["members"]) + spread > MAX_MEMBERS:
+            raise ManifestError(
+                f"{source}: key envelope.spread: {section['members']} members and {spread} more "
+                f"for the spread are more than the {MAX_MEMBERS} one design may draw",
+                "envelope.spread",
+            )
         return cls(
             name=section.get("name") or section["dataset"],
             dataset=section["dataset"],
@@ -69,13 +103,38 @@ class Design:
             groups=list(section["groups"]),
             stages=list(section["stages"]),
             chapters=[str(c) for c in section.get("chapters", ())],
-            spread=int(section.get("spread", 0)) if section["method"] == "morris" else 0,
+            spread=spread,
         )
+
+    def record(self) -> dict[str, Any]:
+        """The design as plain data (a rule's param, a provenance's ``design``): ``Design(**it)``
+        is the design again."""
+        return asdict(self)
 
     def judges(self, chapter: Any) -> bool:
         """Whether the design judges the emergent rows of ``chapter`` (every chapter's when it
         names none)."""
         return not self.chapters or str(chapter) in self.chapters
+
+
+def check_chapters(design: Design, known: Sequence[str], source: str = "config.yaml") -> None:
+    """Every chapter the design judges is one some emergent row has (``known``, the registry's):
+    a chapter no row has would judge nothing and give an empty envelope."""
+    unknown = [c for c in design.chapters if c not in set(map(str, known))]
+    if unknown:
+        raise ManifestError(
+            f"{source}: key envelope.chapters: {unknown[0]!r} is no chapter of the scorecard's "
+            f"emergent rows ({', '.join(dict.fromkeys(map(str, known)))})",
+            "envelope.chapters",
+        )
+
+
+def members_asked(targets: Iterable[str]) -> bool:
+    """Whether a run's targets (Snakemake's target rules, files and jobs) need the envelope's
+    members: a rule or file of the envelope (``envelope``, ``results/envelope/…``) or of a member
+    (``results/pi_p885~07/…``, a cluster job's ``simulate:dataset=pi_p885~07``). A run asking for
+    none of them, the default run among them, never draws the members."""
+    return any(ENVELOPE_WORD in t or MEMBER_MARK in t for t in targets)
 
 
 def member_name(dataset: str, number: int) -> str:
@@ -263,41 +322,43 @@ def _set(doc: Any, keys: Sequence[str], value: float, where: str) -> None:
         raise ManifestError(f"{where}: the manifest has no such key")
 
 
+def manifest_text(manifest: Mapping[str, Any]) -> str:
+    """A member's manifest as its raw/<member>/dataset.yaml holds it."""
+    return yaml.safe_dump(dict(manifest), sort_keys=False, allow_unicode=True, width=100)
+
+
+def manifest_sha256(manifest: Mapping[str, Any]) -> str:
+    """The sha256 of :func:`manifest_text`: the plan's record of what each member runs."""
+    return hashlib.sha256(manifest_text(manifest).encode("utf-8")).hexdigest()
+
+
 def write_member_manifest(manifest: Mapping[str, Any], path: str | Path) -> None:
     """A member's raw/<member>/dataset.yaml, written whole or not at all."""
     with atomic_path(path) as tmp:
-        text = yaml.safe_dump(dict(manifest), sort_keys=False, allow_unicode=True, width=100)
-        tmp.write_text(text, encoding="utf-8")
+        tmp.write_text(manifest_text(manifest), encoding="utf-8")
 
 
-def morris_screening(
-    varied: Sequence[Unknown],
-    design: Design,
-    unit: pd.DataFrame,
-    outputs: pd.DataFrame,
-) -> pd.DataFrame:
-    """Morris's μ* and σ of every output (a column of ``outputs``, members × outputs) for every
-    group: rows (output, factor, mu_star, sigma), in the outputs' units per unit of the
-    group's declared range. An output a member did not give (NaN) is screened on none: its
-    trajectories would be broken."""
-    # here, not at the top: SALib's analysis imports scipy.stats, a second of every workflow parse
-    from SALib.analyze import morris as morris_analysis
-
-    spec = problem(varied, design)
-    rows = []
-    x = unit.loc[outputs.index].to_numpy()
-    for column in outputs.columns:
-        y = outputs[column].to_numpy(dtype=float)
-        if not np.isfinite(y).all():
+def check_member_manifests(drawn: Envelope, raw_dir: str | Path, plan: str | Path) -> None:
+    """Every member manifest under ``raw_dir`` is the one its row of ``plan`` (the plan.csv an
+    earlier run wrote) records, or the one drawn now: a manifest edited by hand would be
+    simulated while the plan keeps the draw, so it is refused in one line naming the file."""
+    plan = Path(plan)
+    recorded = (
+        pd.read_csv(plan, index_col="member")[MANIFEST_SHA]
+        if plan.is_file()
+        else pd.Series(dtype=str)
+    )
+    for name, manifest in drawn.manifests.items():
+        path = Path(raw_dir) / name / "dataset.yaml"
+        if not path.is_file():
             continue
-        result = morris_analysis.analyze(
-            spec, x, y, num_levels=design.levels, seed=design.seed, print_to_console=False
-        )
-        for factor, mu_star, sigma in zip(
-            result["names"], result["mu_star"], result["sigma"], strict=True
-        ):
-            rows.append((column, str(factor), float(mu_star), float(sigma)))
-    return pd.DataFrame(rows, columns=["output", "factor", "mu_star", "sigma"])
+        sha = hashlib.sha256(path.read_bytes()).hexdigest()
+        if sha != recorded.get(name) and sha != manifest_sha256(manifest):
+            raise ManifestError(
+                f"{path}: differs from its draw ({MANIFEST_SHA} in {plan}): an envelope member's "
+                "manifest is written by rule envelope_member from the plan; remove the file to "
+                "have it written again"
+            )
 
 
 @dataclass(frozen=True)
@@ -313,14 +374,20 @@ class Envelope:
     manifests: Mapping[str, Mapping[str, Any]]
 
 
+def undrawn(design: Design) -> Envelope:
+    """The envelope of a run that asks for no member (:func:`members_asked`): its design alone,
+    no unknowns read, nothing drawn."""
+    empty = pd.DataFrame()
+    return Envelope(design, (), (), empty, empty, {})
+
+
 def envelope(
-    section: Mapping[str, Any],
+    design: Design,
     datasets: Mapping[str, Mapping[str, Any]],
     unknowns: Sequence[Unknown],
 ) -> Envelope:
-    """The envelope of config.yaml's ``envelope:`` section over the run's ``datasets`` (their
-    manifests): every member's manifest, validated as a dataset manifest."""
-    design = Design.from_config(section)
+    """The envelope of ``design`` over the run's ``datasets`` (their manifests): every member's
+    manifest, validated as a dataset manifest."""
     varied = varied_unknowns(unknowns, design)
     held = held_unknowns(unknowns, design)
     base = datasets.get(design.dataset)
@@ -338,4 +405,5 @@ def envelope(
         manifest = member_manifest(base, varied, values, str(name), design.stages)
         validate_document(manifest, "dataset.schema.yaml", f"the manifest of member {name}")
         manifests[str(name)] = manifest
+    plan[MANIFEST_SHA] = [manifest_sha256(m) for m in manifests.values()]
     return Envelope(design, tuple(varied), tuple(held), plan, unit, manifests)
