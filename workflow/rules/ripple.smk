@@ -84,7 +84,7 @@ rule ch3_figures:
         **{name: report_figure(name, "Chapter 3") for name in CH3_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        labels=list(CH3_SERIES),
+        labels={e: label for label, e in CH3_SERIES.items()},
         skip_s=config["ripple"]["skip_s"],
     log:
         "logs/{dataset}/ch3_figures.log",
