@@ -32,7 +32,7 @@ rule thermal_identify:
     input:
         freq_series=lambda w: [f"results/{w.dataset}/thermal/{e}.nc" for e in sines(w.dataset, "ch7_freq_").values()],
         volt_series=f"results/{{dataset}}/thermal/{CH7_VOLTAGE_RUN}.nc",
-        check_series=[f"results/{{dataset}}/thermal/{e}.nc" for e in CH7_CHECKS],
+        checks=[f"results/{{dataset}}/thermal/{e}.nc" for e in CH7_CHECKS],
         manifest=RAW / "{dataset}" / "dataset.yaml",
         model="results/{dataset}/ch4/model.json",
         library=library_sources("thermal_identify"),
@@ -43,8 +43,7 @@ rule thermal_identify:
         **{name: report_figure(name, "Chapter 7") for name in THERMAL_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        freqs=lambda w: list(sines(w.dataset, "ch7_freq_")),
-        checks=CH7_CHECKS,
+        freqs=lambda w: {e: f for f, e in sines(w.dataset, "ch7_freq_").items()},
         volt_segments=lambda w: EXPERIMENTS[w.dataset][CH7_VOLTAGE_RUN].protocol["segments"],
     log:
         "logs/{dataset}/thermal_identify.log",
@@ -102,8 +101,7 @@ rule frequency_effect:
         figure=report_figure(FREQUENCY_FIGURE, "Chapter 7"),
     params:
         pdf=FIGURE_PDF,
-        runs=lambda w: list(sines(w.dataset, "ch5_sine_").values()),
-        frequencies=lambda w: [drive_frequency(w.dataset, e) for e in sines(w.dataset, "ch5_sine_").values()],
+        frequencies=lambda w: {e: drive_frequency(w.dataset, e) for e in sines(w.dataset, "ch5_sine_").values()},
         reference=GAMMA_RUN,
         bins=config["thermal"]["frequency_effect_bins"],
         min_windows=config["thermal"]["frequency_effect_min_windows"],
@@ -183,7 +181,6 @@ rule ch7_summary:
         **{name: report_figure(name, "Chapter 7") for name in COUPLED_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        runs=CH7_COUPLED,
     log:
         "logs/{dataset}/ch7_summary.log",
     benchmark:
