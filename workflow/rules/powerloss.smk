@@ -13,7 +13,7 @@ rule powerloss_identify:
         unpack(lambda w: captures(w.dataset, **identification_runs(w.dataset))),
         library=library_sources("powerloss_identify"),
     output:
-        ramps=report(f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT),
+        ramp_table=report(f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT),
         table_1=report(f"{POWERLOSS}/table_1.csv", caption="../report/ronkanen_table_1.rst", **RONKANEN_REPORT),
         identified=report(f"{POWERLOSS}/identified.csv", caption="../report/ronkanen_identified.rst",
                           **RONKANEN_REPORT),
@@ -53,7 +53,7 @@ rule powerloss_table_2:
 rule powerloss_performance:
     """Hysteresis, drift, repeatability and max error: current vs open-loop voltage control."""
     input:
-        unpack(lambda w: captures(w.dataset, **RONKANEN_PAIRS)),
+        unpack(lambda w: captures(w.dataset, captures=list(RONKANEN_PAIRS.values()))),
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_performance"),
     output:
@@ -64,6 +64,7 @@ rule powerloss_performance:
     params:
         drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
         drift_duration=config["powerloss"]["drift_duration_s"],
+        pairs=RONKANEN_PAIRS,
     log:
         "logs/{dataset}/powerloss_performance.log",
     benchmark:
@@ -79,7 +80,7 @@ rule powerloss_figures:
     """Figures 2–11 of the paper from the captures and the identified constants."""
     input:
         unpack(lambda w: captures(w.dataset, hold="rk_static_hold", ramps=RONKANEN_VELOCITY_RAMPS,
-                                  **RONKANEN_PAIRS)),
+                                  captures=list(RONKANEN_PAIRS.values()))),
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
         identified=f"{POWERLOSS}/identified.csv",
@@ -91,6 +92,7 @@ rule powerloss_figures:
         pdf=FIGURE_PDF,
         velocity_window=config["powerloss"]["velocity_window_s"],
         drift_start=lambda w: FIRST_SEGMENT_END[w.dataset]["rk_drift_current"],
+        pairs=RONKANEN_PAIRS,
     log:
         "logs/{dataset}/powerloss_figures.log",
     benchmark:
