@@ -16,7 +16,7 @@ rule envelope_member:
     output:
         manifest=RAW / "{dataset}" / "dataset.yaml",
     params:
-        manifest=lambda w: ENVELOPE.manifests[w.dataset],
+        member=lambda w: ENVELOPE.manifests[w.dataset],
     wildcard_constraints:
         dataset="|".join(ENVELOPE.manifests) or "^$",
     log:
@@ -43,7 +43,7 @@ rule envelope_plan:
                     category="Envelope", subcategory="Plan"),
         unit=f"{ENVELOPE_FOLDER}/unit.csv",
     params:
-        envelope=config["envelope"],
+        section=config["envelope"],
         raw_dir=config["raw_dir"],
     log:
         f"logs/envelope/{ENVELOPE.design.name}/plan.log",
@@ -79,8 +79,7 @@ rule envelope:
                        category="Envelope", subcategory="Scorecard"),
     params:
         pdf=FIGURE_PDF,
-        envelope=config["envelope"],
-        members=list(ENVELOPE.manifests),
+        section=config["envelope"],
         raw_dir=config["raw_dir"],
     log:
         f"logs/envelope/{ENVELOPE.design.name}/envelope.log",

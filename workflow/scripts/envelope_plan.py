@@ -5,35 +5,25 @@ unit hypercube, as SALib drew them)."""
 from pathlib import Path
 
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.io.unknowns import load_unknowns, unknowns_hash
 from selfsense.verify.envelope import envelope
 
 
-def main(section, base, unknowns, raw_dir, plan, unit, log=None):
+def main(section, base, unknowns, raw_dir, plan, unit, inputs, log=None):
     logger = script_logging(log)
-    manifest = load_manifest(base)
-    drawn = envelope(
-        section, {manifest["name"]: manifest}, load_unknowns(unknowns, raw_dir=raw_dir)
-    )
+    section, manifest = dict(section), load_manifest(base)
+    declared = load_unknowns(unknowns, raw_dir=Path(raw_dir))
+    drawn = envelope(section, {manifest["name"]: manifest}, declared)
     extra = {
         "unknowns_sha256": unknowns_hash(unknowns),
         "varied": [u.id for u in drawn.varied],
         "held": [u.id for u in drawn.held],
     }
     for frame, path in ((drawn.plan, plan), (drawn.unit, unit)):
-        write_table(frame.reset_index(), path, inputs=[base, unknowns], config=section, **extra)
+        write_table(frame.reset_index(), path, inputs=inputs, config=section, **extra)
     logger.info("%d members, %d unknowns varied", len(drawn.plan), len(drawn.varied))
 
 
 if "snakemake" in globals():
-    i, o = snakemake.input, snakemake.output
-    main(
-        dict(snakemake.params.envelope),
-        i.base,
-        i.unknowns,
-        Path(snakemake.params.raw_dir),
-        o.plan,
-        o.unit,
-        snakemake.log[0],
-    )
+    run(main, snakemake)
