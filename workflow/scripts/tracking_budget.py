@@ -7,14 +7,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.verify.tracking_budget import capture_tracking_budget
 
 
-def main(runs, tables, omega_c, log=None):
-    """runs: {capture path: (its protocol, whether its loop is closed)}; tables: {"tracking",
+def main(captures, protocols, controls, omega_c, inputs, log=None, **tables):
+    """protocols / controls: {experiment: its protocol / its control}; tables: {"tracking",
     "controller": path}."""
     logger = script_logging(log)
+    runs = {c: (protocols[Path(c).stem], controls[Path(c).stem] == "closed_loop") for c in captures}
     rows = {name: [] for name in tables}
     for k, (capture, (protocol, closed)) in enumerate(runs.items(), 1):
         for name, budget in capture_tracking_budget(capture, protocol, closed, omega_c).items():
@@ -32,17 +33,8 @@ def main(runs, tables, omega_c, log=None):
                 ),
             )
     for name, path in tables.items():
-        write_table(pd.DataFrame(rows[name]), path, inputs=list(runs), config={"omega_c": omega_c})
+        write_table(pd.DataFrame(rows[name]), path, inputs=inputs, config={"omega_c": omega_c})
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        {
-            c: (p.protocols[Path(c).stem], p.controls[Path(c).stem] == "closed_loop")
-            for c in snakemake.input.capture
-        },
-        dict(snakemake.output.items()),
-        p.omega_c,
-        snakemake.log[0],
-    )
+    run(main, snakemake)
