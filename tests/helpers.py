@@ -142,12 +142,13 @@ def script(name):
     return load_module(ROOT / "workflow" / "scripts" / f"{name}.py")
 
 
-_CHARACTERISE = load_yaml(ROOT / "config.yaml")["characterise"]
+_CONFIG = load_yaml(ROOT / "config.yaml")
 #: what rule characterise_page gives its script besides its files: config.yaml's settings, and
 #: no protocol periods, declared scalings, cycle rules or model settings (the library's defaults)
 PAGE_SETTINGS = {
-    "settle_s": _CHARACTERISE["settle_s"],
-    "min_hold_s": _CHARACTERISE["min_hold_s"],
+    "settle_s": _CONFIG["characterise"]["settle_s"],
+    "min_hold_s": _CONFIG["characterise"]["min_hold_s"],
+    "pdf": _CONFIG["figures"]["pdf"],
     "periods": None,
     "scalings": None,
     "cycle_rules": None,

@@ -27,8 +27,8 @@ def main(
     cycle_rules,
     hysteresis,
     inputs,
+    pdf,
     log=None,
-    pdf=True,
 ):
     logger = script_logging(log)
     rules, found, loops, model = CycleRules.from_mapping(cycle_rules), [], [], []
