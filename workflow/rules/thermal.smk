@@ -74,7 +74,7 @@ rule gamma_t_fit:
     params:
         pdf=FIGURE_PDF,
         orders=config["thermal"]["gamma_t_orders"],
-        order=config["thermal"]["gamma_t_order"],
+        gamma_t_order=config["thermal"]["gamma_t_order"],
         candidates=config["thermal"]["gamma_t_candidates"],
     log:
         "logs/{dataset}/gamma_t_fit.log",

@@ -22,7 +22,7 @@ def main(
     val_power,
     figure,
     orders,
-    order,
+    gamma_t_order,
     candidates,
     inputs,
     log,
@@ -31,8 +31,8 @@ def main(
 ):
     logger = script_logging(log)
     s, p, vs, vp = (read_series(f) for f in (samples, power, val_samples, val_power))
-    tables, records = gamma_t_fits(s, p, vs, vp, orders, order, candidates)
-    cfg = {"orders": list(orders), "order": order, "candidates": list(candidates)}
+    tables, records = gamma_t_fits(s, p, vs, vp, orders, gamma_t_order, candidates)
+    cfg = {"orders": list(orders), "order": gamma_t_order, "candidates": list(candidates)}
     for name, table in tables.items():
         write_table(table, out[name], inputs=inputs, config=cfg)
     for name, record in records.items():
