@@ -142,6 +142,20 @@ def script(name):
     return load_module(ROOT / "workflow" / "scripts" / f"{name}.py")
 
 
+_CONFIG = load_yaml(ROOT / "config.yaml")
+#: what rule characterise_page gives its script besides its files: config.yaml's settings, and
+#: no protocol periods, declared scalings, cycle rules or model settings (the library's defaults)
+PAGE_SETTINGS = {
+    "settle_s": _CONFIG["characterise"]["settle_s"],
+    "min_hold_s": _CONFIG["characterise"]["min_hold_s"],
+    "pdf": _CONFIG["figures"]["pdf"],
+    "periods": None,
+    "scalings": None,
+    "cycle_rules": None,
+    "hysteresis": None,
+}
+
+
 # -- small captures and manifests (the fault matrix, docs/reliability.md) ------------------------
 
 CH3 = ("ch3_sine_10hz", "ch3_sine_1hz", "ch3_sine_0p1hz")

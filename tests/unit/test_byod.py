@@ -26,6 +26,7 @@ from ..helpers import (
     LAB_B,
     LAB_FS,
     LAB_PHI,
+    PAGE_SETTINGS,
     ROOT,
     bench_manifest,
     ellipse,
@@ -45,8 +46,9 @@ def characterised(tmp_path, folder, experiment="sine_1hz"):
     out = tmp_path / folder.name
     out.mkdir()
     table, page, figure = out / "summary.csv", out / "page_01.json", out / "loops_01.png"
+    capture = str(folder / f"{experiment}.nc")
     script("characterise_page").main(
-        [str(folder / f"{experiment}.nc")], str(page), str(figure), folder.name
+        [capture], str(page), str(figure), folder.name, **PAGE_SETTINGS, inputs=[capture]
     )
     script("characterise").main(
         str(folder / "dataset.yaml"),
@@ -54,6 +56,7 @@ def characterised(tmp_path, folder, experiment="sine_1hz"):
         str(table),
         str(out / "instruments.csv"),
         str(out / "hysteresis_model.csv"),
+        inputs=[str(page)],
     )
     return pd.read_csv(table).iloc[0].to_dict(), figure
 

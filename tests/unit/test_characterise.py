@@ -18,7 +18,7 @@ from selfsense.io.capture import CaptureWriter, channel_spec
 from selfsense.methods import characterise as ch
 from selfsense.methods.cycles import find_cycles
 
-from ..helpers import LAB_A, LAB_B, LAB_PHI, bench_manifest, ellipse, script
+from ..helpers import LAB_A, LAB_B, LAB_PHI, PAGE_SETTINGS, bench_manifest, ellipse, script
 
 FS, F, A, B, WIDTH = 500.0, 2.0, 60.0, 12e-6, 0.1  # Hz, Hz, V, m, sin δ
 STROKE_HEADING, WIDTH_HEADING = "stroke [µm]", "x–U loop width [% of stroke]"
@@ -217,9 +217,10 @@ def test_the_scripts_pass_periods_and_scalings_and_draw_dropped_cycles_on_top(tm
         str(rows_json),
         str(figure),
         "lab (1 of 1)",
-        periods={"run_1": 1 / F},
-        scalings=SCALINGS,
-        cycle_rules={"full_tolerance": 0.05},
+        **PAGE_SETTINGS
+        | {"periods": {"run_1": 1 / F}, "scalings": SCALINGS}
+        | {"cycle_rules": {"full_tolerance": 0.05}},
+        inputs=[str(path)],
     )
     row = json.loads(rows_json.read_text())["rows"][0]
     assert row["period from"] == "protocol" and "stroke [µm; x_laser = 0.5 × logged]" in row
@@ -231,6 +232,7 @@ def test_the_scripts_pass_periods_and_scalings_and_draw_dropped_cycles_on_top(tm
         str(table),
         str(tmp_path / "instruments.csv"),
         str(tmp_path / "hysteresis_model.csv"),
+        inputs=[str(rows_json)],
     )
     written = pd.read_csv(table)
     assert list(written.columns) == ch.table_columns([row])

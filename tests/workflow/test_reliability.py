@@ -305,6 +305,8 @@ def test_observer_masks_a_nan_burst_and_records_it(smoke_run, tmp_path):
         str(tmp_path / "traces.nc"),
         str(stats),
         4,
+        transient_s=None,
+        inputs=[str(capture)],
     )
     hurt = json.loads(stats.read_text())
     clean = json.loads((res / "observer" / "ch5_sine_10hz.json").read_text())

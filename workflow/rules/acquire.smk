@@ -20,7 +20,7 @@ if SIMULATED:
             report="results/{dataset}/qc/{experiment}.json",
         params:
             campaign=config["campaign"],
-            capture=config["capture"],
+            capture_settings=config["capture"],
         wildcard_constraints:
             dataset="|".join(SIMULATED),
             # closed-loop runs need the identified model: rule simulate_closed_loop; the runs of
@@ -54,7 +54,7 @@ if SIMULATED:
                 report=[f"results/{{dataset}}/qc/{e}.json" for e in _runs],
             params:
                 campaign=config["campaign"],
-                capture=config["capture"],
+                capture_settings=config["capture"],
             wildcard_constraints:
                 dataset="|".join(re.escape(d) for d in _datasets),
             log:

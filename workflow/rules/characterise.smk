@@ -15,7 +15,7 @@ rule characterise_page:
     it, so that a new batch of recordings runs only its own pages (captures_per_job in
     common.smk)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=LOOP_PAGES[w.dataset][w.page])),
+        unpack(lambda w: captures(w.dataset, captures=LOOP_PAGES[w.dataset][w.page])),
         library=library_sources("characterise_page"),
     output:
         rows="results/{dataset}/characterise/page_{page}.json",

@@ -19,7 +19,7 @@ if SIMULATED:
             report="results/{dataset}/qc/{experiment}.json",
         params:
             campaign=config["campaign"],
-            capture=config["capture"],
+            capture_settings=config["capture"],
             omega_c=config["control"]["omega_c"],
             n_periods=config["ripple"]["n_periods"],
         wildcard_constraints:
@@ -41,7 +41,7 @@ rule audit_realtime:
     """Offline HPO from each closed-loop capture's raw channels against the real-time estimate its
     loop logged, one row per run (one job per dataset: each run is a fraction of a job's start-up)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=CLOSED_LOOP[w.dataset])),
+        unpack(lambda w: captures(w.dataset, captures=CLOSED_LOOP[w.dataset])),
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("audit_realtime"),

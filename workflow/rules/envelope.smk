@@ -16,7 +16,7 @@ rule envelope_member:
     output:
         manifest=RAW / "{dataset}" / "dataset.yaml",
     params:
-        manifest=lambda w: ENVELOPE.manifests[w.dataset],
+        member=lambda w: ENVELOPE.manifests[w.dataset],
     wildcard_constraints:
         dataset="|".join(ENVELOPE.manifests) or "^$",
     log:
@@ -85,7 +85,6 @@ rule envelope:
     params:
         pdf=FIGURE_PDF,
         design=ENVELOPE.design.record(),
-        members=list(ENVELOPE.manifests),
         raw_dir=config["raw_dir"],
     log:
         f"logs/envelope/{ENVELOPE.design.name}/envelope.log",

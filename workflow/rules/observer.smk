@@ -15,7 +15,7 @@ rule charge_sensing:
                          category="{dataset}", subcategory="Chapter 5"),
         observer="results/{dataset}/ch5/observer.json",
     params:
-        frequencies=lambda w: list(CHARGE_SINES[w.dataset]),
+        frequencies=lambda w: {e: f for f, e in CHARGE_SINES[w.dataset].items()},
         omega_s=config["observer"]["omega_s"],
         zeta_s=config["observer"]["zeta_s"],
     log:
@@ -57,7 +57,7 @@ rule ch5_tables:
     """Table 5.4 (open-loop observer error) and the creep run's errors."""
     input:
         stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in OBSERVED_SINES[w.dataset].values()],
-        creep=role_path("results/{dataset}/observer/{run}.nc", "observer.creep"),
+        creep_traces=role_path("results/{dataset}/observer/{run}.nc", "observer.creep"),
         creep_stats=role_path("results/{dataset}/observer/{run}.json", "observer.creep"),
         library=library_sources("ch5_tables"),
     output:
@@ -66,7 +66,7 @@ rule ch5_tables:
         creep=report("results/{dataset}/ch5/creep.csv", caption="../report/creep.rst",
                      category="{dataset}", subcategory="Chapter 5"),
     params:
-        frequencies=lambda w: list(OBSERVED_SINES[w.dataset]),
+        frequencies=lambda w: {e: f for f, e in OBSERVED_SINES[w.dataset].items()},
     log:
         "logs/{dataset}/ch5_tables.log",
     benchmark:
@@ -119,8 +119,8 @@ rule ch5_figures:
         **{name: report_figure(name, "Chapter 5") for name in CH5_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        series_f=lambda w: list(by_frequency(w.dataset, "observer.sine")),
-        traces_f=lambda w: list(OBSERVED_SINES[w.dataset]),
+        series_f=lambda w: {e: f for f, e in by_frequency(w.dataset, "observer.sine").items()},
+        traces_f=lambda w: {e: f for f, e in OBSERVED_SINES[w.dataset].items()},
         n_periods=config["ripple"]["n_periods"],
         orders=config["gamma"]["orders"],
     log:

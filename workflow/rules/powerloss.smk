@@ -13,7 +13,7 @@ rule powerloss_identify:
         unpack(lambda w: captures(w.dataset, **identification_runs(w.dataset))),
         library=library_sources("powerloss_identify"),
     output:
-        ramps=report(f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT),
+        ramp_table=report(f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT),
         table_1=report(f"{POWERLOSS}/table_1.csv", caption="../report/ronkanen_table_1.rst", **RONKANEN_REPORT),
         identified=report(f"{POWERLOSS}/identified.csv", caption="../report/ronkanen_identified.rst",
                           **RONKANEN_REPORT),
@@ -53,7 +53,7 @@ rule powerloss_table_2:
 rule powerloss_performance:
     """Hysteresis, drift, repeatability and max error: current vs open-loop voltage control."""
     input:
-        unpack(lambda w: captures(w.dataset, **ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS))),
+        unpack(lambda w: captures(w.dataset, captures=list(ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS).values()))),
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_performance"),
     output:
@@ -64,6 +64,7 @@ rule powerloss_performance:
     params:
         drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
         drift_duration=config["powerloss"]["drift_duration_s"],
+        pairs=lambda w: ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS),
     log:
         "logs/{dataset}/powerloss_performance.log",
     benchmark:
@@ -80,7 +81,7 @@ rule powerloss_figures:
     input:
         unpack(lambda w: captures(w.dataset, hold=role_run(w.dataset, "powerloss.hold"),
                                   ramps=[role_run(w.dataset, r) for r in stages.RONKANEN_VELOCITY_RAMPS],
-                                  **ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS))),
+                                  captures=list(ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS).values()))),
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
         identified=f"{POWERLOSS}/identified.csv",
@@ -92,6 +93,7 @@ rule powerloss_figures:
         pdf=FIGURE_PDF,
         velocity_window=config["powerloss"]["velocity_window_s"],
         drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
+        pairs=lambda w: ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS),
     log:
         "logs/{dataset}/powerloss_figures.log",
     benchmark:

@@ -16,7 +16,7 @@ rule curve_vs_thesis:
         fit="|".join(CURVES),
         folder="ch5|ch7",
     params:
-        fits=lambda w: list(CURVES[w.fit]["fits"]),
+        fit_names=lambda w: {f: name for name, f in CURVES[w.fit]["fits"].items()},
         source=lambda w: CURVES[w.fit]["source"],
         coefficients=lambda w: CURVES[w.fit]["coefficients"],
         g=lambda w: CURVES[w.fit]["g"],

@@ -84,7 +84,7 @@ rule ch3_figures:
         **{name: report_figure(name, "Chapter 3") for name in CH3_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        labels=list(stages.CH3_SERIES),
+        labels=lambda w: {role_run(w.dataset, r): label for label, r in stages.CH3_SERIES.items()},
         skip_s=config["ripple"]["skip_s"],
     log:
         "logs/{dataset}/ch3_figures.log",

@@ -32,7 +32,7 @@ rule thermal_identify:
     input:
         freq_series=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.heating"),
         volt_series=role_path("results/{dataset}/thermal/{run}.nc", "thermal.voltage"),
-        check_series=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.check"),
+        checks=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.check"),
         manifest=RAW / "{dataset}" / "dataset.yaml",
         model="results/{dataset}/ch4/model.json",
         library=library_sources("thermal_identify"),
@@ -43,8 +43,7 @@ rule thermal_identify:
         **{name: report_figure(name, "Chapter 7") for name in THERMAL_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        freqs=lambda w: list(by_frequency(w.dataset, "thermal.heating")),
-        checks=lambda w: role_runs(w.dataset, "thermal.check"),
+        freqs=lambda w: {e: f for f, e in by_frequency(w.dataset, "thermal.heating").items()},
         volt_segments=lambda w: EXPERIMENTS[w.dataset][role_run(w.dataset, "thermal.voltage")].protocol["segments"],
     log:
         "logs/{dataset}/thermal_identify.log",
@@ -75,7 +74,7 @@ rule gamma_t_fit:
     params:
         pdf=FIGURE_PDF,
         orders=config["thermal"]["gamma_t_orders"],
-        order=config["thermal"]["gamma_t_order"],
+        gamma_t_order=config["thermal"]["gamma_t_order"],
         candidates=config["thermal"]["gamma_t_candidates"],
     log:
         "logs/{dataset}/gamma_t_fit.log",
@@ -102,8 +101,7 @@ rule frequency_effect:
         figure=report_figure(FREQUENCY_FIGURE, "Chapter 7"),
     params:
         pdf=FIGURE_PDF,
-        runs=lambda w: role_runs(w.dataset, "observer.sine"),
-        frequencies=lambda w: [drive_frequency(w.dataset, e) for e in role_runs(w.dataset, "observer.sine")],
+        frequencies=lambda w: {e: drive_frequency(w.dataset, e) for e in role_runs(w.dataset, "observer.sine")},
         reference=lambda w: role_run(w.dataset, "gamma.fit"),
         bins=config["thermal"]["frequency_effect_bins"],
         min_windows=config["thermal"]["frequency_effect_min_windows"],
@@ -183,7 +181,7 @@ rule ch7_summary:
         **{name: report_figure(name, "Chapter 7") for name in COUPLED_FIGURES},
     params:
         pdf=FIGURE_PDF,
-        runs=lambda w: coupled_runs(w.dataset),
+        figures=lambda w: dict(zip(COUPLED_FIGURES, coupled_runs(w.dataset))),
     log:
         "logs/{dataset}/ch7_summary.log",
     benchmark:

@@ -95,14 +95,14 @@ rule error_budget:
         figure=report_figure(ERROR_BUDGET_FIGURE, "Twin validation"),
     params:
         pdf=FIGURE_PDF,
-        frequencies=lambda w: list(BUDGET_RUNS[w.dataset].values()),
+        frequencies=lambda w: BUDGET_RUNS[w.dataset],
         # Chapter 6 counts from the loop's settling on (its ω_C), in P1's segments; Table 5.4 from the warm-up on
-        loop_omega_c=lambda w: [config["control"]["omega_c"] if e in CLOSED_LOOP[w.dataset] else None
-                                for e in BUDGET_RUNS[w.dataset]],
-        p1_protocols=lambda w: [dict(EXPERIMENTS[w.dataset][e].protocol) if CH6_RUNS[w.dataset].get(e) == "P1"
-                                else None for e in BUDGET_RUNS[w.dataset]],
-        transient_s=lambda w: [config["observer"]["creep_transient_s"] if e in role_runs(w.dataset, "observer.creep") else None
-                               for e in BUDGET_RUNS[w.dataset]],
+        loop_omega_c=lambda w: {e: config["control"]["omega_c"] if e in CLOSED_LOOP[w.dataset] else None
+                                for e in BUDGET_RUNS[w.dataset]},
+        p1_protocols=lambda w: {e: dict(EXPERIMENTS[w.dataset][e].protocol) if CH6_RUNS[w.dataset].get(e) == "P1"
+                                else None for e in BUDGET_RUNS[w.dataset]},
+        transient_s=lambda w: {e: config["observer"]["creep_transient_s"] if e in role_runs(w.dataset, "observer.creep")
+                               else None for e in BUDGET_RUNS[w.dataset]},
         n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/error_budget.log",
@@ -118,14 +118,14 @@ rule error_budget:
 rule charge_budget:
     """Fig 5.2's charge–position error split into its sources with the twin's truth (verification)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=list(CHARGE_SINES[w.dataset].values()))),
+        unpack(lambda w: captures(w.dataset, captures=list(CHARGE_SINES[w.dataset].values()))),
         series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CHARGE_SINES[w.dataset].values()],
         library=library_sources("charge_budget"),
     output:
         table=report("results/{dataset}/twin/charge_budget.csv", caption="../report/charge_budget.rst",
                      category="{dataset}", subcategory="Twin validation"),
     params:
-        frequencies=lambda w: list(CHARGE_SINES[w.dataset]),
+        frequencies=lambda w: {e: f for f, e in CHARGE_SINES[w.dataset].items()},
         n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/charge_budget.log",
@@ -142,7 +142,7 @@ rule tracking_budget:
     """Chapter 6's tracking errors ε_TOL and ε_TCL (Tables 6.1–6.2) split into their sources with
     the twin's truth, and the closed loops' controller error ε_CCL split through the loop (verification)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=TRACKED_RUNS[w.dataset])),
+        unpack(lambda w: captures(w.dataset, captures=TRACKED_RUNS[w.dataset])),
         library=library_sources("tracking_budget"),
     output:
         tracking=report("results/{dataset}/twin/tracking_budget.csv", caption="../report/tracking_budget.rst",
@@ -169,18 +169,18 @@ rule loop_leak:
     """The closed loop's drive at the folded ripple frequency and the C_e bias it makes: each P2 run
     as simulated and again with the drive kept out of the ripple channels (twin study: reads /truth)."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=LEAK_RUNS[w.dataset])),
+        unpack(lambda w: captures(w.dataset, captures=LEAK_RUNS[w.dataset])),
         manifest=RAW / "{dataset}" / "dataset.yaml",  # the what-if simulates from it
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
         model="results/{dataset}/ch4/model.json",
         library=library_sources("loop_leak"),
     output:
-        report("results/{dataset}/twin/loop_leak.csv", caption="../report/loop_leak.rst", category="{dataset}",
+        table=report("results/{dataset}/twin/loop_leak.csv", caption="../report/loop_leak.rst", category="{dataset}",
                subcategory="Twin validation"),
     params:
         campaign=config["campaign"],
-        capture=config["capture"],
+        capture_settings=config["capture"],
         omega_c=config["control"]["omega_c"],
         n_periods=config["ripple"]["n_periods"],
     log:
@@ -225,7 +225,7 @@ rule temperature_budget:
         thermal_model="results/{dataset}/ch7/thermal_model.json",
         library=library_sources("temperature_budget"),
     output:
-        report("results/{dataset}/twin/temperature_budget.csv", caption="../report/temperature_budget.rst",
+        table=report("results/{dataset}/twin/temperature_budget.csv", caption="../report/temperature_budget.rst",
                category="{dataset}", subcategory="Twin validation"),
     log:
         "logs/{dataset}/temperature_budget.log",
@@ -263,14 +263,15 @@ rule powerloss_truth:
     """Section 7's results from the sensor and from the twin's true displacement, and the sensor's
     share (twin validation: it reads /truth)."""
     input:
-        unpack(lambda w: captures(w.dataset, **ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS))),
+        unpack(lambda w: captures(w.dataset, captures=list(ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS).values()))),
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_truth"),
     output:
-        report(f"{POWERLOSS}/performance_truth.csv", caption="../report/ronkanen_performance_truth.rst", **RONKANEN_REPORT),
+        table=report(f"{POWERLOSS}/performance_truth.csv", caption="../report/ronkanen_performance_truth.rst", **RONKANEN_REPORT),
     params:
         drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
         drift_duration=config["powerloss"]["drift_duration_s"],
+        pairs=lambda w: ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS),
     log:
         "logs/{dataset}/powerloss_truth.log",
     benchmark:
@@ -299,7 +300,7 @@ rule gamma_truth:
     wildcard_constraints:
         fit="|".join(CURVES),
     params:
-        fits=lambda w: list(CURVES[w.fit]["fits"]),
+        fit_names=lambda w: {f: name for name, f in CURVES[w.fit]["fits"].items()},
         source=lambda w: CURVES[w.fit]["source"],
         coefficients=lambda w: CURVES[w.fit]["coefficients"],
         g=lambda w: CURVES[w.fit]["g"],

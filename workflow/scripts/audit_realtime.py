@@ -7,13 +7,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
 from selfsense.methods.selfsensing import audit_realtime
 
 
-def main(captures, gamma, observer, table, n_periods, log=None):
+def main(captures, gamma, observer, table, n_periods, inputs, log=None):
     logger = script_logging(log)
     poly, gains, rows = load_gamma(gamma), load_gains(observer), []
     for k, capture in enumerate(captures, 1):
@@ -32,18 +32,10 @@ def main(captures, gamma, observer, table, n_periods, log=None):
     write_table(
         pd.DataFrame(rows),
         table,
-        inputs=[*captures, gamma, observer],
+        inputs=inputs,
         config={"n_periods": n_periods},
     )
 
 
 if "snakemake" in globals():
-    i = snakemake.input
-    main(
-        list(i.capture),
-        i.gamma,
-        i.observer,
-        snakemake.output.table,
-        snakemake.params.n_periods,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 
 
 def summary(reports):
@@ -35,12 +35,12 @@ def summary(reports):
     return pd.DataFrame(rows, columns=columns)
 
 
-def main(reports, table, log=None):
+def main(reports, table, inputs, log=None):
     logger = script_logging(log)
     df = summary(reports)
-    write_table(df, table, inputs=reports)
+    write_table(df, table, inputs=inputs)
     logger.info("%d captures", len(df))
 
 
 if "snakemake" in globals():
-    main(list(snakemake.input.reports), snakemake.output.table, snakemake.log[0])
+    run(main, snakemake)

@@ -2,22 +2,13 @@
 
 from selfsense.io import figures
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.io.provenance import run, save_figure, script_logging, write_table
 from selfsense.twin.experiment import daq_plan
 from selfsense.twin.params import TwinParams
 from selfsense.verify.studies import ce_error_vs_np_and_wander
 
 
-def main(
-    manifest,
-    table,
-    figure,
-    nps=(1, 2, 4, 8, 12, 16),
-    wanders=(0, 30, 100, 300),
-    drive_hz=100.0,
-    log=None,
-    pdf=True,
-):
+def main(manifest, table, figure, nps, wanders, drive_hz, inputs, log, pdf):
     logger = script_logging(log)
     meta = load_manifest(manifest)
     result = ce_error_vs_np_and_wander(
@@ -29,21 +20,11 @@ def main(
         seed=meta.get("seed", 0),
     )
     config = {"np": list(nps), "wander_hz": list(wanders), "drive_hz": drive_hz}
-    recorded = {"inputs": [manifest], "config": config, "seed": meta.get("seed", 0)}
+    recorded = {"inputs": inputs, "config": config, "seed": meta.get("seed", 0)}
     write_table(result, table, **recorded)
     save_figure(figures.np_study(result), figure, pdf=pdf, **recorded)
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        snakemake.input.manifest,
-        snakemake.output.table,
-        snakemake.output.figure,
-        p.nps,
-        p.wanders,
-        p.drive_hz,
-        snakemake.log[0],
-        pdf=p.pdf,
-    )
+    run(main, snakemake)

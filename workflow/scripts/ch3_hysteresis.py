@@ -4,24 +4,17 @@ drive and ripple U–I phases (Figs 3.3–3.4).
 
 from selfsense.chapters.ch3 import hysteresis_table, phase_table, steady
 from selfsense.io.capture import read_series
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 
 
-def main(series, table, phases, skip_s=0.1, frequency=10.0, log=None):
+def main(series, table, phases, skip_s, frequency, inputs, log=None):
     logger = script_logging(log)
     data = steady(read_series(series), skip_s)
     result, angles = hysteresis_table(data), phase_table(data, frequency)
-    write_table(result, table, inputs=[series], config={"skip_s": skip_s})
-    write_table(angles, phases, inputs=[series], config={"skip_s": skip_s, "frequency": frequency})
+    write_table(result, table, inputs=inputs, config={"skip_s": skip_s})
+    write_table(angles, phases, inputs=inputs, config={"skip_s": skip_s, "frequency": frequency})
     logger.info("\n%s\n%s", result.to_string(), angles.to_string())
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.series,
-        snakemake.output.table,
-        snakemake.output.phases,
-        snakemake.params.skip_s,
-        snakemake.params.frequency,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -2,25 +2,20 @@
 
 from selfsense.chapters.ch3 import figure_3_2
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import save_figure, script_logging
+from selfsense.io.provenance import run, save_figure, script_logging
 
 
-def main(manifest, figure, log=None, pdf=True):
+def main(manifest, figure, inputs, log, pdf):
     logger = script_logging(log)
     twin = load_manifest(manifest)["twin"]
     save_figure(
         figure_3_2(twin["stack"], twin["ripple"]["amplitude"], twin["ripple"]["f_nominal"]),
         figure,
-        inputs=[manifest],
+        inputs=inputs,
         pdf=pdf,
     )
     logger.info("wrote %s", figure)
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.manifest,
-        snakemake.output.figure,
-        snakemake.log[0],
-        pdf=snakemake.params.pdf,
-    )
+    run(main, snakemake)

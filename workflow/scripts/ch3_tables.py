@@ -1,17 +1,16 @@
 """Rule `ch3_tables`: Tables 3.1 and 3.2 from the folding equations for this dataset's ripple."""
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.methods.ripple import table_3_1, table_3_2
 
 
-def main(fr, ns, fs, table_31, table_32, log=None):
+def main(fr, ns, fs, table_31, table_32, inputs, log=None):
     logger = script_logging(log)
     config = {"fr": fr, "ns": ns, "fs": fs}
-    write_table(table_3_1(fr), table_31, config=config)
-    write_table(table_3_2(fs, fr, ns), table_32, config=config)
+    write_table(table_3_1(fr), table_31, inputs=inputs, config=config)
+    write_table(table_3_2(fs, fr, ns), table_32, inputs=inputs, config=config)
     logger.info("Tables 3.1 and 3.2 for fr = %g Hz, ns = %d, fs = %g Hz", fr, ns, fs)
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(p.fr, p.ns, p.fs, snakemake.output.table_31, snakemake.output.table_32, snakemake.log[0])
+    run(main, snakemake)

@@ -7,7 +7,7 @@ import pandas as pd
 
 from selfsense.chapters import ch4
 from selfsense.io.capture import open_capture, read_series
-from selfsense.io.provenance import save_figure, script_logging
+from selfsense.io.provenance import run, save_figure, script_logging
 
 
 def channel(capture, name):
@@ -15,27 +15,16 @@ def channel(capture, name):
         return {"t": np.arange(cap.n) / cap.fs, name: cap.read((name,))[name]}
 
 
-def main(series, per_set, force_capture, drive_capture, out, log=None, pdf=True):
+def main(series, per_set, force, drive, inputs, log, pdf, **out):
     """out: {figure name: path}."""
     logger = script_logging(log)
     sets = {Path(p).stem: read_series(p) for p in series}
     fits = ch4.fits_from_table(pd.read_csv(per_set))
-    built = ch4.figures_ch4(sets, fits, channel(force_capture, "F"), channel(drive_capture, "U"))
+    built = ch4.figures_ch4(sets, fits, channel(force, "F"), channel(drive, "U"))
     for name, fig in built.items():
-        save_figure(
-            fig, out[name], inputs=[*series, per_set, force_capture, drive_capture], pdf=pdf
-        )
+        save_figure(fig, out[name], inputs=inputs, pdf=pdf)
     logger.info("wrote %s", ", ".join(sorted(built)))
 
 
 if "snakemake" in globals():
-    i = snakemake.input
-    main(
-        list(i.series),
-        i.per_set,
-        i.force,
-        i.drive,
-        dict(snakemake.output.items()),
-        snakemake.log[0],
-        pdf=snakemake.params.pdf,
-    )
+    run(main, snakemake)

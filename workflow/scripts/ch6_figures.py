@@ -4,26 +4,18 @@ folded ripple period, as Tables 6.1–6.2 read them)."""
 from pathlib import Path
 
 from selfsense.chapters import ch6
-from selfsense.io.provenance import save_figure, script_logging
+from selfsense.io.provenance import run, save_figure, script_logging
 
 
-def main(captures, protocols, profiles, out, log, pdf):
+def main(captures, protocols, profiles, inputs, log, pdf, **out):
     """profiles: {profile: (open-loop run, closed-loop run)}; out: {figure name: path}."""
     logger = script_logging(log)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
     built = ch6.figures_ch6(runs, protocols, profiles)
     for name, fig in built.items():
-        save_figure(fig, out[name], inputs=list(captures), pdf=pdf)
+        save_figure(fig, out[name], inputs=inputs, pdf=pdf)
     logger.info("wrote %s", ", ".join(sorted(built)))
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        list(snakemake.input.captures),
-        p.protocols,
-        p.profiles,
-        dict(snakemake.output.items()),
-        snakemake.log[0],
-        p.pdf,
-    )
+    run(main, snakemake)

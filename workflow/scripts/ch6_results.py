@@ -7,33 +7,25 @@ rate).
 from pathlib import Path
 
 from selfsense.chapters import ch6
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.methods.electromech import load_k_over_alpha
 
 
-def main(captures, protocols, profiles, k_over_alpha, omega_c, out, log=None):
+def main(captures, model, protocols, profiles, omega_c, inputs, log=None, **out):
     """profiles: {profile: (open-loop run, closed-loop run)}; out: {table name: path}."""
     logger = script_logging(log)
+    k_over_alpha = load_k_over_alpha(model)
     runs = {Path(p).stem: ch6.load_run(p, protocols[Path(p).stem]) for p in captures}
     tables = ch6.results(runs, protocols, profiles, k_over_alpha, omega_c)
     for key, table in tables.items():
         write_table(
             table,
             out[key],
-            inputs=list(captures),
+            inputs=inputs,
             config=None if key == "p3" else {"omega_c": omega_c},
         )
     logger.info("%d runs", len(runs))
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        list(snakemake.input.captures),
-        p.protocols,
-        p.profiles,
-        load_k_over_alpha(snakemake.input.model),
-        p.omega_c,
-        dict(snakemake.output.items()),
-        snakemake.log[0],
-    )
+    run(main, snakemake)

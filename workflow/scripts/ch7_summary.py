@@ -7,33 +7,28 @@ from pathlib import Path
 
 from selfsense.chapters import ch7
 from selfsense.io.capture import read_series
-from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.io.provenance import run, save_figure, script_logging, write_table
 
 
-def main(stats, traces, figures, out, log=None, pdf=True):
-    """stats / traces: {run: path}; figures: {figure name: its run}; out: {"coupled" or figure
+def main(stats, traces, figures, coupled, inputs, log, pdf, **out):
+    """stats / traces: each run's, named after it; figures: {figure name: its run}; out: {figure
     name: path}."""
     logger = script_logging(log)
-    records = {run: json.loads(Path(path).read_text()) for run, path in stats.items()}
-    coupled = ch7.coupled_table(records, figures[ch7.MIXED_FIGURE])
-    write_table(coupled, out["coupled"], inputs=list(stats.values()))
-    for name, run in figures.items():
+    records = {Path(p).stem: json.loads(Path(p).read_text()) for p in stats}
+    trace_of = {Path(p).stem: p for p in traces}
+    table = ch7.coupled_table(records, figures[ch7.MIXED_FIGURE])
+    write_table(table, coupled, inputs=inputs)
+    for name, experiment in figures.items():
         save_figure(
-            ch7.figure_coupled(name, run, read_series(traces[run]), records[run]),
+            ch7.figure_coupled(
+                name, experiment, read_series(trace_of[experiment]), records[experiment]
+            ),
             out[name],
-            inputs=[traces[run]],
+            inputs=inputs,
             pdf=pdf,
         )
-    logger.info("\n%s", coupled.to_string())
+    logger.info("\n%s", table.to_string())
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(
-        dict(zip(p.runs, i.stats)),
-        dict(zip(p.runs, i.traces)),
-        dict(zip(ch7.COUPLED_FIGURES, p.runs)),
-        dict(snakemake.output.items()),
-        snakemake.log[0],
-        pdf=p.pdf,
-    )
+    run(main, snakemake)

@@ -6,24 +6,21 @@ parameters, and the manifest's actuator and sensors.
 import pandas as pd
 
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import read_records, script_logging, write_table
-from selfsense.methods.characterise import MODEL_COLUMNS, instruments, table_columns
+from selfsense.io.provenance import read_records, run, script_logging, write_table
+from selfsense.methods import characterise as ch
 
 
-def main(manifest, pages, table, instruments_table, model_table, log=None):
+def main(manifest, pages, table, instruments, model, inputs, log=None):
     script_logging(log)
     read = read_records(pages)
     rows = [row for page in read for row in page["rows"]]
-    write_table(pd.DataFrame(rows, columns=table_columns(rows)), table, inputs=pages)
-    model = [p for page in read for p in page["model"]]
-    write_table(pd.DataFrame(model, columns=MODEL_COLUMNS), model_table, inputs=pages)
-    write_table(
-        pd.DataFrame(instruments(load_manifest(manifest)), columns=["item", "property", "value"]),
-        instruments_table,
-        inputs=[manifest],
-    )
+    write_table(pd.DataFrame(rows, columns=ch.table_columns(rows)), table, inputs=inputs)
+    fitted = [p for page in read for p in page["model"]]
+    write_table(pd.DataFrame(fitted, columns=ch.MODEL_COLUMNS), model, inputs=inputs)
+    described = ch.instruments(load_manifest(manifest))
+    columns = ["item", "property", "value"]
+    write_table(pd.DataFrame(described, columns=columns), instruments, inputs=inputs)
 
 
 if "snakemake" in globals():
-    i, o = snakemake.input, snakemake.output
-    main(i.manifest, list(i.pages), o.table, o.instruments, o.model, snakemake.log[0])
+    run(main, snakemake)

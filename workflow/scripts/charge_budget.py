@@ -3,15 +3,20 @@ table) split into the current path, the q–x map and the laser with the twin's 
 drive frequency.
 """
 
+from pathlib import Path
+
 import pandas as pd
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.verify.error_budget import capture_charge_budget
 
 
-def main(runs, table, n_periods, log=None):
-    """runs: {drive frequency [Hz]: (ripple series, capture)}."""
+def main(captures, series, frequencies, table, n_periods, inputs, log=None):
+    """series: each capture's ripple series, named after its experiment as the capture is;
+    frequencies: {experiment: drive frequency [Hz]}."""
     logger = script_logging(log)
+    series_of = {Path(s).stem: s for s in series}
+    runs = {frequencies[Path(c).stem]: (series_of[Path(c).stem], c) for c in captures}
     rows = [
         {"frequency [Hz]": float(f)} | capture_charge_budget(s, c, n_periods)
         for f, (s, c) in sorted(runs.items())
@@ -20,17 +25,11 @@ def main(runs, table, n_periods, log=None):
     write_table(
         result,
         table,
-        inputs=[p for pair in runs.values() for p in pair],
+        inputs=inputs,
         config={"n_periods": n_periods},
     )
     logger.info("\n%s", result.T.to_string())
 
 
 if "snakemake" in globals():
-    i = snakemake.input
-    main(
-        dict(zip(snakemake.params.frequencies, zip(i.series, i.capture))),
-        snakemake.output.table,
-        snakemake.params.n_periods,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

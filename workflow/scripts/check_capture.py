@@ -13,7 +13,7 @@ import json
 from selfsense.io.capture import read_header, scan_capture, write_scan_report
 from selfsense.io.contract import check_agreement, check_attributes, check_clipping
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import script_logging
+from selfsense.io.provenance import run, script_logging
 
 
 def main(capture, manifest, report, log=None, contract=None):
@@ -40,5 +40,4 @@ def main(capture, manifest, report, log=None, contract=None):
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(i.capture, i.manifest, snakemake.output.report, snakemake.log[0], p.contract)
+    run(main, snakemake)

@@ -6,14 +6,14 @@ from pathlib import Path
 
 from selfsense.chapters.ch7 import COUPLED_UNITS, coupled_run
 from selfsense.io.capture import SeriesWriter, read_series
-from selfsense.io.provenance import provenance, script_logging, write_json
+from selfsense.io.provenance import provenance, run, script_logging, write_json
 from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
 
 
 def main(
-    capture, power, gamma_t, observer, thermal_model, model, traces, stats, n_periods, log=None
+    capture, power, gamma_t, observer, thermal_model, model, traces, stats, n_periods, inputs, log
 ):
     logger = script_logging(log)
     th = json.loads(Path(thermal_model).read_text())
@@ -21,13 +21,12 @@ def main(
         with SeriesWriter(traces, COUPLED_UNITS, inputs=[thermal_model]) as w:
             w.write({k: [] for k in COUPLED_UNITS})
         note = f"skipped: {th['reason']}"
-        write_json({"note": note, "provenance": provenance([thermal_model])}, stats)
+        write_json({"note": note, "provenance": provenance(inputs)}, stats)
         logger.warning("%s: skipped, %s", capture, th["reason"])
         return
     g, gains, k_alpha = load_gamma(gamma_t), load_gains(observer), load_k_over_alpha(model)
     measured = read_series(power, ["time", "T_mid"])
     out, result = coupled_run(capture, measured, g, gains, th, k_alpha, n_periods)
-    inputs = [capture, power, gamma_t, observer, thermal_model, model]
     with SeriesWriter(traces, COUPLED_UNITS, inputs=inputs, config={"n_periods": n_periods}) as w:
         w.write(out)
     write_json(result | {"provenance": provenance(inputs)}, stats)
@@ -35,16 +34,4 @@ def main(
 
 
 if "snakemake" in globals():
-    i, o = snakemake.input, snakemake.output
-    main(
-        i.capture,
-        i.power,
-        i.gamma_t,
-        i.observer,
-        i.thermal_model,
-        i.model,
-        o.traces,
-        o.stats,
-        snakemake.params.n_periods,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -3,39 +3,32 @@ max |Γ − Γ_thesis| over the printed curve's C range — what the ill-conditi
 cannot compare.
 """
 
+from pathlib import Path
+
 from selfsense.io.manifest import load_yaml
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.methods.gamma import curve_table, load_gamma
 from selfsense.scorecard.registry import parse_registry, printed_gamma
 
 
-def main(registry, fits, table, source, coefficients, g=None, temperatures=(0.0,), log=None):
-    """fits: {name: Γ record path}; coefficients: the registry's quantities b0…b5 of ``source``."""
+def main(registry, fits, fit_names, table, source, coefficients, g, temperatures, inputs, log):
+    """fit_names: {Γ record file name: its name}; coefficients: the registry's quantities b0…b5
+    of ``source``."""
     logger = script_logging(log)
     thesis, stroke = printed_gamma(
         parse_registry(load_yaml(registry), registry), source, coefficients, g
     )
     result = curve_table(
-        {name: load_gamma(path) for name, path in fits.items()}, thesis, stroke, temperatures
+        {fit_names[Path(p).name]: load_gamma(p) for p in fits}, thesis, stroke, temperatures
     )
     write_table(
         result,
         table,
-        inputs=[registry, *fits.values()],
+        inputs=inputs,
         config={"source": source, "temperatures": list(temperatures)},
     )
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        snakemake.input.registry,
-        dict(zip(p.fits, snakemake.input.fits)),
-        snakemake.output.table,
-        p.source,
-        p.coefficients,
-        p.g,
-        temperatures=p.temperatures,
-        log=snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -10,36 +10,38 @@ from selfsense.envelope.design import Design
 from selfsense.envelope.unknowns import load_unknowns, unknowns_hash
 from selfsense.envelope.verdicts import envelope_result
 from selfsense.io.manifest import load_manifest, load_yaml
-from selfsense.io.provenance import atomic_path, script_logging, write_table
+from selfsense.io.provenance import atomic_path, run, script_logging, write_table
 from selfsense.scorecard.registry import applicable, parse_registry
 
 
-def main(design, i, o, member_names, raw_dir, log=None, pdf=True):
+def main(design, raw_dir, nominal, unit, members, registry, unknowns, inputs, log, pdf, **out):
+    """design: the envelope's design record; members: each member's scorecard,
+    results/<member>/scorecard.csv; out: card, sensitivity, values, signatures, forest, tornado
+    and summary."""
     logger = script_logging(log)
+    design = Design(**design)
     base = load_manifest(Path(raw_dir) / design.dataset / "dataset.yaml")
-    entries = applicable(parse_registry(load_yaml(i.registry), i.registry), base)
-    members = {m: pd.read_csv(c) for m, c in zip(member_names, i.members, strict=True)}
-    unit = pd.read_csv(i.unit, index_col="member")
-    sha = unknowns_hash(i.unknowns)
-    unknowns = load_unknowns(i.unknowns, raw_dir=raw_dir)
-    result = envelope_result(design, pd.read_csv(i.nominal), members, unit, unknowns, entries, sha)
-    inputs = [i.nominal, i.plan, i.unit, i.registry, i.unknowns, *i.members]
-    extra = {"unknowns_sha256": sha, "members": member_names, "design": design.record()}
+    entries = applicable(parse_registry(load_yaml(registry), registry), base)
+    cards = {Path(c).parent.name: pd.read_csv(c) for c in members}
+    sha = unknowns_hash(unknowns)
+    drawn = pd.read_csv(unit, index_col="member")
+    declared = load_unknowns(unknowns, raw_dir=raw_dir)
+    result = envelope_result(design, pd.read_csv(nominal), cards, drawn, declared, entries, sha)
+    extra = {"unknowns_sha256": sha, "members": list(cards), "design": design.record()}
     extra["calibration_misses"] = result.misses
-    write_table(result.card, o.card, inputs=inputs, **extra)
-    write_table(result.sensitivity, o.sensitivity, inputs=inputs, **extra)
-    for table, path in ((result.values, o.values), (result.signatures, o.signatures)):
-        write_table(table.reset_index(), path, inputs=inputs, **extra)
-    title = f"{design.dataset}: {len(members)} envelope members"
-    figures.forest_figure(result.card, o.forest, title, inputs=inputs, pdf=pdf)
+    for key in ("card", "sensitivity"):
+        write_table(getattr(result, key), out[key], inputs=inputs, **extra)
+    for key in ("values", "signatures"):
+        write_table(getattr(result, key).reset_index(), out[key], inputs=inputs, **extra)
+    title = f"{design.dataset}: {len(cards)} envelope members"
+    figures.forest_figure(result.card, out["forest"], title, inputs=inputs, pdf=pdf)
     figures.tornado_figure(
-        result.sensitivity, result.card, o.tornado, title, inputs=inputs, pdf=pdf
+        result.sensitivity, result.card, out["tornado"], title, inputs=inputs, pdf=pdf
     )
-    with atomic_path(o.summary) as tmp:
+    with atomic_path(out["summary"]) as tmp:
         tmp.write_text(result.summary, encoding="utf-8")
     logger.info("%s", result.summary.splitlines()[2])
 
 
 if "snakemake" in globals():
-    p, i, o = snakemake.params, snakemake.input, snakemake.output
-    main(Design(**p.design), i, o, list(p.members), p.raw_dir, snakemake.log[0], pdf=p.pdf)
+    run(main, snakemake)

@@ -3,16 +3,17 @@ envelope dataset's with the member's draws: selfsense.envelope.design.member_man
 the workflow is parsed and passed here as the rule's param)."""
 
 from selfsense.envelope.design import write_member_manifest
-from selfsense.io.provenance import script_logging
+from selfsense.io.provenance import run, script_logging
 
 
-def main(manifest, output, log=None):
+def main(member, manifest, log=None):
+    """member: the member's manifest document; manifest: where it goes."""
     logger = script_logging(log)
-    write_member_manifest(manifest, output)
+    write_member_manifest(dict(member), manifest)
     logger.info(
-        "wrote %s (%d protocol overrides)", output, len(manifest.get("protocol_overrides", {}))
+        "wrote %s (%d protocol overrides)", manifest, len(member.get("protocol_overrides", {}))
     )
 
 
 if "snakemake" in globals():
-    main(dict(snakemake.params.manifest), snakemake.output.manifest, snakemake.log[0])
+    run(main, snakemake)

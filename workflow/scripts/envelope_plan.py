@@ -7,33 +7,23 @@ from pathlib import Path
 from selfsense.envelope.design import Design, envelope
 from selfsense.envelope.unknowns import load_unknowns, unknowns_hash
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 
 
-def main(design, base, unknowns, raw_dir, plan, unit, log=None):
+def main(design, base, unknowns, raw_dir, plan, unit, inputs, log=None):
     logger = script_logging(log)
-    manifest = load_manifest(base)
-    drawn = envelope(design, {manifest["name"]: manifest}, load_unknowns(unknowns, raw_dir=raw_dir))
+    design, manifest = Design(**design), load_manifest(base)
+    declared = load_unknowns(unknowns, raw_dir=Path(raw_dir))
+    drawn = envelope(design, {manifest["name"]: manifest}, declared)
     extra = {
         "unknowns_sha256": unknowns_hash(unknowns),
         "varied": [u.id for u in drawn.varied],
         "held": [u.id for u in drawn.held],
     }
     for frame, path in ((drawn.plan, plan), (drawn.unit, unit)):
-        write_table(
-            frame.reset_index(), path, inputs=[base, unknowns], config=design.record(), **extra
-        )
+        write_table(frame.reset_index(), path, inputs=inputs, config=design.record(), **extra)
     logger.info("%d members, %d unknowns varied", len(drawn.plan), len(drawn.varied))
 
 
 if "snakemake" in globals():
-    i, o = snakemake.input, snakemake.output
-    main(
-        Design(**snakemake.params.design),
-        i.base,
-        i.unknowns,
-        Path(snakemake.params.raw_dir),
-        o.plan,
-        o.unit,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -6,16 +6,14 @@ import json
 from pathlib import Path
 
 from selfsense.chapters import ch7
-from selfsense.io.provenance import save_figure, script_logging
+from selfsense.io.provenance import run, save_figure, script_logging
 from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
 from selfsense.methods.ripple import plan_from_fs
 
 
-def main(
-    gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods, log=None, pdf=True
-):
+def main(gamma_t, observer, thermal_model, model, figure, fs, fr, ns, n_periods, inputs, log, pdf):
     logger = script_logging(log)
     fig, shown = ch7.figure_7_9(
         load_gamma(gamma_t),
@@ -24,24 +22,10 @@ def main(
         load_k_over_alpha(model),
         plan_from_fs(fs, fr, ns, n_periods),
     )
-    inputs = [gamma_t, observer, thermal_model, model]
     # the sidecar records the numbers the diagram shows, for audits that cannot read a PNG
     save_figure(fig, figure, inputs=inputs, config={"n_periods": n_periods}, shown=shown, pdf=pdf)
     logger.info("Figure 7.9 shows %s", shown)
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(
-        i.gamma_t,
-        i.observer,
-        i.thermal_model,
-        i.model,
-        snakemake.output.figure,
-        p.fs,
-        p.fr,
-        p.ns,
-        p.n_periods,
-        snakemake.log[0],
-        pdf=p.pdf,
-    )
+    run(main, snakemake)

@@ -1,7 +1,7 @@
 """Rule `extract_ripple`: C_e, R_e (Eq 3.6–3.13) and window means of U, x, I, q for one capture."""
 
 from selfsense.io.capture import CaptureError, SeriesWriter, open_capture
-from selfsense.io.provenance import script_logging
+from selfsense.io.provenance import run, script_logging
 from selfsense.methods.ripple import SERIES_UNITS, impedance_series, plan_from_capture
 
 COMPANIONS = ("U", "x_laser", "I")
@@ -28,9 +28,4 @@ def main(capture, series, n_periods, chunk_len=1 << 18, log=None):
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.capture,
-        snakemake.output.series,
-        snakemake.params.n_periods,
-        log=snakemake.log[0],
-    )
+    run(main, snakemake)

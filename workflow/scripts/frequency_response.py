@@ -7,12 +7,12 @@ from pathlib import Path
 
 from selfsense.chapters import ch5
 from selfsense.io.capture import open_capture
-from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.io.provenance import run, save_figure, script_logging, write_table
 from selfsense.methods import frequency_response as fr
 from selfsense.methods.drive import drive_from_protocol
 
 
-def main(capture, model, protocol, settle_s, out, log=None, pdf=True):
+def main(capture, model, protocol, settle_s, inputs, log, pdf, **out):
     """protocol: the sweep's catalogue entry (segments, warmup); out: {table, peaks, figure}."""
     logger = script_logging(log)
     params = json.loads(Path(model).read_text())
@@ -25,7 +25,6 @@ def main(capture, model, protocol, settle_s, out, log=None, pdf=True):
         "operating position [µm]": measured.operating_position * 1e6,
         "model": {k: params[k] for k in ("C_P0", "dC_x", "alpha", "k", "m", "b")},
     }
-    inputs = [capture, model]
     write_table(table, out["table"], inputs=inputs, config=cfg)
     write_table(peaks, out["peaks"], inputs=inputs, config=cfg)
     save_figure(ch5.figure_5_3(table, peaks, G), out["figure"], inputs=inputs, config=cfg, pdf=pdf)
@@ -38,12 +37,4 @@ def main(capture, model, protocol, settle_s, out, log=None, pdf=True):
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.capture,
-        snakemake.input.model,
-        snakemake.params.protocol,
-        snakemake.params.settle_s,
-        dict(snakemake.output.items()),
-        snakemake.log[0],
-        pdf=snakemake.params.pdf,
-    )
+    run(main, snakemake)

@@ -4,10 +4,10 @@ and at the thesis's j = 5, both Γ.
 
 from selfsense.chapters.ch5 import gamma_data, gamma_tables
 from selfsense.io.capture import open_capture, read_series
-from selfsense.io.provenance import provenance, script_logging, write_json, write_table
+from selfsense.io.provenance import provenance, run, script_logging, write_json, write_table
 
 
-def main(capture, series, out, n_periods, orders=(3, 4, 5, 6), log=None):
+def main(capture, series, n_periods, orders, inputs, log=None, **out):
     logger = script_logging(log)
     with open_capture(capture) as cap:
         warmup = float(cap.attrs.get("warmup_s", 0.0))
@@ -15,18 +15,11 @@ def main(capture, series, out, n_periods, orders=(3, 4, 5, 6), log=None):
     tables, gammas = gamma_tables(C, x, orders)
     cfg = {"n_periods": n_periods, "orders": list(orders), "warmup_s": warmup}
     for name, table in tables.items():
-        write_table(table, out[name], inputs=[capture, series], config=cfg)
+        write_table(table, out[name], inputs=inputs, config=cfg)
     for name, gamma in gammas.items():
-        write_json(gamma.record() | {"provenance": provenance([capture, series], cfg)}, out[name])
+        write_json(gamma.record() | {"provenance": provenance(inputs, cfg)}, out[name])
     logger.info("chosen order %d\n%s", gammas["gamma"].order, tables["table_5_1"].to_string())
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.capture,
-        snakemake.input.series,
-        dict(snakemake.output.items()),
-        snakemake.params.n_periods,
-        snakemake.params.orders,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -5,15 +5,34 @@
 
 from selfsense.chapters.ch7 import figure_7_7, gamma_t_fits
 from selfsense.io.capture import read_series
-from selfsense.io.provenance import provenance, save_figure, script_logging, write_json, write_table
+from selfsense.io.provenance import (
+    provenance,
+    run,
+    save_figure,
+    script_logging,
+    write_json,
+    write_table,
+)
 
 
-def main(samples, power, val_samples, val_power, out, figure, orders, order, candidates, log, pdf):
+def main(
+    samples,
+    power,
+    val_samples,
+    val_power,
+    figure,
+    orders,
+    gamma_t_order,
+    candidates,
+    inputs,
+    log,
+    pdf,
+    **out,
+):
     logger = script_logging(log)
     s, p, vs, vp = (read_series(f) for f in (samples, power, val_samples, val_power))
-    tables, records = gamma_t_fits(s, p, vs, vp, orders, order, candidates)
-    inputs = [samples, power, val_samples, val_power]
-    cfg = {"orders": list(orders), "order": order, "candidates": list(candidates)}
+    tables, records = gamma_t_fits(s, p, vs, vp, orders, gamma_t_order, candidates)
+    cfg = {"orders": list(orders), "order": gamma_t_order, "candidates": list(candidates)}
     for name, table in tables.items():
         write_table(table, out[name], inputs=inputs, config=cfg)
     for name, record in records.items():
@@ -23,17 +42,4 @@ def main(samples, power, val_samples, val_power, out, figure, orders, order, can
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(
-        i.samples,
-        i.power,
-        i.val_samples,
-        i.val_power,
-        dict(snakemake.output.items()),
-        snakemake.output.figure,
-        p.orders,
-        p.order,
-        p.candidates,
-        snakemake.log[0],
-        pdf=p.pdf,
-    )
+    run(main, snakemake)

@@ -2,8 +2,10 @@
 refitted with the measured C_e, x (and T) replaced by the twin's truth, in every combination
 (selfsense.verify.gamma_truth.truth_refits)."""
 
+from pathlib import Path
+
 from selfsense.io.manifest import load_yaml
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.scorecard.registry import parse_registry, printed_gamma
 from selfsense.verify.gamma_truth import truth_refits
 
@@ -13,38 +15,28 @@ def main(
     capture,
     series,
     fits,
+    fit_names,
+    power,
     table,
     source,
     coefficients,
-    g=None,
-    temperatures=(0.0,),
-    power=None,
-    n_periods=4,
+    g,
+    temperatures,
+    n_periods,
+    inputs,
     log=None,
 ):
+    """fit_names: {Γ record file name: its name}; power: [] or [the loss power series] (Γ_T's)."""
     logger = script_logging(log)
     entries = parse_registry(load_yaml(registry), registry)
     thesis, stroke = printed_gamma(entries, source, coefficients, g)
-    result = truth_refits(capture, series, fits, thesis, stroke, n_periods, temperatures, power)
-    inputs = [registry, capture, series, *fits.values(), *filter(None, [power])]
+    named = {fit_names[Path(p).name]: p for p in fits}
+    power = power[0] if power else None
+    result = truth_refits(capture, series, named, thesis, stroke, n_periods, temperatures, power)
     config = {"source": source, "temperatures": list(temperatures), "n_periods": n_periods}
     write_table(result, table, inputs=inputs, config=config)
     logger.info("\n%s", result.T.to_string())
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(
-        i.registry,
-        i.capture,
-        i.series,
-        dict(zip(p.fits, i.fits)),
-        snakemake.output.table,
-        p.source,
-        p.coefficients,
-        p.g,
-        p.temperatures,
-        i.power[0] if i.power else None,
-        p.n_periods,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -6,11 +6,11 @@ from pathlib import Path
 from selfsense.chapters import ch4
 from selfsense.io.capture import read_series
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import provenance, script_logging, write_json, write_table
+from selfsense.io.provenance import provenance, run, script_logging, write_json, write_table
 from selfsense.methods.electromech import geometry_from_actuator, model_record
 
 
-def main(series, static, manifest, out, log=None):
+def main(series, static, manifest, inputs, log=None, **out):
     """series: list of ripple-series paths (one per set); out: {name: output path}."""
     logger = script_logging(log)
     meta = load_manifest(manifest)
@@ -19,7 +19,6 @@ def main(series, static, manifest, out, log=None):
     k_static = ch4.load_static_stiffness(static)
     sets = {Path(p).stem: read_series(p) for p in series}
     per_set, fits = ch4.identify_sets(sets, k_static, float(actuator["moving_mass_kg"]), geometry)
-    inputs = [*series, static, manifest]
     write_table(per_set, out["sets"], inputs=inputs)
     write_table(ch4.table_4_1(), out["table_4_1"])
     write_table(ch4.table_4_2(per_set), out["table_4_2"], inputs=inputs)
@@ -31,10 +30,4 @@ def main(series, static, manifest, out, log=None):
 
 
 if "snakemake" in globals():
-    main(
-        list(snakemake.input.series),
-        snakemake.input.static,
-        snakemake.input.manifest,
-        dict(snakemake.output.items()),
-        snakemake.log[0],
-    )
+    run(main, snakemake)

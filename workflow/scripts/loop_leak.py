@@ -4,7 +4,7 @@ ripple channels — the drive at the folded ripple frequency, C_e's error and ε
 
 import pandas as pd
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.methods.control import IntegralController
 from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.gamma import load_gamma
@@ -13,7 +13,19 @@ from selfsense.twin.closed_loop import controller_factory
 from selfsense.verify.loop_leak import leak_study
 
 
-def main(captures, gamma, observer, model, table, campaign, capture, omega_c, n_periods, log=None):
+def main(
+    captures,
+    gamma,
+    observer,
+    model,
+    table,
+    campaign,
+    capture_settings,
+    omega_c,
+    n_periods,
+    inputs,
+    log,
+):
     logger = script_logging(log)
     g, gains = load_gamma(gamma), load_gains(observer)
     controller_for = controller_factory(
@@ -21,28 +33,16 @@ def main(captures, gamma, observer, model, table, campaign, capture, omega_c, n_
     )
     rows = leak_study(
         captures,
-        {"campaign": campaign, "capture": capture},
+        {"campaign": campaign, "capture": capture_settings},
         controller_for,
         n_periods,
         g,
         gains,
         omega_c,
     )
-    write_table(pd.DataFrame(rows), table, inputs=[*captures, gamma, observer, model])
+    write_table(pd.DataFrame(rows), table, inputs=inputs)
     logger.info("\n%s", pd.DataFrame(rows).set_index("run").T.to_string())
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(
-        i.capture,
-        i.gamma,
-        i.observer,
-        i.model,
-        snakemake.output[0],
-        p.campaign,
-        p.capture,
-        p.omega_c,
-        p.n_periods,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -3,21 +3,20 @@
 
 from selfsense.chapters.ch5 import observe_capture
 from selfsense.io.capture import SeriesWriter
-from selfsense.io.provenance import provenance, script_logging, write_json
+from selfsense.io.provenance import provenance, run, script_logging, write_json
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
 
 UNITS = {"time": "s", "x_laser": "m", "x_hat": "m", "x_cp": "m", "i0_hat": "A"}
 
 
-def main(capture, gamma, observer, traces, stats, n_periods, transient_s=None, log=None):
+def main(capture, gamma, observer, traces, stats, n_periods, transient_s, inputs, log=None):
     """transient_s: for the creep run, the max error is taken in its transient and
     steady state too."""
     logger = script_logging(log)
     poly, gains = load_gamma(gamma), load_gains(observer)
     result, trace = observe_capture(capture, poly, gains, n_periods, transient_s)
     config = {"n_periods": n_periods, "transient_s": transient_s}
-    inputs = [capture, gamma, observer]
     with SeriesWriter(traces, UNITS, {"capture": capture}, inputs=inputs, config=config) as out:
         out.write(trace)
     write_json(result | {"provenance": provenance(inputs, config)}, stats)
@@ -25,15 +24,4 @@ def main(capture, gamma, observer, traces, stats, n_periods, transient_s=None, l
 
 
 if "snakemake" in globals():
-    i, o = snakemake.input, snakemake.output
-    p = snakemake.params
-    main(
-        i.capture,
-        i.gamma,
-        i.observer,
-        o.traces,
-        o.stats,
-        p.n_periods,
-        p.transient_s,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

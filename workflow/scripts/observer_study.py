@@ -5,7 +5,7 @@
 from selfsense.chapters.ch5 import observer_study
 from selfsense.io import figures
 from selfsense.io.capture import open_capture
-from selfsense.io.provenance import save_figure, script_logging, write_table
+from selfsense.io.provenance import run, save_figure, script_logging, write_table
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains
 from selfsense.methods.ripple import plan_from_capture
@@ -13,7 +13,7 @@ from selfsense.methods.ripple import plan_from_capture
 CHANNELS = ("Ur", "Ir", "I", "x_laser")
 
 
-def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, log=None, pdf=True):
+def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, inputs, log, pdf):
     logger = script_logging(log)
     a0 = load_gains(observer).a0
     with open_capture(capture, require=CHANNELS) as cap:
@@ -26,23 +26,10 @@ def main(capture, gamma, observer, table, figure, omegas, offsets, n_periods, lo
 
     result = observer_study(chunks, plan, load_gamma(gamma), a0, fs, settle, omegas, offsets)
     cfg = {"omegas": list(omegas), "offsets": list(offsets), "n_periods": n_periods}
-    inputs = [capture, gamma, observer]
     write_table(result, table, inputs=inputs, config=cfg)
     save_figure(figures.observer_study(result), figure, inputs=inputs, config=cfg, pdf=pdf)
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        snakemake.input.capture,
-        snakemake.input.gamma,
-        snakemake.input.observer,
-        snakemake.output.table,
-        snakemake.output.figure,
-        p.omegas,
-        p.offsets,
-        p.n_periods,
-        snakemake.log[0],
-        pdf=p.pdf,
-    )
+    run(main, snakemake)

@@ -5,20 +5,15 @@ to the identified X.
 import pandas as pd
 
 from selfsense.chapters import ronkanen
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 
 
-def main(table_1, identified, table, log=None):
+def main(table_1, identified, table, inputs, log=None):
     logger = script_logging(log)
     result = ronkanen.table_2_both(pd.read_csv(table_1), ronkanen.load_identified(identified, "R"))
-    write_table(result, table, inputs=[table_1, identified])
+    write_table(result, table, inputs=inputs)
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.table_1,
-        snakemake.input.identified,
-        snakemake.output.table,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -2,20 +2,22 @@
 displacement, and the sensor's share (twin validation: reads /truth).
 """
 
+from pathlib import Path
+
 from selfsense.chapters import ronkanen
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.verify.powerloss_truth import performance_truth, true_displacement
 
 
-def main(captures, identified, table, drift_start, drift_duration=120.0, log=None):
-    """captures: {"<decay|repeat|drift>_<current|voltage>": path}."""
+def main(captures, pairs, identified, table, drift_start, drift_duration, inputs, log=None):
+    """pairs: {"<decay|repeat|drift>_<current|voltage>": experiment} of the captures."""
     logger = script_logging(log)
-    records = ronkanen.read_records(captures.values())
-    true_x = {
-        rec.name: true_displacement(path) for rec, path in zip(records.values(), captures.values())
-    }
+    capture_of = {Path(c).stem: c for c in captures}
+    paths = {pair: capture_of[e] for pair, e in pairs.items()}
+    records = ronkanen.read_records(paths.values())
+    true_x = {Path(p).stem: true_displacement(p) for p in paths.values()}
     result = performance_truth(
-        ronkanen.by_kind(records, captures),
+        ronkanen.by_kind(records, paths),
         true_x,
         ronkanen.load_identified(identified, "a_cmd"),
         drift_start,
@@ -24,19 +26,11 @@ def main(captures, identified, table, drift_start, drift_duration=120.0, log=Non
     write_table(
         result,
         table,
-        inputs=[*captures.values(), identified],
+        inputs=inputs,
         config={"drift_start": drift_start, "drift_duration": drift_duration},
     )
     logger.info("\n%s", result.to_string())
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(
-        {k: i[k] for k in ronkanen.PAIRS},
-        i.identified,
-        snakemake.output[0],
-        p.drift_start,
-        p.drift_duration,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

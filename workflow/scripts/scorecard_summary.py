@@ -17,34 +17,33 @@ from selfsense.io.provenance import (
     atomic_path,
     modified_utc,
     provenance,
+    run,
     script_logging,
     write_json,
     write_table,
 )
-from selfsense.scorecard.render import rst_html, summary, summary_pages
+from selfsense.scorecard import render
 
 
-def main(cards, summary_rst, counts, out_of_band, not_yet, campaign="thesis", log=None, earlier=()):
+def main(cards, earlier, summary, counts, out_of_band, not_yet, campaign, inputs, log=None):
     logger = script_logging(log)
     # results/<dataset>/scorecard.csv: the folder names the dataset
     this_run = [Path(c).parent.name for c in cards]
     dates = {Path(c).parent.name: modified_utc(c) for c in earlier}
-    inputs = [*cards, *earlier]
-    read = {Path(c).parent.name: pd.read_csv(c) for c in inputs}
-    text, *lists = summary_pages(read, this_run, dates)
+    read = {Path(c).parent.name: pd.read_csv(c) for c in [*cards, *earlier]}
+    text, out_of_band_rst, not_yet_rst = render.summary_pages(read, this_run, dates)
     covered = {"datasets": {"this run": this_run, "earlier runs": dates}}
-    with atomic_path(summary_rst) as tmp:
+    with atomic_path(summary) as tmp:
         tmp.write_text(text, encoding="utf-8")
-    write_json(provenance(inputs, **covered), f"{summary_rst}.json")
-    write_table(summary(read), counts, inputs=inputs, config={"campaign": campaign}, **covered)
-    for page, rst in zip((out_of_band, not_yet), lists):
+    write_json(provenance(inputs, **covered), f"{summary}.json")
+    config = {"campaign": campaign}
+    write_table(render.summary(read), counts, inputs=inputs, config=config, **covered)
+    for page, rst in ((out_of_band, out_of_band_rst), (not_yet, not_yet_rst)):
         with atomic_path(page) as tmp:
-            tmp.write_text(rst_html(rst), encoding="utf-8")
+            tmp.write_text(render.rst_html(rst), encoding="utf-8")
         write_json(provenance(inputs, **covered), f"{page}.json")
-    logger.info("\n%s", "\n".join([text, *lists]))
+    logger.info("\n%s", "\n".join([text, out_of_band_rst, not_yet_rst]))
 
 
 if "snakemake" in globals():
-    i, o = snakemake.input, snakemake.output
-    args = (o.summary, o.counts, o.out_of_band, o.not_yet, snakemake.params.campaign)
-    main(list(i.cards), *args, snakemake.log[0], list(i.earlier))
+    run(main, snakemake)

@@ -10,30 +10,30 @@ hold) and table_2.csv (c of model (10), from the ramps): the twin's operator run
 from pathlib import Path
 
 from selfsense.io.capture import write_scan_report
-from selfsense.io.provenance import script_logging
+from selfsense.io.provenance import run, script_logging
 from selfsense.twin.experiment import simulate_experiment
 
 
-def main(raw_dir, dataset, experiments, campaign, capture, outputs, reports, log=None, tables=None):
+def main(manifest, capture, report, campaign, capture_settings, log, identified=None, table_2=None):
+    """capture, report: a path each, or a list each (a protocol's runs simulated together)."""
     logger = script_logging(log)
-    config = {"campaign": campaign, "capture": capture}
-    for experiment, output, report in zip(experiments, outputs, reports, strict=True):
+    # the manifest is raw/<dataset>/dataset.yaml; each capture raw/<dataset>/<experiment>.nc and
+    # its report results/<dataset>/qc/<experiment>.json
+    raw_dir, dataset = Path(manifest).parents[1], Path(manifest).parent.name
+    config = {"campaign": campaign, "capture": capture_settings}
+    tables = (identified, table_2) if identified else None
+    captures, reports = ([x] if isinstance(x, str) else list(x) for x in (capture, report))
+    report_of = {Path(r).stem: r for r in reports}
+    for output in captures:
+        experiment = Path(output).stem
         scan = simulate_experiment(
             raw_dir, dataset, experiment, config, output, identified_tables=tables
         )
-        write_scan_report(scan, report)
+        write_scan_report(scan, report_of[experiment])
         logger.info(
             "wrote %s (campaign %s), clipped %d", scan.path, campaign, sum(scan.clipped.values())
         )
 
 
 if "snakemake" in globals():
-    i, p, o = snakemake.input, snakemake.params, snakemake.output
-    tables = (i.identified, i.table_2) if hasattr(i, "identified") else None
-    # the manifest input is raw/<dataset>/dataset.yaml: its folder's parent is the raw directory
-    raw = Path(i.manifest).parents[1]
-    captures, reports = ([x] if isinstance(x, str) else list(x) for x in (o.capture, o.report))
-    # each capture is raw/<dataset>/<experiment>.nc
-    experiments = [Path(c).stem for c in captures]
-    args = (p.campaign, p.capture, captures, reports, snakemake.log[0], tables)
-    main(raw, snakemake.wildcards.dataset, experiments, *args)
+    run(main, snakemake)

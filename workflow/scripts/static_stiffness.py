@@ -5,7 +5,7 @@ import pandas as pd
 
 from selfsense.chapters.ch4 import STATIC_K
 from selfsense.io.capture import open_capture
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.methods.electromech import hold_rise, static_stiffness
 
 
@@ -15,22 +15,16 @@ def rise(capture, channel, t_hold):
         return hold_rise(values, np.arange(cap.n) / cap.fs, t_hold)
 
 
-def main(free, blocked, table, t_hold=0.55, log=None):
+def main(free, blocked, table, t_hold, inputs, log=None):
     logger = script_logging(log)
     x_free, F_blocked = rise(free, "x_laser", t_hold), rise(blocked, "F", t_hold)
     k = static_stiffness(F_blocked, x_free)
     result = pd.DataFrame(
         [{"x_free [µm]": x_free * 1e6, "F_blocked [N]": F_blocked, STATIC_K: k * 1e-6}]
     )
-    write_table(result, table, inputs=[free, blocked], config={"t_hold": t_hold})
+    write_table(result, table, inputs=inputs, config={"t_hold": t_hold})
     logger.info("static stiffness %.3f N/µm", k * 1e-6)
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.free,
-        snakemake.input.blocked,
-        snakemake.output.table,
-        snakemake.params.t_hold,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -9,20 +9,19 @@ from pathlib import Path
 import pandas as pd
 
 from selfsense.io.capture import read_series
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.methods.thermal import ThermalModel
 from selfsense.verify.temperature_budget import SOURCES, capture_temperature_budget
 
 
-def main(capture, traces, thermal_model, table, stats=None, log=None):
+def main(capture, traces, stats, thermal_model, table, inputs, log=None):
     logger = script_logging(log)
-    inputs = [capture, traces, thermal_model, *([stats] if stats else [])]
     th = json.loads(Path(thermal_model).read_text())
     if not th["identified"]:  # rule coupled skipped the run: no estimate to split, say why
         write_table(pd.DataFrame({"note": [f"skipped: {th['reason']}"]}), table, inputs=inputs)
         logger.warning("%s: skipped, %s", capture, th["reason"])
         return
-    stated = json.loads(Path(stats).read_text()) if stats else None
+    stated = json.loads(Path(stats).read_text())
     budget = capture_temperature_budget(
         capture,
         read_series(traces),
@@ -43,7 +42,4 @@ def main(capture, traces, thermal_model, table, stats=None, log=None):
 
 
 if "snakemake" in globals():
-    i = snakemake.input
-    main(
-        i.capture, i.traces, i.thermal_model, snakemake.output[0], i.get("stats"), snakemake.log[0]
-    )
+    run(main, snakemake)

@@ -6,11 +6,11 @@ import numpy as np
 
 from selfsense.chapters.ch7 import SERIES_UNITS, extract_capture
 from selfsense.io.capture import SeriesWriter
-from selfsense.io.provenance import script_logging
+from selfsense.io.provenance import run, script_logging
 from selfsense.methods.electromech import load_k_over_alpha
 
 
-def main(capture, model, power, samples, n_periods, interval=0.1, every=200, log=None):
+def main(capture, model, power, samples, n_periods, interval, every, log=None):
     logger = script_logging(log)
     P, peaks, G = extract_capture(capture, load_k_over_alpha(model), n_periods, interval, every)
     made = {
@@ -32,14 +32,4 @@ def main(capture, model, power, samples, n_periods, interval=0.1, every=200, log
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        snakemake.input.capture,
-        snakemake.input.model,
-        snakemake.output.power,
-        snakemake.output.samples,
-        p.n_periods,
-        p.interval,
-        p.every,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

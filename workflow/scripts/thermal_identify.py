@@ -6,25 +6,33 @@ from pathlib import Path
 from selfsense.chapters import ch7
 from selfsense.io.capture import read_series, series_scalars
 from selfsense.io.manifest import load_manifest
-from selfsense.io.provenance import provenance, save_figure, script_logging, write_json, write_table
+from selfsense.io.provenance import (
+    provenance,
+    run,
+    save_figure,
+    script_logging,
+    write_json,
+    write_table,
+)
 from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.thermal import ThermalProperties
 
 
-def main(freq_series, volt_series, check_series, manifest, model, volt_segments, out, log, pdf):
-    """freq_series: {frequency [Hz]: path}; check_series: {run: path} (Figs 7.5–7.6)."""
+def main(
+    freq_series, freqs, volt_series, checks, manifest, model, volt_segments, inputs, log, pdf, **out
+):
+    """freqs: {experiment: frequency [Hz]} of freq_series; checks: Figs 7.5–7.6's runs."""
     logger = script_logging(log)
     th = load_manifest(manifest)["actuator"]["thermal"]
     tables, record, built = ch7.thermal_identification(
-        {Path(p).stem: read_series(p) | series_scalars(p) for p in freq_series.values()},
-        {Path(p).stem: float(f) for f, p in freq_series.items()},
+        {Path(p).stem: read_series(p) | series_scalars(p) for p in freq_series},
+        {Path(p).stem: float(freqs[Path(p).stem]) for p in freq_series},
         read_series(volt_series),
         volt_segments,
-        {Path(p).stem: read_series(p) for p in check_series.values()},
+        {Path(p).stem: read_series(p) for p in checks},
         ThermalProperties(th["rho"], th["c"], th["volume_m3"], th["area_m2"]),
         load_k_over_alpha(model),
     )
-    inputs = [*freq_series.values(), volt_series, *check_series.values(), manifest, model]
     for key, table in tables.items():
         write_table(table, out[key], inputs=inputs)
     write_json(record | {"provenance": provenance(inputs)}, out["thermal_model"])
@@ -36,15 +44,4 @@ def main(freq_series, volt_series, check_series, manifest, model, volt_segments,
 
 
 if "snakemake" in globals():
-    i, p = snakemake.input, snakemake.params
-    main(
-        dict(zip(p.freqs, i.freq_series)),
-        i.volt_series,
-        dict(zip(p.checks, i.check_series)),
-        i.manifest,
-        i.model,
-        p.volt_segments,
-        dict(snakemake.output.items()),
-        snakemake.log[0],
-        pdf=p.pdf,
-    )
+    run(main, snakemake)

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.verify.tracking_budget import capture_tracking_budget
 
 
-def main(captures, protocols, controls, profiles, tables, omega_c, log=None):
+def main(captures, protocols, controls, profiles, omega_c, inputs, log=None, **tables):
     """protocols, controls, profiles: {run: its protocol, control, profile}; tables: {"tracking",
     "controller": path}."""
     logger = script_logging(log)
@@ -33,17 +33,8 @@ def main(captures, protocols, controls, profiles, tables, omega_c, log=None):
                 ),
             )
     for name, path in tables.items():
-        write_table(pd.DataFrame(rows[name]), path, inputs=captures, config={"omega_c": omega_c})
+        write_table(pd.DataFrame(rows[name]), path, inputs=inputs, config={"omega_c": omega_c})
 
 
 if "snakemake" in globals():
-    p = snakemake.params
-    main(
-        list(snakemake.input.capture),
-        p.protocols,
-        p.controls,
-        p.profiles,
-        dict(snakemake.output.items()),
-        p.omega_c,
-        snakemake.log[0],
-    )
+    run(main, snakemake)

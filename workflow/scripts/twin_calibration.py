@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from selfsense.io.provenance import script_logging, write_table
+from selfsense.io.provenance import run, script_logging, write_table
 from selfsense.scorecard.calibration import calibration_table, load_targets
 
 
@@ -24,10 +24,4 @@ def main(targets, results_dir, table, tables=None, log=None):
 
 
 if "snakemake" in globals():
-    main(
-        snakemake.input.targets,
-        snakemake.params.results_dir,
-        snakemake.output.table,
-        list(snakemake.input.tables),
-        snakemake.log[0],
-    )
+    run(main, snakemake)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import errno
 import glob
 import hashlib
+import inspect
 import json
 import logging
 import os
@@ -20,7 +21,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from functools import lru_cache
 from importlib import metadata
@@ -368,6 +369,55 @@ def save_figure(
 def modified_utc(path: str | os.PathLike) -> str:
     """When a file was last written (its mtime), in UTC to the minute."""
     return time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(Path(path).stat().st_mtime))
+
+
+#: the input every rule has that its script does not read: the selfsense files the script runs
+#: (``library_sources`` in workflow/rules/common.smk), there so that a library edit reruns the
+#: rule; the sidecar's code version records them, so they are not provenance inputs
+LIBRARY = "library"
+
+
+def run(main: Callable[..., Any], snakemake: Any) -> Any:
+    """Call a rule's script's ``main`` with the rule's names: its inputs (except
+    :data:`LIBRARY`), outputs and params by name, ``log`` (its log file) and ``inputs`` (its
+    provenance inputs: every input file but the library's). A rule's input may go unread (a
+    capture's QC report orders the job after the check; a list whose pairing a param gives) and
+    is still a provenance input; an output or param ``main`` does not take, a parameter of
+    ``main`` the rule does not give, or a name given twice (an input and a param alike) stops the
+    job with one line naming the rule and the name, before anything is read."""
+    library = set(snakemake.input.get(LIBRARY) or ())
+    named = {
+        "an input": [(k, v) for k, v in snakemake.input.items() if k != LIBRARY],
+        "an output": snakemake.output.items(),
+        "a param": snakemake.params.items(),
+        "a name run gives main itself": [
+            ("log", snakemake.log[0] if snakemake.log else None),
+            ("inputs", [p for p in snakemake.input if p not in library]),
+        ],
+    }
+    given: dict[str, tuple[str, Any]] = {}
+    for kind, items in named.items():
+        for name, value in items:
+            if name in given:
+                _refuse(snakemake, f"{name!r} is both {given[name][0]} and {kind}")
+            given[name] = (kind, value)
+    takes = inspect.signature(main).parameters
+    rest = any(p.kind is p.VAR_KEYWORD for p in takes.values())
+    for name, p in takes.items():
+        if p.kind is not p.VAR_KEYWORD and p.default is p.empty and name not in given:
+            _refuse(snakemake, f"main needs {name!r}, none of its inputs, outputs and params")
+    # every output and param reaches main: by its name, or in its **kwargs (a figure rule's
+    # outputs); an input main does not name reaches it only through ``inputs``
+    must = {name for name, (kind, _) in given.items() if kind in ("an output", "a param")}
+    for name in [] if rest else sorted(must - set(takes)):
+        _refuse(snakemake, f"{name!r} is {given[name][0]} but no parameter of main")
+    return main(**{n: v for n, (_, v) in given.items() if n in takes or (rest and n in must)})
+
+
+def _refuse(snakemake: Any, why: str) -> None:
+    """Stop a rule's script before it starts, its one-line reason in the rule's log too."""
+    script_logging(snakemake.log[0] if snakemake.log else None)
+    raise TypeError(f"rule {snakemake.rule}: {why}")
 
 
 def script_logging(
