@@ -1,0 +1,8 @@
+"""The envelope and the validation: what the twin's declared unknowns allow, and what the
+thesis's measurements leave of them.
+
+The validation's modules (docs/validation.md):
+
+- :mod:`selfsense.envelope.validation`: the declaration workflow/validation.yaml (folds, common
+  targets, observation and discrepancy spreads, cutoff, waves), loaded and checked.
+"""
