@@ -5,4 +5,6 @@ The validation's modules (docs/validation.md):
 
 - :mod:`selfsense.envelope.validation`: the declaration workflow/validation.yaml (folds, common
   targets, observation and discrepancy spreads, cutoff, waves), loaded and checked.
+- :mod:`selfsense.envelope.emulator`: per-output Gaussian-process emulators and their
+  leave-one-out diagnostics.
 """
