@@ -7,4 +7,6 @@ The validation's modules (docs/validation.md):
   targets, observation and discrepancy spreads, cutoff, waves), loaded and checked.
 - :mod:`selfsense.envelope.emulator`: per-output Gaussian-process emulators and their
   leave-one-out diagnostics.
+- :mod:`selfsense.envelope.history_matching`: implausibility, the not-ruled-out region and the
+  waves' designs.
 """

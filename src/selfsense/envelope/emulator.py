@@ -9,7 +9,8 @@ two things the implausibility needs (Craig et al. 1997; Vernon, Goldstein & Bowe
 
 - active inputs: the few unknowns that move the output (:func:`active_inputs`), the others left
   to the nugget;
-- a linear mean by least squares on the active inputs, and the residuals standardised;
+- a linear mean on the active inputs (its coefficients by generalised least squares, their
+  uncertainty in the emulator's variance), the output standardised by the residuals' sd;
 - a Gaussian process on the residuals: an anisotropic Matérn (ν = 5/2) or squared-exponential
   kernel, one length scale per active input, times a constant, plus a WhiteKernel nugget that
   holds the seed's noise and the inactive inputs (Andrianakis et al. 2015, Section 2.3), its
@@ -30,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import cho_solve, solve_triangular
+from scipy.stats import chi2
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern, WhiteKernel
@@ -81,13 +83,20 @@ class Settings:
 
 @dataclass(frozen=True)
 class Emulator:
-    """One output's emulator: a linear mean on the active inputs plus a Gaussian process on the
-    standardised residuals."""
+    """One output's emulator: a linear mean on the active inputs, its coefficients by generalised
+    least squares under the fitted process, plus the Gaussian process on the standardised
+    residuals (Rasmussen & Williams 2006, Section 2.7, a vague prior on the coefficients)."""
 
     active: np.ndarray  # indices of the active inputs
-    beta: np.ndarray  # the linear mean's intercept and slopes (on the active inputs)
-    scale: float  # the residuals' sd, by which the process was standardised
-    gp: GaussianProcessRegressor
+    beta: np.ndarray  # the linear mean's intercept and slopes, on the standardised scale
+    scale: float  # the sd the output was standardised by
+    gp: GaussianProcessRegressor  # its kernel_ holds the fitted hyperparameters
+    X_train: np.ndarray  # the runs, active inputs only
+    residuals: np.ndarray  # standardised residuals about the linear mean
+    cholesky: np.ndarray  # of K, the runs' covariance with the nugget
+    weights: np.ndarray  # K⁻¹ r
+    K_inv_H: np.ndarray  # K⁻¹ H
+    A_inv: np.ndarray  # (Hᵀ K⁻¹ H)⁻¹, the coefficients' covariance
 
     @property
     def nugget(self) -> float:
@@ -95,23 +104,34 @@ class Emulator:
         inputs, what no run can resolve."""
         return float(self.gp.kernel_.k2.noise_level) * self.scale**2
 
-    def _mean(self, X: np.ndarray) -> np.ndarray:
-        return self.beta[0] + X[:, self.active] @ self.beta[1:]
-
     def predict(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """E[f(x)] and Var_em(x), the emulator's variance of the function (the nugget excluded:
         the ensemble's variance enters the implausibility on its own), at the rows of ``X``.
 
-        Var_em(x) = k(x, x) − k(x, X)ᵀ K⁻¹ k(x, X) with k the kernel without its nugget and K
-        the training covariance with it (Rasmussen & Williams 2006, Eq. 2.26)."""
+        With h(x) = (1, x_active), k the kernel without its nugget, K the runs' covariance with
+        it and H the runs' h (Rasmussen & Williams 2006, Eqs. 2.41–2.42):
+        E = h(x)ᵀβ̂ + k(x)ᵀK⁻¹(y − Hβ̂) and
+        Var_em = k(x, x) − k(x)ᵀK⁻¹k(x) + R(x)ᵀ(HᵀK⁻¹H)⁻¹R(x), R(x) = h(x) − HᵀK⁻¹k(x),
+        the last term the linear mean's own uncertainty."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         Xa = X[:, self.active]
+        h = _basis(Xa, len(self.beta))
         signal = self.gp.kernel_.k1
-        K_trans = signal(Xa, self.gp.X_train_)
-        mean = self._mean(X) + self.scale * (K_trans @ self.gp.alpha_)
-        v = solve_triangular(self.gp.L_, K_trans.T, lower=True, check_finite=False)
-        var = signal.diag(Xa) - np.einsum("ij,ij->j", v, v)
-        return mean, np.maximum(var, 0.0) * self.scale**2
+        K_trans = signal(Xa, self.X_train)  # m × n
+        mean = h @ self.beta + K_trans @ self.weights
+        v = solve_triangular(self.cholesky, K_trans.T, lower=True, check_finite=False)
+        R = h.T - self.K_inv_H.T @ K_trans.T  # p × m
+        var = (
+            signal.diag(Xa)
+            - np.einsum("ij,ij->j", v, v)
+            + np.einsum("im,ij,jm->m", R, self.A_inv, R)
+        )
+        return self.scale * mean, np.maximum(var, 0.0) * self.scale**2
+
+
+def _basis(Xa: np.ndarray, p: int) -> np.ndarray:
+    """h(x): the intercept, and the active inputs for a linear mean (p = 1 + their number)."""
+    return np.column_stack([np.ones(len(Xa)), Xa]) if p > 1 else np.ones((len(Xa), 1))
 
 
 @dataclass(frozen=True)
@@ -150,6 +170,7 @@ def fit(
     settings: Settings,
     noise_var: float | None = None,
     active: np.ndarray | None = None,
+    noise_df: int | None = None,
 ) -> Emulator:
     """The emulator of one output from runs ``X`` (n × d, unit cube) and outputs ``y`` (n, on the
     output's declared scale).
@@ -157,19 +178,21 @@ def fit(
     ``noise_var`` is the ensemble's variance (the seed's noise) the replicates measured, on the
     output's scale: the nugget is then held there (Andrianakis et al. 2015 estimate it from
     replicates), so that structure the kernel cannot follow (a jump, an output that is rough in
-    the inputs) shows in the leave-one-out errors instead of hiding in a fitted nugget. Without
-    it the nugget is fitted within the declared bounds."""
+    the inputs) shows in the leave-one-out errors instead of hiding in a fitted nugget. With
+    ``noise_df``, the replicates' degrees of freedom, it is fitted within that estimate's 99 %
+    interval, s²·ν/χ²_ν(0.995) to s²·ν/χ²_ν(0.005), instead: a variance measured on a few
+    replicates is itself uncertain (by ±50 % at 20 degrees of freedom). Without ``noise_var``
+    the nugget is fitted within the declared bounds."""
     X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
     if active is None:
         active = active_inputs(X, y, settings.max_active, settings.min_index)
     Xa = X[:, active]
-    if settings.mean == "linear":
-        design = np.column_stack([np.ones(len(y)), Xa])
-        beta, *_ = np.linalg.lstsq(design, y, rcond=None)
-    else:
-        beta = np.concatenate([[y.mean()], np.zeros(len(active))])
-    residual = y - (beta[0] + Xa @ beta[1:])
-    scale = float(np.std(residual)) or 1.0
+    H = _basis(Xa, 1 + len(active) if settings.mean == "linear" else 1)
+    # first pass: ordinary least squares, whose residuals the hyperparameters are fitted to
+    coef, *_ = np.linalg.lstsq(H, y, rcond=None)
+    scale = float(np.std(y - H @ coef)) or 1.0
+    ys = y / scale
+    residual = ys - H @ (coef / scale)
     lengths = np.full(len(active), 0.5)
     if settings.kernel == "matern":
         shape = Matern(lengths, settings.length_scale_bounds, nu=settings.nu)
@@ -177,9 +200,14 @@ def fit(
         shape = RBF(lengths, settings.length_scale_bounds)
     if noise_var is None:
         nugget = WhiteKernel(settings.nugget, settings.nugget_bounds)
-    else:  # held at the measured noise (never below the declared floor: a jitter)
-        level = max(noise_var / scale**2, settings.nugget_bounds[0])
-        nugget = WhiteKernel(level, "fixed")
+    else:  # at the measured noise (never below the declared floor: a jitter)
+        floor = settings.nugget_bounds[0]
+        level = max(noise_var / scale**2, floor)
+        if noise_df:
+            low, high = (noise_df / chi2.ppf(q, noise_df) for q in (0.995, 0.005))
+            nugget = WhiteKernel(level, (max(level * low, floor), max(level * high, 2 * floor)))
+        else:
+            nugget = WhiteKernel(level, "fixed")
     kernel = ConstantKernel(1.0, (1e-3, 1e3)) * shape + nugget
     gp = GaussianProcessRegressor(
         kernel,
@@ -191,8 +219,16 @@ def fit(
     with warnings.catch_warnings():
         # a hyperparameter at its declared bound is a finding of the fit, not an error
         warnings.simplefilter("ignore", ConvergenceWarning)
-        gp.fit(Xa, residual / scale)
-    return Emulator(np.asarray(active), beta, scale, gp)
+        gp.fit(Xa, residual)
+    # second pass: the coefficients by generalised least squares under the fitted covariance
+    K = gp.kernel_(Xa) + 1e-10 * np.eye(len(ys))
+    L = np.linalg.cholesky(K)
+    K_inv_H = cho_solve((L, True), H, check_finite=False)
+    A_inv = np.linalg.inv(H.T @ K_inv_H)
+    beta = A_inv @ (K_inv_H.T @ ys)
+    r = ys - H @ beta
+    weights = cho_solve((L, True), r, check_finite=False)
+    return Emulator(np.asarray(active), beta, scale, gp, Xa, r, L, weights, K_inv_H, A_inv)
 
 
 def leave_one_out(emulator: Emulator, settings: Settings) -> LeaveOneOut:
@@ -201,14 +237,12 @@ def leave_one_out(emulator: Emulator, settings: Settings) -> LeaveOneOut:
     (nugget included) and r the standardised residuals, rᵢ − μ₋ᵢ = [K⁻¹r]ᵢ/[K⁻¹]ᵢᵢ and
     σ²₋ᵢ = 1/[K⁻¹]ᵢᵢ, so the standardised error is [K⁻¹r]ᵢ/√[K⁻¹]ᵢᵢ, and on the output's scale
     the left-out error is the residuals' sd times rᵢ − μ₋ᵢ. Judged by :func:`diagnose`."""
-    gp = emulator.gp
-    n = len(gp.y_train_)
-    K_inv = cho_solve((gp.L_, True), np.eye(n), check_finite=False)
-    weighted = K_inv @ gp.y_train_
-    errors = weighted / np.sqrt(np.diag(K_inv))
-    left_out = emulator.scale * weighted / np.diag(K_inv)
-    # the runs' own outputs: the linear mean plus the residual the process was trained on
-    y = emulator.scale * gp.y_train_ + emulator.beta[0] + gp.X_train_ @ emulator.beta[1:]
+    e = emulator
+    n = len(e.residuals)
+    K_inv = cho_solve((e.cholesky, True), np.eye(n), check_finite=False)
+    errors = e.weights / np.sqrt(np.diag(K_inv))
+    left_out = e.scale * e.weights / np.diag(K_inv)
+    y = e.scale * (e.residuals + _basis(e.X_train, len(e.beta)) @ e.beta)
     q2 = 1.0 - float(np.sum(left_out**2)) / max(float(np.sum((y - y.mean()) ** 2)), 1e-300)
     return diagnose(errors, q2, settings)
 
