@@ -9,4 +9,6 @@ The validation's modules (docs/validation.md):
   leave-one-out diagnostics.
 - :mod:`selfsense.envelope.history_matching`: implausibility, the not-ruled-out region and the
   waves' designs.
+- :mod:`selfsense.envelope.fold_prediction`: every fold predicted from the others, its verdicts
+  and the fold-compatibility map.
 """
