@@ -11,4 +11,5 @@ The validation's modules (docs/validation.md):
   waves' designs.
 - :mod:`selfsense.envelope.fold_prediction`: every fold predicted from the others, its verdicts
   and the fold-compatibility map.
+- :mod:`selfsense.envelope.coverage`: the method's own test on pseudo-theses with known truth.
 """
