@@ -1,4 +1,7 @@
-"""The reproduction envelope (docs/envelope.md): the twin across what the sources leave open.
+"""The envelope and the validation: what the twin's declared unknowns allow (the reproduction
+envelope, docs/envelope.md), and what the thesis's measurements leave of them (docs/validation.md).
+
+The envelope's modules:
 
 - ``unknowns``: the declared unknowns of the twin and the protocols (workflow/unknowns.yaml),
   their loader and hash;
@@ -8,4 +11,14 @@
   verdict, the Morris screening of its drivers, the summary;
 - ``figures``: the envelope's forest and tornado figures;
 - ``render``: the envelope's counts and inconsistent numbers as the documentation quotes them.
+
+The validation's modules:
+
+- ``validation``: the declaration workflow/validation.yaml (folds, common targets, observation
+  and discrepancy spreads, cutoff, waves), loaded and checked;
+- ``emulator``: per-output Gaussian-process emulators and their leave-one-out diagnostics;
+- ``history_matching``: implausibility, the region not ruled out and the waves' designs;
+- ``fold_prediction``: every fold predicted from the others, its verdicts and the
+  fold-compatibility map;
+- ``coverage``: the method's own test on pseudo-theses with known truth.
 """
