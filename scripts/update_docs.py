@@ -8,6 +8,9 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
 - ``deviations`` (docs/deviations.md): every emergent number out of band;
 - ``calibration`` (docs/twin.md): the signatures the twin's free parameters are set to;
 - ``recovery`` (docs/twin.md): what the analyses give back of the twin's truth;
+- ``envelope_design`` (docs/envelope.md): how many of the dataset's unknowns
+  (workflow/unknowns.yaml) the snapshot's Chapters 3–6 design varies, in how many groups, and
+  which it holds;
 - ``envelope`` (README.md) and ``envelope_rows`` (docs/envelope.md): the reproduction envelope's
   counts and every inconsistent number, over the designs under docs/snapshot/envelope/<name>/
   (``--envelope``: the results/envelope/<name>/ folder of a `snakemake envelope` run, copied
@@ -28,6 +31,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
+import yaml
 
 from selfsense.envelope import figures
 from selfsense.envelope.design import Design
@@ -46,8 +50,10 @@ PAGES = {
     "calibration": Path("docs/twin.md"),
     "recovery": Path("docs/twin.md"),
     "envelope": Path("README.md"),
+    "envelope_design": Path("docs/envelope.md"),
     "envelope_rows": Path("docs/envelope.md"),
 }
+UNKNOWNS = Path(__file__).resolve().parents[1] / "workflow" / "unknowns.yaml"
 #: what an envelope's snapshot keeps of results/envelope/<name>/: its verdicts and figures, and
 #: the ensemble's tables (members × inputs, as drawn and in the unit hypercube; members × rows;
 #: members × signatures), from which any later method re-judges without running a member again
@@ -125,6 +131,19 @@ def recovery_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
     )
 
 
+def envelope_design_markdown(record: Mapping, unknowns: Path = UNKNOWNS) -> str:
+    """docs/envelope.md's sentence on a design (an envelope snapshot's provenance): the unknowns
+    it varies of its dataset's in workflow/unknowns.yaml, its groups, the unknowns it holds."""
+    design = record["design"]
+    entries = yaml.safe_load(unknowns.read_text(encoding="utf-8"))["unknowns"]
+    declared = sum(1 for e in entries if e["dataset"] == design["dataset"])
+    held = ", ".join(f"`{u}`" for u in record["held"])
+    return (
+        f"The shipped design varies {len(record['varied'])} of {design['dataset']}'s {declared}"
+        f" unknowns in {len(design['groups'])} groups; it holds {len(record['held'])}: {held}."
+    )
+
+
 def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
     """The generated blocks, from the snapshot of the summary and the scorecards."""
     counts = pd.read_csv(snapshot / "scorecard_counts.csv")
@@ -144,6 +163,7 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         "calibration": calibration_markdown(cards, campaign),
         "recovery": recovery_markdown(cards, campaign),
         "envelope": envelope_markdown(designs),
+        "envelope_design": envelope_design_markdown(designs[0][1]),
         "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _, _ in designs])),
     }
 

@@ -1,10 +1,17 @@
 """Config reaches the rules only through their params: changing one config key reruns the rules
 that declare it (Snakemake's params trigger, or their inputs being remade when one of them is
 downstream of another), no rule that does not declare it for its params, and everything else only
-because its inputs are remade. Dry runs on a copy of the session's up-to-date smoke tree
-(`config_tree`), so that they run beside the tests that use the tree itself, not after them."""
+because its inputs are remade.
 
+Which rule declares which key is read from the workflow's source in one parse: Snakemake's own
+parser turns each rule file into Python, and every ``config[...]`` a rule's params read, directly
+or through a name of the rule files (``FIGURE_PDF = config["figures"]["pdf"]``), is followed.
+A few dry runs on a copy of the session's up-to-date smoke tree (`config_tree`) then hold the
+parse to what Snakemake does: its params trigger reruns exactly the rules the parse names."""
+
+import ast
 import re
+import types
 
 import pytest
 import yaml
@@ -13,95 +20,14 @@ from selfsense.io.manifest import load_config
 
 from ..helpers import ROOT, SMOKE_CONFIG, copy_smoke_tree, run_snakemake
 
-pytestmark = pytest.mark.slow
-
 SMOKE = ROOT / SMOKE_CONFIG
+RULE_FILES = [ROOT / "Snakefile", *sorted((ROOT / "workflow" / "rules").glob("*.smk"))]
 
-#: the rules that simulate a capture: one a run, a protocol's runs together, a closed loop
-SIMULATE = {"simulate", "simulate_closed_loop"} | {
-    f"simulate_{p}" for p in yaml.safe_load(SMOKE.read_text())["twin"]["together"]
+#: the rules named by a loop variable, by that variable: one a protocol simulated together
+#: (rule ``simulate_<protocol>``, common.smk's ``simulated_together``)
+NAMED_IN_A_LOOP = {
+    "_name": {f"simulate_{p}" for p in yaml.safe_load(SMOKE.read_text())["twin"]["together"]}
 }
-
-#: config key: (a changed value, the rules whose params declare it; see workflow/rules/*.smk)
-USES = {
-    "ripple.n_periods": (
-        5,
-        {
-            "extract_ripple",
-            "ce_recovery",
-            "gamma_fit",
-            "observe",
-            "observer_study",
-            "charge_budget",
-            "ch5_figures",
-            "simulate_closed_loop",
-            "audit_realtime",
-            "thermal_extract",
-            "estimator_diagram",
-            "coupled",
-            "error_budget",
-        },
-    ),
-    "ripple.np_sweep": ([1, 2, 4], {"ce_np_study"}),
-    "gamma.orders": ([3, 4], {"gamma_fit", "ch5_figures"}),
-    "observer.omega_s": (3.0, {"charge_sensing"}),
-    "observer.zeta_s": (0.7, {"charge_sensing"}),
-    "observer.sweep_settle_s": (0.03, {"frequency_response"}),
-    "observer.creep_transient_s": (2.0, {"observe", "error_budget"}),
-    "observer.study_omegas": ([1.0, 6.283], {"observer_study"}),
-    "observer.study_offsets": ([0.0], {"observer_study"}),
-    "control.omega_c": (1000.0, {"simulate_closed_loop", "ch6_results", "tracking_budget"}),
-    "capture.chunk_len": (32768, SIMULATE),
-    "capture.compression": ("zlib", SIMULATE),
-    "capture.complevel": (2, SIMULATE),
-    "capture.truth_decimation": (6, SIMULATE),
-    "characterise.settle_s": (0.2, {"characterise_page"}),
-    "characterise.min_hold_s": (2.0, {"characterise_page"}),
-    "ripple.skip_s": (0.2, {"ch3_hysteresis", "ch3_figures"}),
-    "ripple.np_study_wander_hz": ([0, 50], {"ce_np_study"}),
-    "ripple.np_study_drive_hz": (50.0, {"ce_np_study"}),
-    "identify.static_hold_s": (0.6, {"static_stiffness"}),
-    "thermal.power_interval_s": (0.2, {"thermal_extract"}),
-    "thermal.gamma_t_every": (100, {"thermal_extract"}),
-    "thermal.gamma_t_orders": ([4, 5], {"gamma_t_fit"}),
-    "thermal.gamma_t_order": (4, {"gamma_t_fit"}),
-    "thermal.gamma_t_candidates": ([1, 2, 3, 4, 5], {"gamma_t_fit"}),
-    "thermal.frequency_effect_bins": (10, {"frequency_effect"}),
-    "thermal.frequency_effect_min_windows": (5, {"frequency_effect"}),
-    "powerloss.velocity_window_s": (1.0, {"powerloss_identify", "powerloss_figures"}),
-    "powerloss.drift_duration_s": (60.0, {"powerloss_performance", "powerloss_truth"}),
-    "characterise.cycles.full_tolerance": (0.1, {"characterise_page"}),
-    # every rule that draws a figure (the envelope's only under `snakemake envelope`)
-    "figures.pdf": (
-        True,
-        {
-            "characterise_page",
-            "ch3_figures",
-            "ch3_model_figure",
-            "ch4_figures",
-            "ch5_figures",
-            "observer_study",
-            "frequency_response",
-            "ch6_figures",
-            "ce_np_study",
-            "error_budget",
-            "thermal_identify",
-            "gamma_t_fit",
-            "frequency_effect",
-            "estimator_diagram",
-            "ch7_summary",
-            "powerloss_figures",
-        },
-    ),
-    "characterise.hysteresis.max_order": (8, {"characterise_page"}),
-    # the envelope's rules take the section whole, and only `snakemake envelope` runs them: a
-    # change reruns nothing of the default run
-    "envelope.seed": (7, set()),
-}
-
-#: sections a rule takes whole, as one param: a change to any of their keys changes that param,
-#: so the dry run of one key (in USES) stands for the others
-SECTIONS = ("characterise.cycles.", "characterise.hysteresis.", "envelope.")
 
 #: a job's resources are no rerun trigger: changing every size at once reruns nothing
 #: (test_changing_the_job_sizes_reruns_nothing)
@@ -117,6 +43,29 @@ STRUCTURAL = {
     "characterise.captures_per_job.measured",
     "twin.together",  # which runs share a job: the same captures, made by fewer jobs
 }
+#: the envelope's design, which its own rules take whole as a param: read by another rule's
+#: inputs, it says which datasets are its members (rule all and the scorecard leave them out)
+STRUCTURAL_SECTIONS = ("envelope.",)
+
+#: a few keys and the rules that read them, as the rule files say: the parse must find these
+KNOWN = {
+    "gamma.orders": {"gamma_fit", "ch5_figures"},
+    "observer.omega_s": {"charge_sensing"},
+    "thermal.gamma_t_order": {"gamma_t_fit"},
+    "figures.pdf": {"ch3_figures", "ch5_figures", "powerloss_figures", "envelope"},
+    "capture.compression": {"simulate", "simulate_closed_loop", *NAMED_IN_A_LOOP["_name"]},
+}
+
+#: the rule file whose rules only `snakemake envelope` runs, not the default target
+ENVELOPE_RULES = ROOT / "workflow" / "rules" / "envelope.smk"
+
+#: the keys the dry runs change, with a changed value: one read directly, one through a name of
+#: the rule files, one taken as a whole section by the rules a loop names
+DRY_RUNS = {
+    "gamma.orders": [3, 4],
+    "figures.pdf": True,
+    "capture.compression": "zlib",
+}
 
 
 def leaves(doc, prefix=""):
@@ -125,6 +74,192 @@ def leaves(doc, prefix=""):
             yield from leaves(value, f"{prefix}{key}.")
         else:
             yield f"{prefix}{key}"
+
+
+#: every leaf the workflow sees: smoke.yaml, config.yaml and the schema's defaults
+SEEN = set(leaves(load_config(SMOKE))) | set(leaves(load_config(ROOT / "config.yaml")))
+
+
+# -- the parse ------------------------------------------------------------------------------------
+
+
+def compiled(path) -> ast.Module:
+    """A rule file as the Python Snakemake makes of it (its parser alone: nothing is run)."""
+    from snakemake import parser
+
+    source = types.SimpleNamespace(get_path_or_uri=lambda secret_free=True: str(path))
+    opened = types.SimpleNamespace(open=lambda _: open(path, encoding="utf-8"))
+    code, _ = parser.parse(source, types.SimpleNamespace(sourcecache=opened), {})
+    return ast.parse(code)
+
+
+def config_reads(node) -> set[str]:
+    """The keys ``config["a"]["b"]…`` read in ``node``, dotted; a section read whole by its
+    prefix ("characterise.cycles")."""
+    chains, inner = {}, set()
+    for n in ast.walk(node):
+        path, v = [], n
+        while (
+            isinstance(v, ast.Subscript)
+            and isinstance(v.slice, ast.Constant)
+            and isinstance(v.slice.value, str)
+        ):
+            path.append(v.slice.value)
+            v = v.value
+            inner.add(id(v))
+        if path and isinstance(v, ast.Name) and v.id == "config":
+            chains[id(n)] = ".".join(reversed(path))
+    return {key for i, key in chains.items() if i not in inner}
+
+
+def names(node) -> set[str]:
+    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+
+
+def module_names(modules) -> dict[str, list[ast.AST]]:
+    """{name: the definitions that bind it}: the rule files' assignments and functions outside
+    any function (in an ``if`` or a ``for`` too; a function's own locals are its body's). A name
+    extended in place keeps its first binding's keys: ``DATASETS |= ENVELOPE.manifests`` adds the
+    envelope's members, datasets whose jobs a change to the envelope's design makes or drops, not
+    reruns."""
+    bound = {}
+
+    def bind(target, value):
+        for name in names(target):
+            bound.setdefault(name, []).append(value)
+
+    def visit(statements):
+        for n in statements:
+            if isinstance(n, ast.FunctionDef) and not n.name.startswith("__rule_"):
+                bound.setdefault(n.name, []).append(n)
+            elif isinstance(n, ast.Assign):
+                for target in n.targets:
+                    bind(target, n.value)
+            elif isinstance(n, ast.AnnAssign) and n.value is not None:
+                bind(n.target, n.value)
+            elif isinstance(n, ast.For):
+                bind(n.target, n.iter)
+            for block in ("body", "orelse", "finalbody"):
+                if not isinstance(n, ast.FunctionDef | ast.ClassDef) and hasattr(n, block):
+                    visit(getattr(n, block))
+
+    for module in modules:
+        visit(module.body)
+    return bound
+
+
+def resolver(bound):
+    """The keys an expression reads: its own ``config[...]`` and, through every name it uses,
+    those of the name's definitions (followed to the end, each name once)."""
+    memo = {}
+
+    def of_name(name):
+        if name not in memo:
+            memo[name] = set()  # a name that refers to itself adds nothing
+            memo[name] = set().union(*(keys(d) for d in bound.get(name, ())))
+        return memo[name]
+
+    def keys(node):
+        return config_reads(node).union(*(of_name(n) for n in names(node) if n != "config"))
+
+    return keys
+
+
+def directive(decorator) -> str | None:
+    """``params`` of ``@workflow.params(...)``."""
+    if isinstance(decorator, ast.Call) and isinstance(decorator.func, ast.Attribute):
+        if isinstance(decorator.func.value, ast.Name) and decorator.func.value.id == "workflow":
+            return decorator.func.attr
+    return None
+
+
+def rule_name(function) -> set[str]:
+    """The names of the rule that ``def __rule_…`` runs (a rule named in a loop has several)."""
+    for d in function.decorator_list:
+        if directive(d) == "rule" and (given := d.keywords[0].value).value is not None:
+            return {given.value}
+        if directive(d) == "name":
+            return NAMED_IN_A_LOOP[d.args[0].id]
+    raise AssertionError(f"no name for {function.name}")
+
+
+def rules_and_reads():
+    """{rule: ({key its params read}, {key its other directives read}, its file)}, one parse."""
+    modules = {path: compiled(path) for path in RULE_FILES}
+    keys = resolver(module_names(modules.values()))
+    found = {}
+    for path, module in modules.items():
+        for function in ast.walk(module):
+            if not (isinstance(function, ast.FunctionDef) and function.name.startswith("__rule_")):
+                continue
+            params, other = set(), set()
+            for d in function.decorator_list:
+                if directive(d) == "params":
+                    params |= keys(d)
+                elif directive(d) not in (None, "rule", "name", "docstring"):
+                    other |= keys(d)
+            for name in rule_name(function):
+                found[name] = (params, other, path)
+    return found
+
+
+RULES = rules_and_reads()
+
+
+def leaves_of(key: str) -> set[str]:
+    """The config's leaves a read of ``key`` covers: itself, or a section's leaves."""
+    return {k for k in SEEN if k == key or k.startswith(f"{key}.")}
+
+
+def declared() -> dict[str, set[str]]:
+    """{config leaf: the rules whose params read it}."""
+    uses = {}
+    for rule, (params, _, _) in RULES.items():
+        for leaf in set().union(*map(leaves_of, params)):
+            uses.setdefault(leaf, set()).add(rule)
+    return uses
+
+
+USES = declared()
+
+
+def test_the_parse_finds_every_rule_of_the_rule_files():
+    named = {m for p in RULE_FILES for m in re.findall(r"^\s*rule (\w+):", p.read_text(), re.M)}
+    in_a_loop = set().union(*NAMED_IN_A_LOOP.values())
+    assert set(RULES) == named | in_a_loop
+    assert len(RULES) > 50
+
+
+def test_the_parse_finds_what_the_rule_files_say():
+    for key, rules in KNOWN.items():
+        assert rules <= USES[key], (key, USES.get(key))
+    # a section a rule takes whole covers each of its keys
+    assert {"characterise_page"} <= USES["characterise.cycles.full_tolerance"]
+    assert config_reads(ast.parse('f(config["a"]["b"], x=config["c"], y=d["e"])')) == {"a.b", "c"}
+
+
+def test_every_setting_reaches_a_rule_through_its_params():
+    """Every key of the config is a setting some rule declares in its params (or a job size, or
+    it shapes the DAG): no key is dead, and none is misspelt in a rule."""
+    settings = {k for k in SEEN if not k.startswith(RESOURCES)} - STRUCTURAL
+    assert settings - set(USES) == set()
+    assert set(USES) - SEEN == set()
+
+
+def test_a_rule_that_reads_a_setting_declares_it_in_its_params():
+    """A setting a rule's input functions, outputs, wildcards or priority read is also one of its
+    params, so that the params trigger reruns it when the setting changes."""
+    undeclared = {}
+    for rule, (params, other, _) in RULES.items():
+        covered = set().union(*map(leaves_of, params))
+        read = set().union(*map(leaves_of, other)) - STRUCTURAL
+        left = {k for k in read - covered if not k.startswith((RESOURCES, *STRUCTURAL_SECTIONS))}
+        if left:
+            undeclared[rule] = sorted(left)
+    assert undeclared == {}
+
+
+# -- what Snakemake does --------------------------------------------------------------------------
 
 
 def with_change(key, value):
@@ -152,17 +287,7 @@ def config_tree(smoke_run, tmp_path_factory):
     return copy_smoke_tree(smoke_run, tmp_path_factory.mktemp("config_tree") / "repo")
 
 
-def test_every_config_key_is_covered():
-    # every leaf the workflow sees (smoke.yaml, config.yaml and the schema's defaults) is listed
-    # here
-    seen = set(leaves(load_config(SMOKE))) | set(leaves(load_config(ROOT / "config.yaml")))
-    whole = {k for k in seen if k.startswith(SECTIONS)}
-    assert all(any(k.startswith(prefix) for k in USES) for prefix in SECTIONS)
-    assert {k for k in seen if not k.startswith(RESOURCES)} - whole == set(
-        USES
-    ) - whole | STRUCTURAL
-
-
+@pytest.mark.slow
 def test_changing_the_job_sizes_reruns_nothing(config_tree, tmp_path):
     config = yaml.safe_load(SMOKE.read_text())
     config["resources"] = {
@@ -175,18 +300,16 @@ def test_changing_the_job_sizes_reruns_nothing(config_tree, tmp_path):
     assert "Nothing to be done" in dry.stdout + dry.stderr, (dry.stdout + dry.stderr)[-2000:]
 
 
-@pytest.mark.parametrize("key", USES)
+@pytest.mark.slow
+@pytest.mark.parametrize("key", DRY_RUNS)
 def test_a_config_change_reruns_exactly_the_rules_that_declare_it(config_tree, tmp_path, key):
-    value, rules = USES[key]
+    # the rules the parse names, but those only `snakemake envelope` runs
+    rules = {r for r in USES[key] if RULES[r][2] != ENVELOPE_RULES}
     changed = tmp_path / "changed.yaml"
-    changed.write_text(yaml.safe_dump(with_change(key, value), sort_keys=False))
+    changed.write_text(yaml.safe_dump(with_change(key, DRY_RUNS[key]), sort_keys=False))
     dry = run_snakemake(config_tree, "-n", "--quiet", "rules", config=str(changed))
     assert dry.returncode == 0, dry.stderr[-2000:]
-    out = dry.stdout + dry.stderr
-    if not rules:
-        assert "Nothing to be done" in out, out[-2000:]
-        return
-    why = reasons(out)
+    why = reasons(dry.stdout + dry.stderr)
     # Snakemake checks a job's params only when nothing upstream of it reruns, so a rule that
     # declares the key shows under "params" or, downstream of another one, under "input files"
     by_params = why.pop("params have changed since last execution", set())
