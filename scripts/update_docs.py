@@ -163,7 +163,7 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         "calibration": calibration_markdown(cards, campaign),
         "recovery": recovery_markdown(cards, campaign),
         "envelope": envelope_markdown(designs),
-        "envelope_design": envelope_design_markdown(designs[0][1]),
+        "envelope_design": envelope_design_markdown(designs[0][2]),
         "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _, _ in designs])),
     }
 

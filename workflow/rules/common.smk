@@ -480,7 +480,7 @@ def first_segment_end(dataset, role):
 
 
 def identification_runs(dataset):
-    """The captures R and the ramps' impedances are identified from (rule powerloss_identify):
+    """The captures R and the ramps' impedances are identified from (by powerloss_identify):
     {"hold": the static hold, "ramps": every ramp with its fixed trial impedance}."""
     return {"hold": role_run(dataset, "powerloss.hold"), "ramps": role_runs(dataset, "powerloss.ramp")}
 
@@ -493,7 +493,7 @@ def uses_identification(dataset, experiment):
 
 
 def simulated_together(protocols):
-    """{rule name: (protocol, its runs, the simulated datasets they are made for)}: the runs of a
+    """{name of its rule: (protocol, its runs, the simulated datasets they are made for)}: the runs of a
     protocol of config twin.together are one job, since each costs the twin's start-up (numba's
     compiled kernels loaded, about a second) many times over its simulation (Chapter 4's 22
     half-second sets: 2.5 s in one job, 24 s in 22). Datasets whose catalogues name different runs
@@ -544,7 +544,7 @@ for _d in POWERLOSS_DATASETS:
     for _e in [identification_runs(_d)["hold"], *identification_runs(_d)["ramps"]]:
         if uses_identification(_d, _e):
             raise ValueError(f"{protocol_file(_d, _e)}: {_e} compensates with the identified R and c, but they are "
-                             f"identified from it (rule powerloss_identify): give it a fixed setting")
+                             f"identified from it (by powerloss_identify): give it a fixed setting")
 
 
 # ---- The scorecard and the twin's calibration
@@ -573,7 +573,7 @@ CURVES = {
 def curve_input(w, part):
     """One curve's (CURVES) file of a dataset: its run's series or power."""
     c = CURVES[w.fit]
-    return f"results/{w.dataset}/" + c[part].format(run=role_run(w.dataset, c["role"]))
+    return f"results/{w.dataset}/{c[part].format(run=role_run(w.dataset, c['role']))}"
 
 
 def curve_fits(w):

@@ -44,7 +44,6 @@ rule envelope_plan:
         unit=f"{ENVELOPE_FOLDER}/unit.csv",
     params:
         design=ENVELOPE.design.record(),
-        raw_dir=config["raw_dir"],
     log:
         f"logs/envelope/{ENVELOPE.design.name}/plan.log",
     benchmark:

@@ -10,10 +10,11 @@ from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import run, script_logging, write_table
 
 
-def main(design, base, unknowns, raw_dir, plan, unit, inputs, log=None):
+def main(design, base, unknowns, plan, unit, inputs, log=None):
+    """base: raw/<dataset>/dataset.yaml, the envelope dataset's manifest (its raw folder's)."""
     logger = script_logging(log)
     design, manifest = Design(**design), load_manifest(base)
-    declared = load_unknowns(unknowns, raw_dir=Path(raw_dir))
+    declared = load_unknowns(unknowns, raw_dir=Path(base).parents[1])
     drawn = envelope(design, {manifest["name"]: manifest}, declared)
     extra = {
         "unknowns_sha256": unknowns_hash(unknowns),
