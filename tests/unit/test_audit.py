@@ -363,7 +363,7 @@ def chain(tmp_path, monkeypatch):
     script("extract_ripple").main(capture, series, 4)
     tables = ["results/bench/ch3/hysteresis.csv", "results/bench/ch3/phases.csv"]
     with np.errstate(divide="ignore"):  # the synthetic loops are closed: their widths divide by 0
-        script("ch3_hysteresis").main(series, *tables, skip_s=0.05)
+        script("ch3_hysteresis").main(series, *tables, skip_s=0.05, frequency=10.0, inputs=[series])
     return tmp_path / capture, series, tables
 
 

@@ -176,7 +176,7 @@ series, table, phases, log = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[5]
 # the rule's inputs as Snakemake gives them to the script it runs
 snakemake = SimpleNamespace(input=[series])
 os.unlink(series)  # another run removes it after Snakemake started the job
-script("ch3_hysteresis").main(series, table, phases, log=log)
+script("ch3_hysteresis").main(series, table, phases, 0.1, 10.0, [series], log=log)
 """
 
 
