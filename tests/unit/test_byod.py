@@ -12,11 +12,11 @@ import pytest
 import yaml
 from scipy.io import savemat
 
+from selfsense.chapters import characterise as ch
 from selfsense.chapters.figure_names import loop_pages
 from selfsense.cli import main as cli
 from selfsense.io.capture import INT16_FULL, CaptureError, open_capture
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
-from selfsense.methods import characterise as ch
 from selfsense.scorecard.reference_values import KIND, reference_rows
 from selfsense.scorecard.registry import PUBLISHED, WITHIN, applicable, parse_registry
 from selfsense.scorecard.scoring import scorecard

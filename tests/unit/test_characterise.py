@@ -1,4 +1,4 @@
-"""The characterisation of one capture (selfsense.methods.characterise) measured on its steady
+"""The characterisation of one capture (selfsense.chapters.characterise) measured on its steady
 cycles: its row, its headings with the channels' declared scalings, its loop figure, the rules'
 scripts; and, on a clean steady sine, the same numbers as before it measured cycles.
 
@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from selfsense.chapters import characterise as ch
 from selfsense.io.capture import CaptureWriter, channel_spec
-from selfsense.methods import characterise as ch
 from selfsense.methods.cycles import find_cycles
 
 from ..helpers import LAB_A, LAB_B, LAB_PHI, PAGE_SETTINGS, bench_manifest, ellipse, script
