@@ -359,7 +359,7 @@ def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():
 
 
 def test_a_page_without_loops_says_so():
-    from matplotlib import pyplot as plt  # after selfsense.io.figures has chosen the Agg backend
+    from matplotlib import pyplot as plt  # after selfsense.chapters.figures chose Agg
 
     before = set(plt.get_fignums())
     fig = ch.loop_page([], "lab_stack (1 of 1)")

@@ -206,7 +206,7 @@ def test_the_table_heads_each_column_as_its_rows_do():
 
 
 def test_the_scripts_pass_periods_and_scalings_and_draw_dropped_cycles_on_top(tmp_path):
-    from matplotlib import pyplot as plt  # after selfsense.io.figures has chosen the Agg backend
+    from matplotlib import pyplot as plt  # after selfsense.chapters.figures chose Agg
 
     u, x = recording()
     path = capture(tmp_path / "run_1.nc", u, x)
