@@ -3,6 +3,7 @@
 - ``capture``: the capture contract (netCDF4): write, open, validate, stream;
 - ``contract``: the checks a capture must pass (attributes, agreement, clipping);
 - ``manifest``: dataset manifests, protocols and config, validated against ``schemas/``;
+- ``roles``: run roles, which part each run plays in the stages (catalogue, manifest);
 - ``provenance``: atomic outputs with their provenance sidecars, script logging;
 - ``audit``: outputs against their inputs by content (``selfsense audit``, the start-of-run
   check);
