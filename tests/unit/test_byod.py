@@ -12,11 +12,11 @@ import pytest
 import yaml
 from scipy.io import savemat
 
+from selfsense.chapters import characterise as ch
 from selfsense.chapters.figure_names import loop_pages
 from selfsense.cli import main as cli
 from selfsense.io.capture import INT16_FULL, CaptureError, open_capture
 from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
-from selfsense.methods import characterise as ch
 from selfsense.scorecard.reference_values import KIND, reference_rows
 from selfsense.scorecard.registry import PUBLISHED, WITHIN, applicable, parse_registry
 from selfsense.scorecard.scoring import scorecard
@@ -359,7 +359,7 @@ def test_the_loop_figure_has_six_captures_a_page_in_catalogue_order():
 
 
 def test_a_page_without_loops_says_so():
-    from matplotlib import pyplot as plt  # after selfsense.io.figures has chosen the Agg backend
+    from matplotlib import pyplot as plt  # after selfsense.chapters.figures chose Agg
 
     before = set(plt.get_fignums())
     fig = ch.loop_page([], "lab_stack (1 of 1)")

@@ -1,4 +1,4 @@
-"""The characterisation of one capture (selfsense.methods.characterise) measured on its steady
+"""The characterisation of one capture (selfsense.chapters.characterise) measured on its steady
 cycles: its row, its headings with the channels' declared scalings, its loop figure, the rules'
 scripts; and, on a clean steady sine, the same numbers as before it measured cycles.
 
@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from selfsense.chapters import characterise as ch
 from selfsense.io.capture import CaptureWriter, channel_spec
-from selfsense.methods import characterise as ch
 from selfsense.methods.cycles import find_cycles
 
 from ..helpers import LAB_A, LAB_B, LAB_PHI, PAGE_SETTINGS, bench_manifest, ellipse, script
@@ -206,7 +206,7 @@ def test_the_table_heads_each_column_as_its_rows_do():
 
 
 def test_the_scripts_pass_periods_and_scalings_and_draw_dropped_cycles_on_top(tmp_path):
-    from matplotlib import pyplot as plt  # after selfsense.io.figures has chosen the Agg backend
+    from matplotlib import pyplot as plt  # after selfsense.chapters.figures chose Agg
 
     u, x = recording()
     path = capture(tmp_path / "run_1.nc", u, x)

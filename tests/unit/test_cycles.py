@@ -15,7 +15,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from selfsense.methods import characterise as ch
+from selfsense.chapters import characterise as ch
 from selfsense.methods.cycles import (
     REASONS,
     CycleRules,

@@ -27,7 +27,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.methods import characterise as ch
+from selfsense.chapters import characterise as ch
 from selfsense.methods.cycles import (
     RULES,
     cycle_loops,

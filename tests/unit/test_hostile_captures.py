@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import selfsense.twin.experiment as twin
+from selfsense.chapters.characterise import characterise_capture
 from selfsense.io.capture import (
     CHARACTERISE_MIN_SAMPLES,
     FILL,
@@ -31,7 +32,6 @@ from selfsense.io.capture import (
     scan_capture,
 )
 from selfsense.io.manifest import load_config
-from selfsense.methods.characterise import characterise_capture
 
 from ..helpers import FS, RANGES, ROOT, bench_manifest, leftovers, one_line, script
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from selfsense.methods.characterise import reduce_capture, steady_cycles
+from selfsense.chapters.characterise import reduce_capture, steady_cycles
 from selfsense.methods.drive import Drive, Segment
 from selfsense.methods.hysteresis import (
     MaxwellSlip,

@@ -1,6 +1,6 @@
 """Rule `ce_np_study`: C_e error against np and ripple-frequency wander, on the twin."""
 
-from selfsense.io import figures
+from selfsense.chapters import figures
 from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import run, save_figure, script_logging, write_table
 from selfsense.twin.experiment import daq_plan

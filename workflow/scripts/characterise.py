@@ -5,9 +5,9 @@ parameters, and the manifest's actuator and sensors.
 
 import pandas as pd
 
+from selfsense.chapters import characterise as ch
 from selfsense.io.manifest import load_manifest
 from selfsense.io.provenance import read_records, run, script_logging, write_table
-from selfsense.methods import characterise as ch
 
 
 def main(manifest, pages, table, instruments, model, inputs, log=None):

@@ -10,8 +10,8 @@ fit's max_order and order_tolerance (None: the library's defaults).
 
 from pathlib import Path
 
+from selfsense.chapters import characterise as ch
 from selfsense.io.provenance import provenance, run, save_figure, script_logging, write_json
-from selfsense.methods import characterise as ch
 from selfsense.methods.cycles import CycleRules
 
 

@@ -4,7 +4,7 @@ sources with the twin's truth (selfsense.verify.error_budget.budget_table).
 
 from pathlib import Path
 
-from selfsense.io import figures
+from selfsense.chapters import figures
 from selfsense.io.provenance import run, save_figure, script_logging, write_table
 from selfsense.methods.gamma import load_gamma
 from selfsense.methods.observer import load_gains

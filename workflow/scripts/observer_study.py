@@ -2,8 +2,8 @@
 (one capture).
 """
 
+from selfsense.chapters import figures
 from selfsense.chapters.ch5 import observer_study
-from selfsense.io import figures
 from selfsense.io.capture import open_capture
 from selfsense.io.provenance import run, save_figure, script_logging, write_table
 from selfsense.methods.gamma import load_gamma

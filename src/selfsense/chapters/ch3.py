@@ -8,8 +8,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from selfsense.chapters import figure_names
-from selfsense.io import figures
+from selfsense.chapters import figure_names, figures
 from selfsense.io.capture import open_capture
 from selfsense.methods.metrics import direction, hysteresis_percent
 from selfsense.methods.ripple import SamplingPlan

@@ -7,8 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from selfsense.chapters import figure_names
-from selfsense.io import figures
+from selfsense.chapters import figure_names, figures
 from selfsense.methods.electromech import (
     ChargeFit,
     Geometry,

@@ -378,7 +378,7 @@ def charge_estimate_figure(series, a0: float):
     the second estimate removes q0 + I0·t fitted over the run (as the HPO learns Î0), which
     leaves the hysteresis between q and x as the error.
     """
-    from selfsense.io import figures
+    from selfsense.chapters import figures
 
     t, q = series["time"], series["q"]
     x, q_compensated, fit = offset_compensated_charge(series)
@@ -404,7 +404,7 @@ def figures_ch5(
     series_by_f, gamma_series, n_periods, orders, traces_by_f, creep, gains, warmup: float = 0.0
 ) -> dict:
     """Figures 5.1, 5.2, 5.4–5.8, 5.10, 5.12–5.14 from the chapter's series and observer traces."""
-    from selfsense.io import figures
+    from selfsense.chapters import figures
     from selfsense.methods.gamma import fit_log_gamma
     from selfsense.methods.observer import magnitude_response, transfer_functions
 
@@ -530,7 +530,7 @@ def figures_ch5(
 def figure_5_3(table: pd.DataFrame, peaks: pd.DataFrame, G):
     """Fig 5.3: the measured points of :func:`selfsense.methods.frequency_response.response_table`
     over the model ``G`` on a fine grid."""
-    from selfsense.io import figures
+    from selfsense.chapters import figures
     from selfsense.methods.frequency_response import THESIS_RESONANCE_HZ, evaluate
 
     grid = np.geomspace(table["frequency [Hz]"].min(), table["frequency [Hz]"].max(), 600)

@@ -312,7 +312,7 @@ def figures_ch6(
     of ``profiles`` ({"P1" …: (open-loop run, closed-loop run)}) and their protocols; a figure
     whose runs are missing is left out. P1's figures show the first two of the recording's tests
     (:func:`p1_window`): fifty would hide the minor loops."""
-    from selfsense.io import figures
+    from selfsense.chapters import figures
 
     def pair(profile):
         names = profiles.get(profile, (None, None))

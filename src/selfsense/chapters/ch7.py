@@ -229,7 +229,7 @@ def thermal_identification(
     run is long enough to identify τ (e.g. the smoke campaign) the later tables and figures say
     why. Returns ({table: DataFrame} incl. "per_run", the thermal model record, {figure: Figure}).
     """
-    from selfsense.io import (
+    from selfsense.chapters import (
         figures,  # here: the streaming jobs that import this module need no matplotlib
     )
 
@@ -485,7 +485,7 @@ def gamma_t_fits(
 def figure_7_7(samples: Mapping[str, np.ndarray]):
     """Fig 7.7: C_e against position on the 50 Hz run while the stack heats (:func:`gamma_t`'s
     samples)."""
-    from selfsense.io import (
+    from selfsense.chapters import (
         figures,  # here: the streaming jobs that import this module need no matplotlib
     )
 
@@ -619,7 +619,7 @@ def coupled_table(stats: Mapping[str, Mapping], mixed_run: str) -> pd.DataFrame:
 def figure_coupled(name: str, run: str, traces: Mapping[str, np.ndarray], stats: Mapping):
     """Figs 7.10–7.12 (``name`` of :data:`COUPLED_FIGURES`): measured T, T_SH(PS) and T_SH(HPO) over
     one run, or why they are missing."""
-    from selfsense.io import figures
+    from selfsense.chapters import figures
 
     if not len(traces["time"]):
         return figures.placeholder(_title(name), stats["note"])
@@ -760,7 +760,7 @@ def _rise(t: np.ndarray, T: np.ndarray) -> float:
 
 def figure_7_8(curves: Mapping[str, Mapping[str, np.ndarray]], gamma: GammaPolynomial):
     """Fig 7.8 from :func:`frequency_effect`'s curves, with Γ drawn over the measured C_e range."""
-    from selfsense.io import (
+    from selfsense.chapters import (
         figures,  # here: the streaming jobs that import this module need no matplotlib
     )
 
@@ -786,7 +786,7 @@ def figure_7_9(
     delay). ``thermal`` is the thermal stage's model record; when it holds no identified model
     the diagram says why. Returns the figure and the values it shows.
     """
-    from selfsense.io import figures
+    from selfsense.chapters import figures
 
     if thermal["identified"]:
         heat = f"τ = {thermal['tau']:.1f} s, γ = {thermal['gamma']:.1f} K/W"

@@ -14,8 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from selfsense.chapters import figure_names
-from selfsense.io import figures
+from selfsense.chapters import figure_names, figures
 from selfsense.io.capture import open_capture
 from selfsense.methods import powerloss as pl
 

@@ -21,8 +21,8 @@ import pandas as pd
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from selfsense.chapters import figures  # before pyplot: it chooses the Agg backend
 from selfsense.envelope.verdicts import EDGE, edge_rows
-from selfsense.io import figures  # before pyplot: it chooses the Agg backend
 from selfsense.io.provenance import save_figure
 
 plt = figures.plt

@@ -13,6 +13,5 @@
 - ``mat_source``: the import's MATLAB readers, v4–v7 (scipy) and v7.3 (h5py);
 - ``tdms_source``: the import's NI TDMS reader (nptdms);
 - ``dataset_lock``: one import into a dataset at a time (``raw/<dataset>/.import.lock``);
-- ``figures``: the plotting helpers every figure is drawn with;
 - ``config_docs``: docs/configuration.md, generated from the config schema.
 """

@@ -72,7 +72,7 @@ BLOSC_MIN_CHUNK_BYTES = 4096
 #: the fewest samples of any capture: a time axis with one step, so that fs can be checked
 MIN_SAMPLES = 2
 #: the fewest samples characterise takes: one drive cycle at the coarsest, 16 samples rising and
-#: 16 falling (the loop width's branches, selfsense.methods.characterise)
+#: 16 falling (the loop width's branches, selfsense.chapters.characterise)
 CHARACTERISE_MIN_SAMPLES = 32
 #: bounds on a channel's packing: one ADC step at least MIN_SCALE and the full scale
 #: |add_offset| + INT16_FULL·scale_factor at most MAX_FULL_SCALE (in the channel's SI unit), so

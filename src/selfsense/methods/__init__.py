@@ -8,7 +8,6 @@
 - ``thermal``: self-heating, its model and estimator (Ch. 7);
 - ``powerloss``: Ronkanen's power-loss compensation;
 - ``frequency_response``: the stepped-sine sweep against Eq 5.2;
-- ``characterise``: any U–x recording's stroke, gains and loop;
 - ``cycles``: a recording cut into its drive's cycles, steady and dropped;
 - ``hysteresis``: an actuator's own Maxwell model identified on its steady cycles;
 - ``drive``: an experiment's drive profile from its protocol;

@@ -67,10 +67,10 @@ def _capture(reference: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) -
 
 def _heading(table: pd.DataFrame | None, column: str) -> str:
     """The characterisation table's heading of ``column``, which names the channels' declared
-    scalings where the dataset has them (:func:`selfsense.methods.characterise.heading`)."""
+    scalings where the dataset has them (:func:`selfsense.chapters.characterise.heading`)."""
     # imported here: the workflow reads this module when it is parsed, and characterise brings
     # matplotlib with it
-    from selfsense.methods.characterise import plain_heading
+    from selfsense.chapters.characterise import plain_heading
 
     found = [c for c in (table.columns if table is not None else ()) if plain_heading(c) == column]
     return found[0] if found else column

@@ -30,13 +30,13 @@ from pathlib import Path
 
 import numpy as np
 
-from selfsense.io.capture import CHARACTERISE_MIN_SAMPLES, DISPLACEMENT, open_capture
-from selfsense.io.figures import (  # plt: after figures has chosen the Agg backend
+from selfsense.chapters.figures import (  # plt: after figures has chosen the Agg backend
     UF,
     UM,
     loop_grid,
     placeholder,
 )
+from selfsense.io.capture import CHARACTERISE_MIN_SAMPLES, DISPLACEMENT, open_capture
 from selfsense.methods.cycles import (
     MIN_CYCLE_SAMPLES,
     REASONS,
