@@ -11,6 +11,8 @@ min_version("9.0")
 
 
 configfile: "config.yaml"
+
+
 report: "workflow/report/workflow.rst"
 
 
@@ -30,6 +32,7 @@ include: "workflow/rules/report.smk"
 include: "workflow/rules/twin.smk"
 include: "workflow/rules/envelope.smk"
 
+
 # A measured capture or manifest replaced by other bytes with an older mtime (cp -p, rsync -t,
 # tar x) would give "Nothing to be done": stop with one line naming it. Here, not in onstart:
 # onstart runs neither in a dry run nor when there is nothing to do (docs/reliability.md).
@@ -37,6 +40,7 @@ check_inputs_unchanged(MEASURED)
 
 
 rule all:
+    default_target: True
     input:
         # the run's own datasets: the envelope's members only for `snakemake envelope`
         nominal(
@@ -54,4 +58,3 @@ rule all:
             REPORT_OUTPUTS,
             TWIN_OUTPUTS,
         ),
-    default_target: True

@@ -18,23 +18,25 @@ if SIMULATED:
         output:
             capture=RAW / "{dataset}" / "{experiment}.nc",
             report="results/{dataset}/qc/{experiment}.json",
-        params:
-            campaign=config["campaign"],
-            capture_settings=config["capture"],
-        wildcard_constraints:
-            dataset="|".join(SIMULATED),
-            # closed-loop runs need the identified model: rule simulate_closed_loop; the runs of
-            # a protocol simulated together: its own rule, below
-            experiment="".join(f"(?!{e}(?![A-Za-z0-9_]))" for e in SIMULATED_CLOSED_LOOP + SIMULATED_TOGETHER)
-            + r"[A-Za-z0-9_]+",
         log:
             "logs/{dataset}/simulate/{experiment}.log",
         benchmark:
             "benchmarks/out/{dataset}/simulate/{experiment}.tsv"
+        wildcard_constraints:
+            dataset="|".join(SIMULATED),
+            # closed-loop runs need the identified model: rule simulate_closed_loop; the runs of
+            # a protocol simulated together: its own rule, below
+            experiment="".join(
+                f"(?!{e}(?![A-Za-z0-9_]))" for e in SIMULATED_CLOSED_LOOP + SIMULATED_TOGETHER
+            )
+            + r"[A-Za-z0-9_]+",
+        priority: longest_first
         threads: 1
         resources:
             **resources_for("simulate"),
-        priority: longest_first
+        params:
+            campaign=config["campaign"],
+            capture_settings=config["capture"],
         script:
             "../scripts/simulate.py"
 
@@ -52,19 +54,19 @@ if SIMULATED:
             output:
                 capture=[RAW / "{dataset}" / f"{e}.nc" for e in _runs],
                 report=[f"results/{{dataset}}/qc/{e}.json" for e in _runs],
-            params:
-                campaign=config["campaign"],
-                capture_settings=config["capture"],
-            wildcard_constraints:
-                dataset="|".join(re.escape(d) for d in _datasets),
             log:
                 f"logs/{{dataset}}/{_name}.log",
             benchmark:
                 f"benchmarks/out/{{dataset}}/{_name}.tsv"
+            wildcard_constraints:
+                dataset="|".join(re.escape(d) for d in _datasets),
+            priority: lambda w, runs=_runs: sum(samples(w.dataset, e) for e in runs) // 1000
             threads: 1
             resources:
                 **resources_for("simulate"),
-            priority: lambda w, runs=_runs: sum(samples(w.dataset, e) for e in runs) // 1000
+            params:
+                campaign=config["campaign"],
+                capture_settings=config["capture"],
             script:
                 "../scripts/simulate.py"
 
@@ -83,17 +85,17 @@ if MEASURED:
             library=library_sources("check_capture"),
         output:
             report="results/{dataset}/qc/{experiment}.json",
-        params:
-            contract=lambda w: capture_contract(w.dataset),
-        wildcard_constraints:
-            dataset="|".join(MEASURED),
         log:
             "logs/{dataset}/check_capture/{experiment}.log",
         benchmark:
             "benchmarks/out/{dataset}/check_capture/{experiment}.tsv"
+        wildcard_constraints:
+            dataset="|".join(MEASURED),
         threads: 1
         resources:
             **resources_for("medium"),
+        params:
+            contract=lambda w: capture_contract(w.dataset),
         script:
             "../scripts/check_capture.py"
 
@@ -104,8 +106,12 @@ rule capture_summary:
         reports=lambda w: [f"results/{w.dataset}/qc/{e}.json" for e in CAPTURES[w.dataset]],
         library=library_sources("capture_summary"),
     output:
-        table=report("results/{dataset}/qc/captures.csv", caption="../report/captures.rst",
-                     category="{dataset}", subcategory="Captures"),
+        table=report(
+            "results/{dataset}/qc/captures.csv",
+            caption="../report/captures.rst",
+            category="{dataset}",
+            subcategory="Captures",
+        ),
     log:
         "logs/{dataset}/capture_summary.log",
     benchmark:

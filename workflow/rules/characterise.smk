@@ -19,9 +19,21 @@ rule characterise_page:
         library=library_sources("characterise_page"),
     output:
         rows="results/{dataset}/characterise/page_{page}.json",
-        figure=report("figures/{dataset}/characterise/loops_{page}.png",
-                      caption="../report/characterise_loops.rst", category="{dataset}",
-                      subcategory="Characterisation"),
+        figure=report(
+            "figures/{dataset}/characterise/loops_{page}.png",
+            caption="../report/characterise_loops.rst",
+            category="{dataset}",
+            subcategory="Characterisation",
+        ),
+    log:
+        "logs/{dataset}/characterise_page/{page}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/characterise_page/{page}.tsv"
+    wildcard_constraints:
+        page=r"[A-Za-z0-9_]+",  # a number, or the capture of a page of one
+    threads: 1
+    resources:
+        **resources_for("stream"),
     params:
         pdf=FIGURE_PDF,
         title=lambda w: loop_page_title(w.dataset, w.page),
@@ -31,15 +43,6 @@ rule characterise_page:
         min_hold_s=config["characterise"]["min_hold_s"],
         cycle_rules=config["characterise"]["cycles"],
         hysteresis=config["characterise"]["hysteresis"],
-    wildcard_constraints:
-        page=r"[A-Za-z0-9_]+",  # a number, or the capture of a page of one
-    log:
-        "logs/{dataset}/characterise_page/{page}.log",
-    benchmark:
-        "benchmarks/out/{dataset}/characterise_page/{page}.tsv"
-    threads: 1
-    resources:
-        **resources_for("stream"),
     script:
         "../scripts/characterise_page.py"
 
@@ -49,16 +52,30 @@ rule characterise:
     loop pages' rows; each capture's hysteresis model's parameters; and the actuator and its
     sensors as the manifest describes them."""
     input:
-        pages=lambda w: expand(rules.characterise_page.output.rows, dataset=w.dataset, page=LOOP_PAGES[w.dataset]),
+        pages=lambda w: expand(
+            rules.characterise_page.output.rows, dataset=w.dataset, page=LOOP_PAGES[w.dataset]
+        ),
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("characterise"),
     output:
-        table=report("results/{dataset}/characterise/summary.csv", caption="../report/characterise.rst",
-                     category="{dataset}", subcategory="Characterisation"),
-        instruments=report("results/{dataset}/characterise/instruments.csv", caption="../report/instruments.rst",
-                           category="{dataset}", subcategory="Characterisation"),
-        model=report("results/{dataset}/characterise/hysteresis_model.csv", caption="../report/hysteresis_model.rst",
-                     category="{dataset}", subcategory="Characterisation"),
+        table=report(
+            "results/{dataset}/characterise/summary.csv",
+            caption="../report/characterise.rst",
+            category="{dataset}",
+            subcategory="Characterisation",
+        ),
+        instruments=report(
+            "results/{dataset}/characterise/instruments.csv",
+            caption="../report/instruments.rst",
+            category="{dataset}",
+            subcategory="Characterisation",
+        ),
+        model=report(
+            "results/{dataset}/characterise/hysteresis_model.csv",
+            caption="../report/hysteresis_model.rst",
+            category="{dataset}",
+            subcategory="Characterisation",
+        ),
     log:
         "logs/{dataset}/characterise.log",
     benchmark:
@@ -71,6 +88,8 @@ rule characterise:
 
 
 #: what the stage makes for rule all and the scorecard
-CHARACTERISE_OUTPUTS = (expand(rules.characterise.output, dataset=CHARACTERISE_DATASETS)
-                        + [f for d in CHARACTERISE_DATASETS
-                           for f in expand(rules.characterise_page.output.figure, dataset=d, page=LOOP_PAGES[d])])
+CHARACTERISE_OUTPUTS = expand(rules.characterise.output, dataset=CHARACTERISE_DATASETS) + [
+    f
+    for d in CHARACTERISE_DATASETS
+    for f in expand(rules.characterise_page.output.figure, dataset=d, page=LOOP_PAGES[d])
+]

@@ -15,13 +15,28 @@ from snakemake.utils import validate
 from selfsense.chapters import figure_names
 from selfsense.chapters.figure_names import loop_pages
 from selfsense.methods.cycles import protocol_period
-from selfsense.io.manifest import (PROTOCOLS, SCHEMAS, catalogue, channel_scalings, load_dataset, load_yaml,
-                                    needs_identification, protocol_duration, validate_config)
+from selfsense.io.manifest import (
+    PROTOCOLS,
+    SCHEMAS,
+    catalogue,
+    channel_scalings,
+    load_dataset,
+    load_yaml,
+    needs_identification,
+    protocol_duration,
+    validate_config,
+)
 from selfsense.scorecard.calibration import load_targets
 from selfsense.scorecard.card import dataset_tables
 from selfsense.scorecard.registry import applicable, parse_registry
-from selfsense.envelope.design import (Design, check_chapters, check_member_manifests, envelope, members_asked,
-                                      undrawn)
+from selfsense.envelope.design import (
+    Design,
+    check_chapters,
+    check_member_manifests,
+    envelope,
+    members_asked,
+    undrawn,
+)
 from selfsense.envelope.unknowns import load_unknowns
 from selfsense import stages
 from selfsense.io import roles
@@ -29,8 +44,12 @@ from selfsense.io import roles
 # One-line errors first (file and key, or --config), then Snakemake's validate to fill the schema
 # defaults. --configfile files override config.yaml; Snakemake lists them before it in
 # workflow.configfiles
-CONFIG_SOURCE = " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config"
-validate_config(config, CONFIG_SOURCE, dict(workflow.config_settings.config))  # --config alone (overwrite_config has the files too)
+CONFIG_SOURCE = (
+    " + ".join(dict.fromkeys(str(f) for f in reversed(workflow.configfiles))) or "config"
+)
+validate_config(
+    config, CONFIG_SOURCE, dict(workflow.config_settings.config)
+)  # --config alone (overwrite_config has the files too)
 validate(config, str(SCHEMAS / "config.schema.yaml"))
 
 
@@ -57,7 +76,8 @@ LIBRARY = Path("src")
 
 def _statements(body):
     """Every statement in body, nested ones too: imports are statements, so the expressions, most of
-    a file's nodes, need no visit (ast.walk's visit of them was a quarter of finding the imports)."""
+    a file's nodes, need no visit (ast.walk's visit of them was a quarter of finding the imports).
+    """
     for node in body:
         yield node
         for field in ("body", "orelse", "finalbody", "handlers", "cases"):
@@ -75,9 +95,11 @@ def _imported_files(path):
         if isinstance(node, ast.Import):
             dotted += [tuple(a.name.split(".")) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
-            base = package[:len(package) - node.level + 1] if node.level else ()
+            base = package[: len(package) - node.level + 1] if node.level else ()
             source = base + (tuple(node.module.split(".")) if node.module else ())
-            dotted += [source] + [source + (a.name,) for a in node.names]  # a name may be a submodule
+            dotted += [source] + [
+                source + (a.name,) for a in node.names
+            ]  # a name may be a submodule
     files = set()
     for parts in (d for d in dotted if d[:1] == ("selfsense",)):
         for k in range(1, len(parts) + 1):
@@ -133,8 +155,12 @@ def library_sources(script):
 def report_figure(name, subcategory):
     """Output figures/<dataset>/<name>.png, filed in the report under its dataset with the caption
     workflow/report/<name>.rst."""
-    return report(f"figures/{{dataset}}/{name}.png", caption=f"../report/{name}.rst", category="{dataset}",
-                  subcategory=subcategory)
+    return report(
+        f"figures/{{dataset}}/{name}.png",
+        caption=f"../report/{name}.rst",
+        category="{dataset}",
+        subcategory=subcategory,
+    )
 
 
 def resources_for(size):
@@ -190,16 +216,23 @@ def envelope_inputs(wildcards):
     envelope's dataset is not among the run's."""
     base = ENVELOPE.design.dataset
     if base not in NOMINAL:
-        raise ValueError(f"config.yaml: key envelope.dataset: {base} is not among datasets "
-                         f"({', '.join(NOMINAL)})")
-    return {"nominal": f"results/{base}/scorecard.csv", "plan": f"{ENVELOPE_FOLDER}/plan.csv",
-            "unit": f"{ENVELOPE_FOLDER}/unit.csv",
-            "members": [f"results/{m}/scorecard.csv" for m in ENVELOPE.manifests]}
+        raise ValueError(
+            f"config.yaml: key envelope.dataset: {base} is not among datasets "
+            f"({', '.join(NOMINAL)})"
+        )
+    return {
+        "nominal": f"results/{base}/scorecard.csv",
+        "plan": f"{ENVELOPE_FOLDER}/plan.csv",
+        "unit": f"{ENVELOPE_FOLDER}/unit.csv",
+        "members": [f"results/{m}/scorecard.csv" for m in ENVELOPE.manifests],
+    }
 
 
 def nominal(*outputs):
     """The outputs of the run's own datasets, without the envelope members'."""
-    return [o for group in outputs for o in group if not any(f"/{m}/" in o for m in ENVELOPE.manifests)]
+    return [
+        o for group in outputs for o in group if not any(f"/{m}/" in o for m in ENVELOPE.manifests)
+    ]
 
 
 SIMULATED = [n for n, m in DATASETS.items() if m["source"] == "simulated"]
@@ -212,11 +245,17 @@ def _experiments(name):
     if manifest["source"] == "measured" and "experiments" in manifest:
         missing = [e for e in manifest["experiments"] if not (RAW / name / f"{e}.nc").exists()]
         if missing:
-            raise ValueError(f"{RAW / name / 'dataset.yaml'}: experiment {missing[0]} is listed "
-                             f"without a capture {RAW / name / (missing[0] + '.nc')}")
+            raise ValueError(
+                f"{RAW / name / 'dataset.yaml'}: experiment {missing[0]} is listed "
+                f"without a capture {RAW / name / (missing[0] + '.nc')}"
+            )
         listed = {e: experiments.get(e) for e in manifest["experiments"]}
-        return roles.assign_roles(listed, experiments, manifest.get("roles", {}), str(RAW / name / "dataset.yaml"))
-    return roles.assign_roles(experiments, experiments, manifest.get("roles", {}), str(RAW / name / "dataset.yaml"))
+        return roles.assign_roles(
+            listed, experiments, manifest.get("roles", {}), str(RAW / name / "dataset.yaml")
+        )
+    return roles.assign_roles(
+        experiments, experiments, manifest.get("roles", {}), str(RAW / name / "dataset.yaml")
+    )
 
 
 EXPERIMENTS = {name: _experiments(name) for name in DATASETS}
@@ -241,10 +280,15 @@ def capture_contract(dataset):
     re-runs when these change, not when the list of experiments grows (the manifest is an
     ancient() input). Not the sensors' descriptions (type, range, resolution): the report's."""
     manifest = DATASETS[dataset]
-    sensors = {channel: {k: v for k, v in sensor.items() if k in ("units", "scale", "scale_kind")}
-               for channel, sensor in manifest.get("sensors", {}).items()}
-    checked = {"daq": manifest["daq"], "sensors": {c: s for c, s in sensors.items() if s},
-               "protocols": manifest["protocols"]}
+    sensors = {
+        channel: {k: v for k, v in sensor.items() if k in ("units", "scale", "scale_kind")}
+        for channel, sensor in manifest.get("sensors", {}).items()
+    }
+    checked = {
+        "daq": manifest["daq"],
+        "sensors": {c: s for c, s in sensors.items() if s},
+        "protocols": manifest["protocols"],
+    }
     return json.dumps(checked, sort_keys=True)
 
 
@@ -334,6 +378,7 @@ CAPTURES = {d: stages.captures_made(DATASETS[d], EXPERIMENTS[d], STAGE_PLANS[d])
 
 # ---- Characterise: the loop figures' pages
 
+
 def captures_per_job(dataset):
     """How many captures one characterise_page job takes (config characterise.captures_per_job):
     a simulated dataset's catalogue is fixed, a measured one grows by batches."""
@@ -368,25 +413,38 @@ def loop_page_title(dataset, page):
 CH3_FIGURES, CH3_MODEL_FIGURE = figure_names.CH3, figure_names.CH3_MODEL
 CH4_TABLES = ["sets", "table_4_1", "table_4_2", "table_4_3", "hysteresis_voltage"]
 CH4_FIGURES = figure_names.CH4
-GAMMA_TABLES = {"table_5_1": "table_5_1.csv", "anova": "table_5_2_anova.csv",
-                "coefficients": "table_5_2_coefficients.csv", "anova_j5": "table_5_2_anova_j5.csv",
-                "coefficients_j5": "table_5_2_coefficients_j5.csv", "basis": "gamma_basis.csv"}
+GAMMA_TABLES = {
+    "table_5_1": "table_5_1.csv",
+    "anova": "table_5_2_anova.csv",
+    "coefficients": "table_5_2_coefficients.csv",
+    "anova_j5": "table_5_2_anova_j5.csv",
+    "coefficients_j5": "table_5_2_coefficients_j5.csv",
+    "basis": "gamma_basis.csv",
+}
 CH5_FIGURES, FREQUENCY_RESPONSE_FIGURE = figure_names.CH5, figure_names.CH5_SWEEP
 OBSERVER_STUDY_FIGURE, ERROR_BUDGET_FIGURE = figure_names.CH5_STUDY, figure_names.CH5_BUDGET
 CH6_TABLES = ["table_6_1", "p1_summary", "table_6_2", "p3", "tracking"]
 CH6_FIGURES = figure_names.CH6
 THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
 THERMAL_FIGURES = figure_names.CH7_THERMAL
-GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (figure_names.CH7_GAMMA_T, figure_names.CH7_FREQUENCY,
-                                                    figure_names.CH7_DIAGRAM)
-GAMMA_T_TABLES = {"table_7_2": "table_7_2.csv", "anova": "table_7_3_anova.csv",
-                  "coefficients": "table_7_3_coefficients.csv", "order": "gamma_t_order.csv"}
+GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (
+    figure_names.CH7_GAMMA_T,
+    figure_names.CH7_FREQUENCY,
+    figure_names.CH7_DIAGRAM,
+)
+GAMMA_T_TABLES = {
+    "table_7_2": "table_7_2.csv",
+    "anova": "table_7_3_anova.csv",
+    "coefficients": "table_7_3_coefficients.csv",
+    "order": "gamma_t_order.csv",
+}
 COUPLED_FIGURES = figure_names.CH7_COUPLED
 RONKANEN_FIGURES = figure_names.RONKANEN
 
 
 # ---- Runs by role (selfsense.io.roles): which run plays which part is the catalogue's roles:, or
 # the manifest's; the rules read runs only through these, never by name
+
 
 def role_runs(dataset, role):
     """The dataset's runs of a role (a role of several runs: in catalogue order)."""
@@ -431,8 +489,10 @@ OBSERVED_SINES = {d: stages.observed_sines(EXPERIMENTS[d]) for d in DATASETS}
 
 #: {dataset: {experiment: Table 5.4 frequency [Hz], None for the creep run}} of every open-loop run
 #: the observer is evaluated on
-OBSERVED_RUNS = {d: {e: f for f, e in OBSERVED_SINES[d].items()}
-                    | dict.fromkeys(role_runs(d, "observer.creep")) for d in DATASETS}
+OBSERVED_RUNS = {
+    d: {e: f for f, e in OBSERVED_SINES[d].items()} | dict.fromkeys(role_runs(d, "observer.creep"))
+    for d in DATASETS
+}
 
 #: {dataset: the closed-loop experiments} (audited against the estimate their loop logged)
 CLOSED_LOOP = {d: stages.closed_loop(EXPERIMENTS[d]) for d in DATASETS}
@@ -443,29 +503,40 @@ SIMULATED_CLOSED_LOOP = sorted({e for d in SIMULATED for e in CLOSED_LOOP[d]})
 #: {dataset: {run: its profile}} of the Chapter 6 runs, open and closed loop
 CH6_RUNS = {d: stages.profile_runs(EXPERIMENTS[d]) for d in DATASETS}
 
+
 def profile_pairs(dataset):
     """{profile: [open-loop run, closed-loop run]} of the Chapter 6 profiles (stages.PROFILES)."""
     return {p: [role_run(dataset, r) for r in pair] for p, pair in stages.PROFILES.items()}
 
 
 #: {dataset: {run: its profile}} of the runs of Tables 6.1–6.2 whose tracking error the budget splits
-TRACKED_RUNS = {d: stages.profile_runs(EXPERIMENTS[d], ("P1", "P2a", "P2b", "P2c", "P2d")) for d in DATASETS}
+TRACKED_RUNS = {
+    d: stages.profile_runs(EXPERIMENTS[d], ("P1", "P2a", "P2b", "P2c", "P2d")) for d in DATASETS
+}
 
 #: {dataset: {experiment: Table 5.4 frequency [Hz] or None}} of every run the error budget splits:
 #: the observer's and the closed loops' whose observer error Chapter 6 tabulates (ε_OCL: P1 in
 #: Table 6.1, P2a–d in Table 6.2)
-BUDGET_RUNS = {d: OBSERVED_RUNS[d] | dict.fromkeys(e for e in TRACKED_RUNS[d] if e in CLOSED_LOOP[d])
-               for d in DATASETS}
+BUDGET_RUNS = {
+    d: OBSERVED_RUNS[d] | dict.fromkeys(e for e in TRACKED_RUNS[d] if e in CLOSED_LOOP[d])
+    for d in DATASETS
+}
 
 #: {dataset: the closed-loop runs the leak study simulates again} (Table 6.2's P2 profiles: seconds each)
-LEAK_RUNS = {d: [e for e, p in TRACKED_RUNS[d].items() if p != "P1" and e in CLOSED_LOOP[d]] for d in DATASETS}
+LEAK_RUNS = {
+    d: [e for e, p in TRACKED_RUNS[d].items() if p != "P1" and e in CLOSED_LOOP[d]]
+    for d in DATASETS
+}
 
 
 # ---- Ronkanen 2002 (power loss)
 
 POWERLOSS = "results/{dataset}/powerloss"
 
-RONKANEN_REPORT = {"category": "{dataset}", "subcategory": "Ronkanen 2002"}  # where the report files them
+RONKANEN_REPORT = {
+    "category": "{dataset}",
+    "subcategory": "Ronkanen 2002",
+}  # where the report files them
 
 
 def ronkanen_runs(dataset, parts):
@@ -482,7 +553,10 @@ def first_segment_end(dataset, role):
 def identification_runs(dataset):
     """The captures R and the ramps' impedances are identified from (by powerloss_identify):
     {"hold": the static hold, "ramps": every ramp with its fixed trial impedance}."""
-    return {"hold": role_run(dataset, "powerloss.hold"), "ramps": role_runs(dataset, "powerloss.ramp")}
+    return {
+        "hold": role_run(dataset, "powerloss.hold"),
+        "ramps": role_runs(dataset, "powerloss.ramp"),
+    }
 
 
 def uses_identification(dataset, experiment):
@@ -501,20 +575,27 @@ def simulated_together(protocols):
     rules = {}
     for protocol in protocols:
         if not (PROTOCOLS / f"{protocol}.yaml").is_file():
-            raise ValueError(f"{CONFIG_SOURCE}: key twin.together: {protocol!r} is no protocol "
-                             f"of {PROTOCOLS}")
+            raise ValueError(
+                f"{CONFIG_SOURCE}: key twin.together: {protocol!r} is no protocol "
+                f"of {PROTOCOLS}"
+            )
         by_runs = {}
         for d in SIMULATED:
             runs = tuple(e for e, run in EXPERIMENTS[d].items() if run.chapter == protocol)
             if runs:
                 by_runs.setdefault(runs, []).append(d)
         for k, (runs, datasets) in enumerate(by_runs.items()):
-            apart = [e for e in runs
-                     if any(e in CLOSED_LOOP[d] or uses_identification(d, e) for d in datasets)]
+            apart = [
+                e
+                for e in runs
+                if any(e in CLOSED_LOOP[d] or uses_identification(d, e) for d in datasets)
+            ]
             if apart:
-                raise ValueError(f"{CONFIG_SOURCE}: key twin.together: protocol {protocol}'s run "
-                                 f"{apart[0]} needs identified values (a closed loop, a "
-                                 "compensation): it is simulated on its own")
+                raise ValueError(
+                    f"{CONFIG_SOURCE}: key twin.together: protocol {protocol}'s run "
+                    f"{apart[0]} needs identified values (a closed loop, a "
+                    "compensation): it is simulated on its own"
+                )
             rules[f"simulate_{protocol}" + (f"_{k + 1}" if k else "")] = (protocol, runs, datasets)
     return rules
 
@@ -532,9 +613,11 @@ def identified_compensation(dataset, experiment):
     if not uses_identification(dataset, experiment):
         return {}
     if dataset not in POWERLOSS_DATASETS:
-        raise ValueError(f"{protocol_file(dataset, experiment)}: {experiment} compensates with the identified R and "
-                         f"c, which the powerloss stage identifies; it is skipped for {dataset} "
-                         f"(results/{dataset}/stages.csv)")
+        raise ValueError(
+            f"{protocol_file(dataset, experiment)}: {experiment} compensates with the identified R and "
+            f"c, which the powerloss stage identifies; it is skipped for {dataset} "
+            f"(results/{dataset}/stages.csv)"
+        )
     folder = POWERLOSS.format(dataset=dataset)
     return {"identified": f"{folder}/identified.csv", "table_2": f"{folder}/table_2.csv"}
 
@@ -543,8 +626,10 @@ def identified_compensation(dataset, experiment):
 for _d in POWERLOSS_DATASETS:
     for _e in [identification_runs(_d)["hold"], *identification_runs(_d)["ramps"]]:
         if uses_identification(_d, _e):
-            raise ValueError(f"{protocol_file(_d, _e)}: {_e} compensates with the identified R and c, but they are "
-                             f"identified from it (by powerloss_identify): give it a fixed setting")
+            raise ValueError(
+                f"{protocol_file(_d, _e)}: {_e} compensates with the identified R and c, but they are "
+                f"identified from it (by powerloss_identify): give it a fixed setting"
+            )
 
 
 # ---- The scorecard and the twin's calibration
@@ -553,20 +638,39 @@ SCORECARD_REGISTRY = "workflow/scorecard.yaml"
 
 # parsed once here so that a bad registry stops the workflow with one line before anything runs
 SCORECARD = parse_registry(load_yaml(SCORECARD_REGISTRY), SCORECARD_REGISTRY)
-check_chapters(ENVELOPE.design, [e.chapter for e in SCORECARD if e.kind == "emergent"], CONFIG_SOURCE)
+check_chapters(
+    ENVELOPE.design, [e.chapter for e in SCORECARD if e.kind == "emergent"], CONFIG_SOURCE
+)
 
 #: the thesis's printed Γ (Table 5.2, j = 5) and Γ_T (Table 7.3, n = 5 with T) against ours, compared
 #: as curves: per fit, the folder, the registry's source and coefficient names, the records compared
 #: (the thesis's order and the order the pipeline uses), the temperatures (Table 7.1's T_ref), and the
 #: run, ripple series and thermometers (Γ_T) each was fitted on, which rule gamma_truth refits
 CURVES = {
-    "gamma": {"folder": "ch5", "source": "Table 5.2", "coefficients": [f"b{i}" for i in range(6)], "g": None,
-              "fits": {"thesis order": "gamma_j5.json", "our order": "gamma.json"}, "temperatures": [0.0],
-              "datasets": GAMMA_DATASETS, "role": "gamma.fit", "series": "ripple/{run}.nc", "power": None},
-    "gamma_t": {"folder": "ch7", "source": "Table 7.3", "coefficients": [f"bT{i}" for i in range(6)],
-                "g": "g (temperature coefficient)", "fits": {"thesis order": "gamma_t_n5.json", "our order": "gamma_t.json"},
-                "temperatures": [23.0], "datasets": THERMAL_DATASETS, "role": "thermal.gamma_t_fit",
-                "series": "thermal/{run}_gamma.nc", "power": "thermal/{run}.nc"},
+    "gamma": {
+        "folder": "ch5",
+        "source": "Table 5.2",
+        "coefficients": [f"b{i}" for i in range(6)],
+        "g": None,
+        "fits": {"thesis order": "gamma_j5.json", "our order": "gamma.json"},
+        "temperatures": [0.0],
+        "datasets": GAMMA_DATASETS,
+        "role": "gamma.fit",
+        "series": "ripple/{run}.nc",
+        "power": None,
+    },
+    "gamma_t": {
+        "folder": "ch7",
+        "source": "Table 7.3",
+        "coefficients": [f"bT{i}" for i in range(6)],
+        "g": "g (temperature coefficient)",
+        "fits": {"thesis order": "gamma_t_n5.json", "our order": "gamma_t.json"},
+        "temperatures": [23.0],
+        "datasets": THERMAL_DATASETS,
+        "role": "thermal.gamma_t_fit",
+        "series": "thermal/{run}_gamma.nc",
+        "power": "thermal/{run}.nc",
+    },
 }
 
 
@@ -587,9 +691,19 @@ def stage_outputs():
     """Everything the stages promise to make: each rule file's *_OUTPUTS, as rule all collects
     them. Called by input functions only, so when the DAG is built, after every rule file is
     included (no rule file depends on the order of the includes)."""
-    return frozenset(ACQUIRE_OUTPUTS + RIPPLE_OUTPUTS + IDENTIFY_OUTPUTS + GAMMA_OUTPUTS + OBSERVER_OUTPUTS
-                     + CONTROL_OUTPUTS + THERMAL_OUTPUTS + POWERLOSS_OUTPUTS + CHARACTERISE_OUTPUTS
-                     + CURVE_OUTPUTS + VERIFY_OUTPUTS)
+    return frozenset(
+        ACQUIRE_OUTPUTS
+        + RIPPLE_OUTPUTS
+        + IDENTIFY_OUTPUTS
+        + GAMMA_OUTPUTS
+        + OBSERVER_OUTPUTS
+        + CONTROL_OUTPUTS
+        + THERMAL_OUTPUTS
+        + POWERLOSS_OUTPUTS
+        + CHARACTERISE_OUTPUTS
+        + CURVE_OUTPUTS
+        + VERIFY_OUTPUTS
+    )
 
 
 def scorecard_tables(dataset):
@@ -599,9 +713,15 @@ def scorecard_tables(dataset):
     (what the envelope reads)."""
     entries = applicable(SCORECARD, DATASETS[dataset])
     if dataset in ENVELOPE.manifests:  # the numbers' own tables, not those explaining them
-        read = list(dict.fromkeys(e.locate.table for e in entries
-                                  if e.kind in ("emergent", "calibration") and e.locate
-                                  and ENVELOPE.design.judges(e.chapter)))
+        read = list(
+            dict.fromkeys(
+                e.locate.table
+                for e in entries
+                if e.kind in ("emergent", "calibration")
+                and e.locate
+                and ENVELOPE.design.judges(e.chapter)
+            )
+        )
     else:
         read = dataset_tables(SCORECARD, DATASETS[dataset])
     return [t for t in (f"results/{dataset}/{t}" for t in read) if t in stage_outputs()]
@@ -614,8 +734,12 @@ def earlier_scorecards():
     found = {}
     for folder in sorted(RAW.iterdir()) if RAW.is_dir() else ():
         card = Path("results") / folder.name / "scorecard.csv"
-        if (folder.name not in DATASETS and re.fullmatch(DATASET_NAME, folder.name)
-                and (folder / "dataset.yaml").is_file() and card.is_file()):
+        if (
+            folder.name not in DATASETS
+            and re.fullmatch(DATASET_NAME, folder.name)
+            and (folder / "dataset.yaml").is_file()
+            and card.is_file()
+        ):
             found[folder.name] = str(card)
     return found
 
@@ -635,4 +759,8 @@ CALIBRATED_DATASETS = [d for d in SIMULATED if DATASETS[d].get("model") == "stac
 def calibration_tables(dataset):
     """The tables of the twin's calibration signatures that some stage makes for the dataset: the
     others are rows "not measured"."""
-    return [t for t in (f"results/{dataset}/{t}" for t in TWIN_CALIBRATION.tables()) if t in stage_outputs()]
+    return [
+        t
+        for t in (f"results/{dataset}/{t}" for t in TWIN_CALIBRATION.tables())
+        if t in stage_outputs()
+    ]

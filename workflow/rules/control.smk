@@ -17,39 +17,42 @@ if SIMULATED:
         output:
             capture=RAW / "{dataset}" / "{experiment}.nc",
             report="results/{dataset}/qc/{experiment}.json",
+        log:
+            "logs/{dataset}/simulate_closed_loop/{experiment}.log",
+        benchmark:
+            "benchmarks/out/{dataset}/simulate_closed_loop/{experiment}.tsv"
+        wildcard_constraints:
+            dataset="|".join(SIMULATED),
+            experiment="|".join(SIMULATED_CLOSED_LOOP) or "(?!)",  # none: matches no name
+        priority: longest_first
+        threads: 1
+        resources:
+            **resources_for("simulate_closed_loop"),
         params:
             campaign=config["campaign"],
             capture_settings=config["capture"],
             omega_c=config["control"]["omega_c"],
             n_periods=config["ripple"]["n_periods"],
-        wildcard_constraints:
-            dataset="|".join(SIMULATED),
-            experiment="|".join(SIMULATED_CLOSED_LOOP) or "(?!)",  # none: matches no name
-        log:
-            "logs/{dataset}/simulate_closed_loop/{experiment}.log",
-        benchmark:
-            "benchmarks/out/{dataset}/simulate_closed_loop/{experiment}.tsv"
-        threads: 1
-        resources:
-            **resources_for("simulate_closed_loop"),
-        priority: longest_first
         script:
             "../scripts/simulate_closed_loop.py"
 
 
 rule audit_realtime:
     """Offline HPO from each closed-loop capture's raw channels against the real-time estimate its
-    loop logged, one row per run (one job per dataset: each run is a fraction of a job's start-up)."""
+    loop logged, one row per run (one job per dataset: each run is a fraction of a job's start-up).
+    """
     input:
         unpack(lambda w: captures(w.dataset, captures=CLOSED_LOOP[w.dataset])),
         gamma="results/{dataset}/ch5/gamma.json",
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("audit_realtime"),
     output:
-        table=report("results/{dataset}/ch6/audit.csv", caption="../report/audit.rst", category="{dataset}",
-                     subcategory="Chapter 6"),
-    params:
-        n_periods=config["ripple"]["n_periods"],
+        table=report(
+            "results/{dataset}/ch6/audit.csv",
+            caption="../report/audit.rst",
+            category="{dataset}",
+            subcategory="Chapter 6",
+        ),
     log:
         "logs/{dataset}/audit_realtime.log",
     benchmark:
@@ -57,6 +60,8 @@ rule audit_realtime:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        n_periods=config["ripple"]["n_periods"],
     script:
         "../scripts/audit_realtime.py"
 
@@ -68,12 +73,15 @@ rule ch6_results:
         model="results/{dataset}/ch4/model.json",
         library=library_sources("ch6_results"),
     output:
-        **{t: report(f"results/{{dataset}}/ch6/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
-                     subcategory="Chapter 6") for t in CH6_TABLES},
-    params:
-        protocols=lambda w: protocols_of(w.dataset, CH6_RUNS[w.dataset]),
-        profiles=lambda w: profile_pairs(w.dataset),
-        omega_c=config["control"]["omega_c"],
+        **{
+            t: report(
+                f"results/{{dataset}}/ch6/{t}.csv",
+                caption=f"../report/{t}.rst",
+                category="{dataset}",
+                subcategory="Chapter 6",
+            )
+            for t in CH6_TABLES
+        },
     log:
         "logs/{dataset}/ch6_results.log",
     benchmark:
@@ -81,6 +89,10 @@ rule ch6_results:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        protocols=lambda w: protocols_of(w.dataset, CH6_RUNS[w.dataset]),
+        profiles=lambda w: profile_pairs(w.dataset),
+        omega_c=config["control"]["omega_c"],
     script:
         "../scripts/ch6_results.py"
 
@@ -92,10 +104,6 @@ rule ch6_figures:
         library=library_sources("ch6_figures"),
     output:
         **{name: report_figure(name, "Chapter 6") for name in CH6_FIGURES},
-    params:
-        pdf=FIGURE_PDF,
-        protocols=lambda w: protocols_of(w.dataset, CH6_RUNS[w.dataset]),
-        profiles=lambda w: profile_pairs(w.dataset),
     log:
         "logs/{dataset}/ch6_figures.log",
     benchmark:
@@ -103,10 +111,16 @@ rule ch6_figures:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        pdf=FIGURE_PDF,
+        protocols=lambda w: protocols_of(w.dataset, CH6_RUNS[w.dataset]),
+        profiles=lambda w: profile_pairs(w.dataset),
     script:
         "../scripts/ch6_figures.py"
 
 
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
-CONTROL_OUTPUTS = expand([*rules.ch6_results.output, *rules.ch6_figures.output, *rules.audit_realtime.output],
-                         dataset=CONTROL_DATASETS)
+CONTROL_OUTPUTS = expand(
+    [*rules.ch6_results.output, *rules.ch6_figures.output, *rules.audit_realtime.output],
+    dataset=CONTROL_DATASETS,
+)

@@ -15,18 +15,18 @@ rule envelope_member:
         library=library_sources("envelope_member"),
     output:
         manifest=RAW / "{dataset}" / "dataset.yaml",
-    params:
-        member=lambda w: ENVELOPE.manifests[w.dataset],
-    wildcard_constraints:
-        dataset="|".join(ENVELOPE.manifests) or "^$",
     log:
         "logs/{dataset}/envelope_member.log",
     benchmark:
         "benchmarks/out/{dataset}/envelope_member.tsv"
+    wildcard_constraints:
+        dataset="|".join(ENVELOPE.manifests) or "^$",
     localrule: True
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        member=lambda w: ENVELOPE.manifests[w.dataset],
     script:
         "../scripts/envelope_member.py"
 
@@ -39,11 +39,13 @@ rule envelope_plan:
         unknowns=UNKNOWNS,
         library=library_sources("envelope_plan"),
     output:
-        plan=report(f"{ENVELOPE_FOLDER}/plan.csv", caption="../report/envelope_plan.rst",
-                    category="Envelope", subcategory="Plan"),
+        plan=report(
+            f"{ENVELOPE_FOLDER}/plan.csv",
+            caption="../report/envelope_plan.rst",
+            category="Envelope",
+            subcategory="Plan",
+        ),
         unit=f"{ENVELOPE_FOLDER}/unit.csv",
-    params:
-        design=ENVELOPE.design.record(),
     log:
         f"logs/envelope/{ENVELOPE.design.name}/plan.log",
     benchmark:
@@ -52,6 +54,8 @@ rule envelope_plan:
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        design=ENVELOPE.design.record(),
     script:
         "../scripts/envelope_plan.py"
 
@@ -67,24 +71,40 @@ rule envelope:
         unknowns=UNKNOWNS,
         library=library_sources("envelope"),
     output:
-        card=report(f"{ENVELOPE_FOLDER}/scorecard.csv", caption="../report/envelope.rst",
-                    category="Envelope", subcategory="Scorecard"),
-        sensitivity=report(f"{ENVELOPE_FOLDER}/sensitivity.csv", caption="../report/envelope_sensitivity.rst",
-                           category="Envelope", subcategory="Scorecard"),
+        card=report(
+            f"{ENVELOPE_FOLDER}/scorecard.csv",
+            caption="../report/envelope.rst",
+            category="Envelope",
+            subcategory="Scorecard",
+        ),
+        sensitivity=report(
+            f"{ENVELOPE_FOLDER}/sensitivity.csv",
+            caption="../report/envelope_sensitivity.rst",
+            category="Envelope",
+            subcategory="Scorecard",
+        ),
         # the ensemble's tables (members × rows, members × signatures; members × inputs is the
         # plan): a later method re-judges from them without running a member again
         values=f"{ENVELOPE_FOLDER}/values.csv",
         signatures=f"{ENVELOPE_FOLDER}/signatures.csv",
-        forest=report(f"{ENVELOPE_FOLDER}/forest.png", caption="../report/envelope_forest.rst",
-                      category="Envelope", subcategory="Figures"),
-        tornado=report(f"{ENVELOPE_FOLDER}/tornado.png", caption="../report/envelope_tornado.rst",
-                       category="Envelope", subcategory="Figures"),
-        summary=report(f"{ENVELOPE_FOLDER}/envelope_summary.rst", caption="../report/envelope_summary.rst",
-                       category="Envelope", subcategory="Scorecard"),
-    params:
-        pdf=FIGURE_PDF,
-        design=ENVELOPE.design.record(),
-        raw_dir=config["raw_dir"],
+        forest=report(
+            f"{ENVELOPE_FOLDER}/forest.png",
+            caption="../report/envelope_forest.rst",
+            category="Envelope",
+            subcategory="Figures",
+        ),
+        tornado=report(
+            f"{ENVELOPE_FOLDER}/tornado.png",
+            caption="../report/envelope_tornado.rst",
+            category="Envelope",
+            subcategory="Figures",
+        ),
+        summary=report(
+            f"{ENVELOPE_FOLDER}/envelope_summary.rst",
+            caption="../report/envelope_summary.rst",
+            category="Envelope",
+            subcategory="Scorecard",
+        ),
     log:
         f"logs/envelope/{ENVELOPE.design.name}/envelope.log",
     benchmark:
@@ -93,5 +113,9 @@ rule envelope:
     threads: 1
     resources:
         **resources_for("medium"),
+    params:
+        pdf=FIGURE_PDF,
+        design=ENVELOPE.design.record(),
+        raw_dir=config["raw_dir"],
     script:
         "../scripts/envelope.py"

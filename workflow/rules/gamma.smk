@@ -10,13 +10,17 @@ rule gamma_fit:
         series=role_path("results/{dataset}/ripple/{run}.nc", "gamma.fit"),
         library=library_sources("gamma_fit"),
     output:
-        **{k: report(f"results/{{dataset}}/ch5/{v}", caption=f"../report/{k}.rst", category="{dataset}",
-                     subcategory="Chapter 5") for k, v in GAMMA_TABLES.items()},
+        **{
+            k: report(
+                f"results/{{dataset}}/ch5/{v}",
+                caption=f"../report/{k}.rst",
+                category="{dataset}",
+                subcategory="Chapter 5",
+            )
+            for k, v in GAMMA_TABLES.items()
+        },
         gamma="results/{dataset}/ch5/gamma.json",
         gamma_j5="results/{dataset}/ch5/gamma_j5.json",
-    params:
-        n_periods=config["ripple"]["n_periods"],
-        orders=config["gamma"]["orders"],
     log:
         "logs/{dataset}/gamma_fit.log",
     benchmark:
@@ -24,6 +28,9 @@ rule gamma_fit:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        n_periods=config["ripple"]["n_periods"],
+        orders=config["gamma"]["orders"],
     script:
         "../scripts/gamma_fit.py"
 

@@ -5,14 +5,21 @@
 rule static_stiffness:
     """k from the blocked force over the free stroke at U_max (Eq 4.16)."""
     input:
-        unpack(lambda w: captures(w.dataset, free=role_run(w.dataset, "identify.static_free"),
-                                  blocked=role_run(w.dataset, "identify.static_blocked"))),
+        unpack(
+            lambda w: captures(
+                w.dataset,
+                free=role_run(w.dataset, "identify.static_free"),
+                blocked=role_run(w.dataset, "identify.static_blocked"),
+            )
+        ),
         library=library_sources("static_stiffness"),
     output:
-        table=report("results/{dataset}/ch4/static_stiffness.csv", caption="../report/static_stiffness.rst",
-                     category="{dataset}", subcategory="Chapter 4"),
-    params:
-        t_hold=config["identify"]["static_hold_s"],
+        table=report(
+            "results/{dataset}/ch4/static_stiffness.csv",
+            caption="../report/static_stiffness.rst",
+            category="{dataset}",
+            subcategory="Chapter 4",
+        ),
     log:
         "logs/{dataset}/static_stiffness.log",
     benchmark:
@@ -20,6 +27,8 @@ rule static_stiffness:
     threads: 1
     resources:
         **resources_for("medium"),
+    params:
+        t_hold=config["identify"]["static_hold_s"],
     script:
         "../scripts/static_stiffness.py"
 
@@ -32,8 +41,15 @@ rule identify:
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("identify"),
     output:
-        **{t: report(f"results/{{dataset}}/ch4/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
-                     subcategory="Chapter 4") for t in CH4_TABLES},
+        **{
+            t: report(
+                f"results/{{dataset}}/ch4/{t}.csv",
+                caption=f"../report/{t}.rst",
+                category="{dataset}",
+                subcategory="Chapter 4",
+            )
+            for t in CH4_TABLES
+        },
         model="results/{dataset}/ch4/model.json",
     log:
         "logs/{dataset}/identify.log",
@@ -49,15 +65,18 @@ rule identify:
 rule ch4_figures:
     """Figures 4.2–4.8."""
     input:
-        unpack(lambda w: captures(w.dataset, force=role_run(w.dataset, "identify.force_record"),
-                                  drive=role_run(w.dataset, "identify.recovery_drive"))),
+        unpack(
+            lambda w: captures(
+                w.dataset,
+                force=role_run(w.dataset, "identify.force_record"),
+                drive=role_run(w.dataset, "identify.recovery_drive"),
+            )
+        ),
         series=role_paths("results/{dataset}/ripple/{run}.nc", "identify.set"),
         per_set="results/{dataset}/ch4/sets.csv",
         library=library_sources("ch4_figures"),
     output:
         **{name: report_figure(name, "Chapter 4") for name in CH4_FIGURES},
-    params:
-        pdf=FIGURE_PDF,
     log:
         "logs/{dataset}/ch4_figures.log",
     benchmark:
@@ -65,10 +84,14 @@ rule ch4_figures:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        pdf=FIGURE_PDF,
     script:
         "../scripts/ch4_figures.py"
 
 
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
-IDENTIFY_OUTPUTS = expand([*rules.static_stiffness.output, *rules.identify.output, *rules.ch4_figures.output],
-                          dataset=IDENTIFY_DATASETS)
+IDENTIFY_OUTPUTS = expand(
+    [*rules.static_stiffness.output, *rules.identify.output, *rules.ch4_figures.output],
+    dataset=IDENTIFY_DATASETS,
+)

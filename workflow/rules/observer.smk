@@ -6,18 +6,24 @@
 rule charge_sensing:
     """a0 from q–x over 10–300 Hz (Eq 5.3) and the observer gains of Table 5.3 (Eq 5.9)."""
     input:
-        series=lambda w: [f"results/{w.dataset}/ripple/{e}.nc" for e in CHARGE_SINES[w.dataset].values()],
+        series=lambda w: [
+            f"results/{w.dataset}/ripple/{e}.nc" for e in CHARGE_SINES[w.dataset].values()
+        ],
         library=library_sources("charge_sensing"),
     output:
-        charge_sensing=report("results/{dataset}/ch5/charge_sensing.csv", caption="../report/charge_sensing.rst",
-                              category="{dataset}", subcategory="Chapter 5"),
-        table_5_3=report("results/{dataset}/ch5/table_5_3.csv", caption="../report/table_5_3.rst",
-                         category="{dataset}", subcategory="Chapter 5"),
+        charge_sensing=report(
+            "results/{dataset}/ch5/charge_sensing.csv",
+            caption="../report/charge_sensing.rst",
+            category="{dataset}",
+            subcategory="Chapter 5",
+        ),
+        table_5_3=report(
+            "results/{dataset}/ch5/table_5_3.csv",
+            caption="../report/table_5_3.rst",
+            category="{dataset}",
+            subcategory="Chapter 5",
+        ),
         observer="results/{dataset}/ch5/observer.json",
-    params:
-        frequencies=lambda w: {e: f for f, e in CHARGE_SINES[w.dataset].items()},
-        omega_s=config["observer"]["omega_s"],
-        zeta_s=config["observer"]["zeta_s"],
     log:
         "logs/{dataset}/charge_sensing.log",
     benchmark:
@@ -25,6 +31,10 @@ rule charge_sensing:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        frequencies=lambda w: {e: f for f, e in CHARGE_SINES[w.dataset].items()},
+        omega_s=config["observer"]["omega_s"],
+        zeta_s=config["observer"]["zeta_s"],
     script:
         "../scripts/charge_sensing.py"
 
@@ -39,9 +49,6 @@ rule observe:
     output:
         traces="results/{dataset}/observer/{experiment}.nc",
         stats="results/{dataset}/observer/{experiment}.json",
-    params:
-        n_periods=config["ripple"]["n_periods"],
-        transient_s=lambda w: config["observer"]["creep_transient_s"] if w.experiment in role_runs(w.dataset, "observer.creep") else None,
     log:
         "logs/{dataset}/observe/{experiment}.log",
     benchmark:
@@ -49,6 +56,13 @@ rule observe:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        n_periods=config["ripple"]["n_periods"],
+        transient_s=lambda w: (
+            config["observer"]["creep_transient_s"]
+            if w.experiment in role_runs(w.dataset, "observer.creep")
+            else None
+        ),
     script:
         "../scripts/observe.py"
 
@@ -56,17 +70,25 @@ rule observe:
 rule ch5_tables:
     """Table 5.4 (open-loop observer error) and the creep run's errors."""
     input:
-        stats=lambda w: [f"results/{w.dataset}/observer/{e}.json" for e in OBSERVED_SINES[w.dataset].values()],
+        stats=lambda w: [
+            f"results/{w.dataset}/observer/{e}.json" for e in OBSERVED_SINES[w.dataset].values()
+        ],
         creep_traces=role_path("results/{dataset}/observer/{run}.nc", "observer.creep"),
         creep_stats=role_path("results/{dataset}/observer/{run}.json", "observer.creep"),
         library=library_sources("ch5_tables"),
     output:
-        table=report("results/{dataset}/ch5/table_5_4.csv", caption="../report/table_5_4.rst",
-                     category="{dataset}", subcategory="Chapter 5"),
-        creep=report("results/{dataset}/ch5/creep.csv", caption="../report/creep.rst",
-                     category="{dataset}", subcategory="Chapter 5"),
-    params:
-        frequencies=lambda w: {e: f for f, e in OBSERVED_SINES[w.dataset].items()},
+        table=report(
+            "results/{dataset}/ch5/table_5_4.csv",
+            caption="../report/table_5_4.rst",
+            category="{dataset}",
+            subcategory="Chapter 5",
+        ),
+        creep=report(
+            "results/{dataset}/ch5/creep.csv",
+            caption="../report/creep.rst",
+            category="{dataset}",
+            subcategory="Chapter 5",
+        ),
     log:
         "logs/{dataset}/ch5_tables.log",
     benchmark:
@@ -74,6 +96,8 @@ rule ch5_tables:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        frequencies=lambda w: {e: f for f, e in OBSERVED_SINES[w.dataset].items()},
     script:
         "../scripts/ch5_tables.py"
 
@@ -86,14 +110,13 @@ rule observer_study:
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("observer_study"),
     output:
-        table=report("results/{dataset}/ch5/observer_study.csv", caption="../report/observer_study.rst",
-                     category="{dataset}", subcategory="Chapter 5"),
+        table=report(
+            "results/{dataset}/ch5/observer_study.csv",
+            caption="../report/observer_study.rst",
+            category="{dataset}",
+            subcategory="Chapter 5",
+        ),
         figure=report_figure(OBSERVER_STUDY_FIGURE, "Chapter 5"),
-    params:
-        pdf=FIGURE_PDF,
-        omegas=config["observer"]["study_omegas"],
-        offsets=config["observer"]["study_offsets"],
-        n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/observer_study.log",
     benchmark:
@@ -101,6 +124,11 @@ rule observer_study:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        pdf=FIGURE_PDF,
+        omegas=config["observer"]["study_omegas"],
+        offsets=config["observer"]["study_offsets"],
+        n_periods=config["ripple"]["n_periods"],
     script:
         "../scripts/observer_study.py"
 
@@ -111,18 +139,14 @@ rule ch5_figures:
         unpack(lambda w: captures(w.dataset, gamma_capture=role_run(w.dataset, "gamma.fit"))),  # its warm-up, left out of the Γ fits
         series=role_paths("results/{dataset}/ripple/{run}.nc", "observer.sine"),
         gamma_series=role_path("results/{dataset}/ripple/{run}.nc", "gamma.fit"),
-        traces=lambda w: [f"results/{w.dataset}/observer/{e}.nc" for e in OBSERVED_SINES[w.dataset].values()],
+        traces=lambda w: [
+            f"results/{w.dataset}/observer/{e}.nc" for e in OBSERVED_SINES[w.dataset].values()
+        ],
         creep=role_path("results/{dataset}/observer/{run}.nc", "observer.creep"),
         observer="results/{dataset}/ch5/observer.json",
         library=library_sources("ch5_figures"),
     output:
         **{name: report_figure(name, "Chapter 5") for name in CH5_FIGURES},
-    params:
-        pdf=FIGURE_PDF,
-        series_f=lambda w: {e: f for f, e in by_frequency(w.dataset, "observer.sine").items()},
-        traces_f=lambda w: {e: f for f, e in OBSERVED_SINES[w.dataset].items()},
-        n_periods=config["ripple"]["n_periods"],
-        orders=config["gamma"]["orders"],
     log:
         "logs/{dataset}/ch5_figures.log",
     benchmark:
@@ -130,6 +154,12 @@ rule ch5_figures:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        pdf=FIGURE_PDF,
+        series_f=lambda w: {e: f for f, e in by_frequency(w.dataset, "observer.sine").items()},
+        traces_f=lambda w: {e: f for f, e in OBSERVED_SINES[w.dataset].items()},
+        n_periods=config["ripple"]["n_periods"],
+        orders=config["gamma"]["orders"],
     script:
         "../scripts/ch5_figures.py"
 
@@ -137,19 +167,25 @@ rule ch5_figures:
 rule frequency_response:
     """Fig 5.3: G(s) = x/q (Eq 5.2) from the stepped-sine sweep against the identified model."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, "frequency_response.sweep"))),
+        unpack(
+            lambda w: captures(w.dataset, capture=role_run(w.dataset, "frequency_response.sweep"))
+        ),
         model="results/{dataset}/ch4/model.json",
         library=library_sources("frequency_response"),
     output:
-        table=report("results/{dataset}/ch5/frequency_response.csv", caption="../report/frequency_response.rst",
-                     category="{dataset}", subcategory="Chapter 5"),
-        peaks=report("results/{dataset}/ch5/resonance.csv", caption="../report/resonance.rst",
-                     category="{dataset}", subcategory="Chapter 5"),
+        table=report(
+            "results/{dataset}/ch5/frequency_response.csv",
+            caption="../report/frequency_response.rst",
+            category="{dataset}",
+            subcategory="Chapter 5",
+        ),
+        peaks=report(
+            "results/{dataset}/ch5/resonance.csv",
+            caption="../report/resonance.rst",
+            category="{dataset}",
+            subcategory="Chapter 5",
+        ),
         figure=report_figure(FREQUENCY_RESPONSE_FIGURE, "Chapter 5"),
-    params:
-        pdf=FIGURE_PDF,
-        protocol=lambda w: EXPERIMENTS[w.dataset][role_run(w.dataset, "frequency_response.sweep")].protocol,
-        settle_s=config["observer"]["sweep_settle_s"],
     log:
         "logs/{dataset}/frequency_response.log",
     benchmark:
@@ -157,14 +193,25 @@ rule frequency_response:
     threads: 1
     resources:
         **resources_for("medium"),
+    params:
+        pdf=FIGURE_PDF,
+        protocol=lambda w: EXPERIMENTS[w.dataset][
+            role_run(w.dataset, "frequency_response.sweep")
+        ].protocol,
+        settle_s=config["observer"]["sweep_settle_s"],
     script:
         "../scripts/frequency_response.py"
 
 
-
 #: what the stages make for rule all and the scorecard: their rules' outputs, for the datasets each runs for
-OBSERVER_OUTPUTS = (
-    expand(rules.frequency_response.output, dataset=FREQUENCY_RESPONSE_DATASETS)
-    + expand([*rules.charge_sensing.output, *rules.ch5_tables.output, *rules.observer_study.output,
-              *rules.ch5_figures.output], dataset=OBSERVER_DATASETS)
+OBSERVER_OUTPUTS = expand(
+    rules.frequency_response.output, dataset=FREQUENCY_RESPONSE_DATASETS
+) + expand(
+    [
+        *rules.charge_sensing.output,
+        *rules.ch5_tables.output,
+        *rules.observer_study.output,
+        *rules.ch5_figures.output,
+    ],
+    dataset=OBSERVER_DATASETS,
 )

@@ -13,13 +13,17 @@ rule powerloss_identify:
         unpack(lambda w: captures(w.dataset, **identification_runs(w.dataset))),
         library=library_sources("powerloss_identify"),
     output:
-        ramp_table=report(f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT),
-        table_1=report(f"{POWERLOSS}/table_1.csv", caption="../report/ronkanen_table_1.rst", **RONKANEN_REPORT),
-        identified=report(f"{POWERLOSS}/identified.csv", caption="../report/ronkanen_identified.rst",
-                          **RONKANEN_REPORT),
-    params:
-        hold_start=lambda w: first_segment_end(w.dataset, "powerloss.hold"),
-        velocity_window=config["powerloss"]["velocity_window_s"],
+        ramp_table=report(
+            f"{POWERLOSS}/ramps.csv", caption="../report/ronkanen_ramps.rst", **RONKANEN_REPORT
+        ),
+        table_1=report(
+            f"{POWERLOSS}/table_1.csv", caption="../report/ronkanen_table_1.rst", **RONKANEN_REPORT
+        ),
+        identified=report(
+            f"{POWERLOSS}/identified.csv",
+            caption="../report/ronkanen_identified.rst",
+            **RONKANEN_REPORT,
+        ),
     log:
         "logs/{dataset}/powerloss_identify.log",
     benchmark:
@@ -27,6 +31,9 @@ rule powerloss_identify:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        hold_start=lambda w: first_segment_end(w.dataset, "powerloss.hold"),
+        velocity_window=config["powerloss"]["velocity_window_s"],
     script:
         "../scripts/powerloss_identify.py"
 
@@ -38,7 +45,9 @@ rule powerloss_table_2:
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_table_2"),
     output:
-        table=report(f"{POWERLOSS}/table_2.csv", caption="../report/ronkanen_table_2.rst", **RONKANEN_REPORT),
+        table=report(
+            f"{POWERLOSS}/table_2.csv", caption="../report/ronkanen_table_2.rst", **RONKANEN_REPORT
+        ),
     log:
         "logs/{dataset}/powerloss_table_2.log",
     benchmark:
@@ -53,18 +62,24 @@ rule powerloss_table_2:
 rule powerloss_performance:
     """Hysteresis, drift, repeatability and max error: current vs open-loop voltage control."""
     input:
-        unpack(lambda w: captures(w.dataset, captures=list(ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS).values()))),
+        unpack(
+            lambda w: captures(
+                w.dataset, captures=list(ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS).values())
+            )
+        ),
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_performance"),
     output:
-        performance=report(f"{POWERLOSS}/performance.csv", caption="../report/ronkanen_performance.rst",
-                           **RONKANEN_REPORT),
-        repeatability=report(f"{POWERLOSS}/repeatability.csv", caption="../report/ronkanen_repeatability.rst",
-                             **RONKANEN_REPORT),
-    params:
-        drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
-        drift_duration=config["powerloss"]["drift_duration_s"],
-        pairs=lambda w: ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS),
+        performance=report(
+            f"{POWERLOSS}/performance.csv",
+            caption="../report/ronkanen_performance.rst",
+            **RONKANEN_REPORT,
+        ),
+        repeatability=report(
+            f"{POWERLOSS}/repeatability.csv",
+            caption="../report/ronkanen_repeatability.rst",
+            **RONKANEN_REPORT,
+        ),
     log:
         "logs/{dataset}/powerloss_performance.log",
     benchmark:
@@ -72,6 +87,10 @@ rule powerloss_performance:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
+        drift_duration=config["powerloss"]["drift_duration_s"],
+        pairs=lambda w: ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS),
     script:
         "../scripts/powerloss_performance.py"
 
@@ -79,21 +98,27 @@ rule powerloss_performance:
 rule powerloss_figures:
     """Figures 2–11 of the paper from the captures and the identified constants."""
     input:
-        unpack(lambda w: captures(w.dataset, hold=role_run(w.dataset, "powerloss.hold"),
-                                  ramps=[role_run(w.dataset, r) for r in stages.RONKANEN_VELOCITY_RAMPS],
-                                  captures=list(ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS).values()))),
+        unpack(
+            lambda w: captures(
+                w.dataset,
+                hold=role_run(w.dataset, "powerloss.hold"),
+                ramps=[role_run(w.dataset, r) for r in stages.RONKANEN_VELOCITY_RAMPS],
+                captures=list(ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS).values()),
+            )
+        ),
         table_1=f"{POWERLOSS}/table_1.csv",
         table_2=f"{POWERLOSS}/table_2.csv",
         identified=f"{POWERLOSS}/identified.csv",
         library=library_sources("powerloss_figures"),
     output:
-        **{name: report(f"figures/{{dataset}}/{name}.png", caption=f"../report/ronkanen_fig_{n}.rst", **RONKANEN_REPORT)
-           for n, name in RONKANEN_FIGURES.items()},
-    params:
-        pdf=FIGURE_PDF,
-        velocity_window=config["powerloss"]["velocity_window_s"],
-        drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
-        pairs=lambda w: ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS),
+        **{
+            name: report(
+                f"figures/{{dataset}}/{name}.png",
+                caption=f"../report/ronkanen_fig_{n}.rst",
+                **RONKANEN_REPORT,
+            )
+            for n, name in RONKANEN_FIGURES.items()
+        },
     log:
         "logs/{dataset}/powerloss_figures.log",
     benchmark:
@@ -101,12 +126,22 @@ rule powerloss_figures:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        pdf=FIGURE_PDF,
+        velocity_window=config["powerloss"]["velocity_window_s"],
+        drift_start=lambda w: first_segment_end(w.dataset, "powerloss.drift_current"),
+        pairs=lambda w: ronkanen_runs(w.dataset, stages.RONKANEN_PAIRS),
     script:
         "../scripts/powerloss_figures.py"
 
 
-
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
-POWERLOSS_OUTPUTS = expand([*rules.powerloss_identify.output, *rules.powerloss_table_2.output,
-                            *rules.powerloss_performance.output, *rules.powerloss_figures.output],
-                           dataset=POWERLOSS_DATASETS)
+POWERLOSS_OUTPUTS = expand(
+    [
+        *rules.powerloss_identify.output,
+        *rules.powerloss_table_2.output,
+        *rules.powerloss_performance.output,
+        *rules.powerloss_figures.output,
+    ],
+    dataset=POWERLOSS_DATASETS,
+)

@@ -10,31 +10,39 @@ rule curve_vs_thesis:
         fits=curve_fits,
         library=library_sources("curve_vs_thesis"),
     output:
-        table=report("results/{dataset}/{folder}/{fit}_vs_thesis.csv", caption="../report/curve_vs_thesis.rst",
-                     category="{dataset}", subcategory="Scorecard"),
+        table=report(
+            "results/{dataset}/{folder}/{fit}_vs_thesis.csv",
+            caption="../report/curve_vs_thesis.rst",
+            category="{dataset}",
+            subcategory="Scorecard",
+        ),
+    log:
+        "logs/{dataset}/curve_vs_thesis/{folder}_{fit}.log",
+    benchmark:
+        "benchmarks/out/{dataset}/curve_vs_thesis/{folder}_{fit}.tsv"
     wildcard_constraints:
         fit="|".join(CURVES),
         folder="ch5|ch7",
+    threads: 1
+    resources:
+        **resources_for("small"),
     params:
         fit_names=lambda w: {f: name for name, f in CURVES[w.fit]["fits"].items()},
         source=lambda w: CURVES[w.fit]["source"],
         coefficients=lambda w: CURVES[w.fit]["coefficients"],
         g=lambda w: CURVES[w.fit]["g"],
         temperatures=lambda w: CURVES[w.fit]["temperatures"],
-    log:
-        "logs/{dataset}/curve_vs_thesis/{folder}_{fit}.log",
-    benchmark:
-        "benchmarks/out/{dataset}/curve_vs_thesis/{folder}_{fit}.tsv"
-    threads: 1
-    resources:
-        **resources_for("small"),
     script:
         "../scripts/curve_vs_thesis.py"
 
 
-
 #: the curves' comparisons with the thesis, for the datasets that fit each curve
-CURVE_OUTPUTS = [f"results/{d}/{c['folder']}/{fit}_vs_thesis.csv" for fit, c in CURVES.items() for d in c["datasets"]]
+CURVE_OUTPUTS = [
+    f"results/{d}/{c['folder']}/{fit}_vs_thesis.csv"
+    for fit, c in CURVES.items()
+    for d in c["datasets"]
+]
+
 
 rule scorecard:
     """Published vs reproduced numbers for one dataset: deviation, band, verdict (CSV and a page).
@@ -46,24 +54,32 @@ rule scorecard:
         tables=lambda w: scorecard_tables(w.dataset),
         library=library_sources("scorecard"),
     output:
-        table=report("results/{dataset}/scorecard.csv", caption="../report/scorecard.rst",
-                     category="{dataset}", subcategory="Scorecard"),
-        page=report("results/{dataset}/scorecard.html", caption="../report/scorecard.rst",
-                    category="{dataset}", subcategory="Scorecard"),
-    params:
-        results_dir=lambda w: f"results/{w.dataset}",
-    wildcard_constraints:
-        # this run's datasets only: another dataset's scorecard, read by the summary as an earlier
-        # run left it, is never made again by this run
-        dataset="|".join(DATASETS),
+        table=report(
+            "results/{dataset}/scorecard.csv",
+            caption="../report/scorecard.rst",
+            category="{dataset}",
+            subcategory="Scorecard",
+        ),
+        page=report(
+            "results/{dataset}/scorecard.html",
+            caption="../report/scorecard.rst",
+            category="{dataset}",
+            subcategory="Scorecard",
+        ),
     log:
         "logs/{dataset}/scorecard.log",
     benchmark:
         "benchmarks/out/{dataset}/scorecard.tsv"
+    wildcard_constraints:
+        # this run's datasets only: another dataset's scorecard, read by the summary as an earlier
+        # run left it, is never made again by this run
+        dataset="|".join(DATASETS),
     localrule: True
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        results_dir=lambda w: f"results/{w.dataset}",
     script:
         "../scripts/scorecard.py"
 
@@ -80,16 +96,30 @@ rule scorecard_summary:
         earlier=[ancient(card) for card in EARLIER_SCORECARDS.values()],
         library=library_sources("scorecard_summary"),
     output:
-        summary=report("results/scorecard_summary.rst", caption="../report/scorecard_summary.rst",
-                       category="Scorecard", subcategory="All datasets"),
-        counts=report("results/scorecard_counts.csv", caption="../report/scorecard_counts.rst",
-                      category="Scorecard", subcategory="All datasets"),
-        out_of_band=report("results/scorecard_out_of_band.html", caption="../report/scorecard_out_of_band.rst",
-                           category="Scorecard", subcategory="All datasets"),
-        not_yet=report("results/scorecard_not_yet.html", caption="../report/scorecard_not_yet.rst",
-                       category="Scorecard", subcategory="All datasets"),
-    params:
-        campaign=config["campaign"],
+        summary=report(
+            "results/scorecard_summary.rst",
+            caption="../report/scorecard_summary.rst",
+            category="Scorecard",
+            subcategory="All datasets",
+        ),
+        counts=report(
+            "results/scorecard_counts.csv",
+            caption="../report/scorecard_counts.rst",
+            category="Scorecard",
+            subcategory="All datasets",
+        ),
+        out_of_band=report(
+            "results/scorecard_out_of_band.html",
+            caption="../report/scorecard_out_of_band.rst",
+            category="Scorecard",
+            subcategory="All datasets",
+        ),
+        not_yet=report(
+            "results/scorecard_not_yet.html",
+            caption="../report/scorecard_not_yet.rst",
+            category="Scorecard",
+            subcategory="All datasets",
+        ),
     log:
         "logs/scorecard_summary.log",
     benchmark:
@@ -97,8 +127,14 @@ rule scorecard_summary:
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        campaign=config["campaign"],
     script:
         "../scripts/scorecard_summary.py"
 
 
-REPORT_OUTPUTS = expand(rules.scorecard.output.table, dataset=NOMINAL) + list(rules.scorecard_summary.output) + CURVE_OUTPUTS
+REPORT_OUTPUTS = (
+    expand(rules.scorecard.output.table, dataset=NOMINAL)
+    + list(rules.scorecard_summary.output)
+    + CURVE_OUTPUTS
+)

@@ -10,8 +10,6 @@ rule extract_ripple:
         library=library_sources("extract_ripple"),
     output:
         series="results/{dataset}/ripple/{experiment}.nc",
-    params:
-        n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/extract_ripple/{experiment}.log",
     benchmark:
@@ -19,6 +17,8 @@ rule extract_ripple:
     threads: 1
     resources:
         **resources_for("stream"),
+    params:
+        n_periods=config["ripple"]["n_periods"],
     script:
         "../scripts/extract_ripple.py"
 
@@ -29,14 +29,18 @@ rule ch3_tables:
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("ch3_tables"),
     output:
-        table_31=report("results/{dataset}/ch3/table_3_1.csv", caption="../report/table_3_1.rst",
-                        category="{dataset}", subcategory="Chapter 3"),
-        table_32=report("results/{dataset}/ch3/table_3_2.csv", caption="../report/table_3_2.rst",
-                        category="{dataset}", subcategory="Chapter 3"),
-    params:
-        fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
-        ns=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["ns"],
-        fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
+        table_31=report(
+            "results/{dataset}/ch3/table_3_1.csv",
+            caption="../report/table_3_1.rst",
+            category="{dataset}",
+            subcategory="Chapter 3",
+        ),
+        table_32=report(
+            "results/{dataset}/ch3/table_3_2.csv",
+            caption="../report/table_3_2.rst",
+            category="{dataset}",
+            subcategory="Chapter 3",
+        ),
     log:
         "logs/{dataset}/ch3_tables.log",
     benchmark:
@@ -44,6 +48,10 @@ rule ch3_tables:
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
+        ns=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["ns"],
+        fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
     script:
         "../scripts/ch3_tables.py"
 
@@ -55,13 +63,18 @@ rule ch3_hysteresis:
         series=role_path("results/{dataset}/ripple/{run}.nc", stages.CH3_SERIES["10 Hz"]),
         library=library_sources("ch3_hysteresis"),
     output:
-        table=report("results/{dataset}/ch3/hysteresis.csv", caption="../report/hysteresis.rst",
-                     category="{dataset}", subcategory="Chapter 3"),
-        phases=report("results/{dataset}/ch3/phases.csv", caption="../report/phases.rst",
-                      category="{dataset}", subcategory="Chapter 3"),
-    params:
-        skip_s=config["ripple"]["skip_s"],
-        frequency=lambda w: float(drive_frequency(w.dataset, role_run(w.dataset, stages.CH3_SERIES["10 Hz"]))),
+        table=report(
+            "results/{dataset}/ch3/hysteresis.csv",
+            caption="../report/hysteresis.rst",
+            category="{dataset}",
+            subcategory="Chapter 3",
+        ),
+        phases=report(
+            "results/{dataset}/ch3/phases.csv",
+            caption="../report/phases.rst",
+            category="{dataset}",
+            subcategory="Chapter 3",
+        ),
     log:
         "logs/{dataset}/ch3_hysteresis.log",
     benchmark:
@@ -69,6 +82,11 @@ rule ch3_hysteresis:
     threads: 1
     resources:
         **resources_for("medium"),
+    params:
+        skip_s=config["ripple"]["skip_s"],
+        frequency=lambda w: float(
+            drive_frequency(w.dataset, role_run(w.dataset, stages.CH3_SERIES["10 Hz"]))
+        ),
     script:
         "../scripts/ch3_hysteresis.py"
 
@@ -76,16 +94,17 @@ rule ch3_hysteresis:
 rule ch3_figures:
     """Figures 3.2–3.14 of the ripple impedance measurement."""
     input:
-        unpack(lambda w: captures(w.dataset, capture=role_run(w.dataset, stages.CH3_SERIES["10 Hz"]))),
-        series=lambda w: [f"results/{w.dataset}/ripple/{role_run(w.dataset, r)}.nc" for r in stages.CH3_SERIES.values()],
+        unpack(
+            lambda w: captures(w.dataset, capture=role_run(w.dataset, stages.CH3_SERIES["10 Hz"]))
+        ),
+        series=lambda w: [
+            f"results/{w.dataset}/ripple/{role_run(w.dataset, r)}.nc"
+            for r in stages.CH3_SERIES.values()
+        ],
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("ch3_figures"),
     output:
         **{name: report_figure(name, "Chapter 3") for name in CH3_FIGURES},
-    params:
-        pdf=FIGURE_PDF,
-        labels=lambda w: {role_run(w.dataset, r): label for label, r in stages.CH3_SERIES.items()},
-        skip_s=config["ripple"]["skip_s"],
     log:
         "logs/{dataset}/ch3_figures.log",
     benchmark:
@@ -93,6 +112,10 @@ rule ch3_figures:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        pdf=FIGURE_PDF,
+        labels=lambda w: {role_run(w.dataset, r): label for label, r in stages.CH3_SERIES.items()},
+        skip_s=config["ripple"]["skip_s"],
     script:
         "../scripts/ch3_figures.py"
 
@@ -104,8 +127,6 @@ rule ch3_model_figure:
         library=library_sources("ch3_model_figure"),
     output:
         figure=report_figure(CH3_MODEL_FIGURE, "Chapter 3"),
-    params:
-        pdf=FIGURE_PDF,
     log:
         "logs/{dataset}/ch3_model_figure.log",
     benchmark:
@@ -113,6 +134,8 @@ rule ch3_model_figure:
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        pdf=FIGURE_PDF,
     script:
         "../scripts/ch3_model_figure.py"
 

@@ -9,10 +9,12 @@ rule stage_plan:
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("stage_plan"),
     output:
-        table=report("results/{dataset}/stages.csv", caption="../report/stages.rst", category="{dataset}",
-                     subcategory="Stages"),
-    params:
-        rows=lambda w: STAGE_PLANS[w.dataset].rows(),
+        table=report(
+            "results/{dataset}/stages.csv",
+            caption="../report/stages.rst",
+            category="{dataset}",
+            subcategory="Stages",
+        ),
     log:
         "logs/{dataset}/stage_plan.log",
     benchmark:
@@ -20,6 +22,8 @@ rule stage_plan:
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        rows=lambda w: STAGE_PLANS[w.dataset].rows(),
     script:
         "../scripts/stage_plan.py"
 

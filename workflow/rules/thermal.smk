@@ -12,10 +12,6 @@ rule thermal_extract:
     output:
         power="results/{dataset}/thermal/{experiment}.nc",
         samples="results/{dataset}/thermal/{experiment}_gamma.nc",
-    params:
-        n_periods=config["ripple"]["n_periods"],
-        interval=config["thermal"]["power_interval_s"],
-        every=config["thermal"]["gamma_t_every"],
     log:
         "logs/{dataset}/thermal_extract/{experiment}.log",
     benchmark:
@@ -23,6 +19,10 @@ rule thermal_extract:
     threads: 1
     resources:
         **resources_for("stream_long"),
+    params:
+        n_periods=config["ripple"]["n_periods"],
+        interval=config["thermal"]["power_interval_s"],
+        every=config["thermal"]["gamma_t_every"],
     script:
         "../scripts/thermal_extract.py"
 
@@ -37,14 +37,17 @@ rule thermal_identify:
         model="results/{dataset}/ch4/model.json",
         library=library_sources("thermal_identify"),
     output:
-        **{t: report(f"results/{{dataset}}/ch7/{t}.csv", caption=f"../report/{t}.rst", category="{dataset}",
-                     subcategory="Chapter 7") for t in THERMAL_TABLES},
-        thermal_model="results/{dataset}/ch7/thermal_model.json",
+        **{
+            t: report(
+                f"results/{{dataset}}/ch7/{t}.csv",
+                caption=f"../report/{t}.rst",
+                category="{dataset}",
+                subcategory="Chapter 7",
+            )
+            for t in THERMAL_TABLES
+        },
         **{name: report_figure(name, "Chapter 7") for name in THERMAL_FIGURES},
-    params:
-        pdf=FIGURE_PDF,
-        freqs=lambda w: {e: f for f, e in by_frequency(w.dataset, "thermal.heating").items()},
-        volt_segments=lambda w: EXPERIMENTS[w.dataset][role_run(w.dataset, "thermal.voltage")].protocol["segments"],
+        thermal_model="results/{dataset}/ch7/thermal_model.json",
     log:
         "logs/{dataset}/thermal_identify.log",
     benchmark:
@@ -52,30 +55,41 @@ rule thermal_identify:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        pdf=FIGURE_PDF,
+        freqs=lambda w: {e: f for f, e in by_frequency(w.dataset, "thermal.heating").items()},
+        volt_segments=lambda w: EXPERIMENTS[w.dataset][
+            role_run(w.dataset, "thermal.voltage")
+        ].protocol["segments"],
     script:
         "../scripts/thermal_identify.py"
 
 
 rule gamma_t_fit:
     """Γ_T of orders 4–6 with temperature, and with a C·T interaction, on the 50 Hz run (Tables
-    7.2, 7.3 at the thesis's n = 5); the order of the Γ_T used downstream validated on the 100 Hz run."""
+    7.2, 7.3 at the thesis's n = 5); the order of the Γ_T used downstream validated on the 100 Hz run.
+    """
     input:
         samples=role_path("results/{dataset}/thermal/{run}_gamma.nc", "thermal.gamma_t_fit"),
         power=role_path("results/{dataset}/thermal/{run}.nc", "thermal.gamma_t_fit"),
-        val_samples=role_path("results/{dataset}/thermal/{run}_gamma.nc", "thermal.gamma_t_validation"),
+        val_samples=role_path(
+            "results/{dataset}/thermal/{run}_gamma.nc", "thermal.gamma_t_validation"
+        ),
         val_power=role_path("results/{dataset}/thermal/{run}.nc", "thermal.gamma_t_validation"),
         library=library_sources("gamma_t_fit"),
     output:
-        **{k: report(f"results/{{dataset}}/ch7/{v}", caption=f"../report/{k}_t.rst", category="{dataset}",
-                     subcategory="Chapter 7") for k, v in GAMMA_T_TABLES.items()},
+        **{
+            k: report(
+                f"results/{{dataset}}/ch7/{v}",
+                caption=f"../report/{k}_t.rst",
+                category="{dataset}",
+                subcategory="Chapter 7",
+            )
+            for k, v in GAMMA_T_TABLES.items()
+        },
         gamma_t="results/{dataset}/ch7/gamma_t.json",
         gamma_t_n5="results/{dataset}/ch7/gamma_t_n5.json",
         figure=report_figure(GAMMA_T_FIGURE, "Chapter 7"),
-    params:
-        pdf=FIGURE_PDF,
-        orders=config["thermal"]["gamma_t_orders"],
-        gamma_t_order=config["thermal"]["gamma_t_order"],
-        candidates=config["thermal"]["gamma_t_candidates"],
     log:
         "logs/{dataset}/gamma_t_fit.log",
     benchmark:
@@ -83,6 +97,11 @@ rule gamma_t_fit:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        pdf=FIGURE_PDF,
+        orders=config["thermal"]["gamma_t_orders"],
+        gamma_t_order=config["thermal"]["gamma_t_order"],
+        candidates=config["thermal"]["gamma_t_candidates"],
     script:
         "../scripts/gamma_t_fit.py"
 
@@ -96,15 +115,13 @@ rule frequency_effect:
         gamma_t="results/{dataset}/ch7/gamma_t.json",
         library=library_sources("frequency_effect"),
     output:
-        table=report("results/{dataset}/ch7/frequency_effect.csv", caption="../report/frequency_effect.rst",
-                     category="{dataset}", subcategory="Chapter 7"),
+        table=report(
+            "results/{dataset}/ch7/frequency_effect.csv",
+            caption="../report/frequency_effect.rst",
+            category="{dataset}",
+            subcategory="Chapter 7",
+        ),
         figure=report_figure(FREQUENCY_FIGURE, "Chapter 7"),
-    params:
-        pdf=FIGURE_PDF,
-        frequencies=lambda w: {e: drive_frequency(w.dataset, e) for e in role_runs(w.dataset, "observer.sine")},
-        reference=lambda w: role_run(w.dataset, "gamma.fit"),
-        bins=config["thermal"]["frequency_effect_bins"],
-        min_windows=config["thermal"]["frequency_effect_min_windows"],
     log:
         "logs/{dataset}/frequency_effect.log",
     benchmark:
@@ -112,6 +129,14 @@ rule frequency_effect:
     threads: 1
     resources:
         **resources_for("large"),
+    params:
+        pdf=FIGURE_PDF,
+        frequencies=lambda w: {
+            e: drive_frequency(w.dataset, e) for e in role_runs(w.dataset, "observer.sine")
+        },
+        reference=lambda w: role_run(w.dataset, "gamma.fit"),
+        bins=config["thermal"]["frequency_effect_bins"],
+        min_windows=config["thermal"]["frequency_effect_min_windows"],
     script:
         "../scripts/frequency_effect.py"
 
@@ -126,12 +151,6 @@ rule estimator_diagram:
         library=library_sources("estimator_diagram"),
     output:
         figure=report_figure(DIAGRAM_FIGURE, "Chapter 7"),
-    params:
-        pdf=FIGURE_PDF,
-        fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
-        fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
-        ns=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["ns"],
-        n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/estimator_diagram.log",
     benchmark:
@@ -139,6 +158,12 @@ rule estimator_diagram:
     threads: 1
     resources:
         **resources_for("medium"),
+    params:
+        pdf=FIGURE_PDF,
+        fs=lambda w: DATASETS[w.dataset]["daq"]["fs"],
+        fr=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["fr_nominal"],
+        ns=lambda w: DATASETS[w.dataset]["daq"]["ripple"]["ns"],
+        n_periods=config["ripple"]["n_periods"],
     script:
         "../scripts/estimator_diagram.py"
 
@@ -156,8 +181,6 @@ rule coupled:
     output:
         traces="results/{dataset}/ch7/coupled/{experiment}.nc",
         stats="results/{dataset}/ch7/coupled/{experiment}.json",
-    params:
-        n_periods=config["ripple"]["n_periods"],
     log:
         "logs/{dataset}/coupled/{experiment}.log",
     benchmark:
@@ -165,6 +188,8 @@ rule coupled:
     threads: 1
     resources:
         **resources_for("stream_long"),
+    params:
+        n_periods=config["ripple"]["n_periods"],
     script:
         "../scripts/coupled.py"
 
@@ -172,16 +197,21 @@ rule coupled:
 rule ch7_summary:
     """Coupled-estimation errors beside the thesis, Figures 7.10–7.12."""
     input:
-        stats=lambda w: [f"results/{w.dataset}/ch7/coupled/{e}.json" for e in coupled_runs(w.dataset)],
-        traces=lambda w: [f"results/{w.dataset}/ch7/coupled/{e}.nc" for e in coupled_runs(w.dataset)],
+        stats=lambda w: [
+            f"results/{w.dataset}/ch7/coupled/{e}.json" for e in coupled_runs(w.dataset)
+        ],
+        traces=lambda w: [
+            f"results/{w.dataset}/ch7/coupled/{e}.nc" for e in coupled_runs(w.dataset)
+        ],
         library=library_sources("ch7_summary"),
     output:
-        coupled=report("results/{dataset}/ch7/coupled.csv", caption="../report/coupled.rst", category="{dataset}",
-                       subcategory="Chapter 7"),
         **{name: report_figure(name, "Chapter 7") for name in COUPLED_FIGURES},
-    params:
-        pdf=FIGURE_PDF,
-        figures=lambda w: dict(zip(COUPLED_FIGURES, coupled_runs(w.dataset))),
+        coupled=report(
+            "results/{dataset}/ch7/coupled.csv",
+            caption="../report/coupled.rst",
+            category="{dataset}",
+            subcategory="Chapter 7",
+        ),
     log:
         "logs/{dataset}/ch7_summary.log",
     benchmark:
@@ -189,11 +219,21 @@ rule ch7_summary:
     threads: 1
     resources:
         **resources_for("medium"),
+    params:
+        pdf=FIGURE_PDF,
+        figures=lambda w: dict(zip(COUPLED_FIGURES, coupled_runs(w.dataset))),
     script:
         "../scripts/ch7_summary.py"
 
 
-
 #: what the stage makes for rule all and the scorecard: its rules' outputs, for the datasets it runs for
-THERMAL_OUTPUTS = expand([*rules.thermal_identify.output, *rules.gamma_t_fit.output, *rules.frequency_effect.output,
-                          *rules.estimator_diagram.output, *rules.ch7_summary.output], dataset=THERMAL_DATASETS)
+THERMAL_OUTPUTS = expand(
+    [
+        *rules.thermal_identify.output,
+        *rules.gamma_t_fit.output,
+        *rules.frequency_effect.output,
+        *rules.estimator_diagram.output,
+        *rules.ch7_summary.output,
+    ],
+    dataset=THERMAL_DATASETS,
+)

@@ -13,10 +13,12 @@ rule twin_calibration:
         tables=lambda w: calibration_tables(w.dataset),
         library=library_sources("twin_calibration"),
     output:
-        table=report("results/{dataset}/twin/calibration.csv", caption="../report/twin_calibration.rst",
-                     category="{dataset}", subcategory="Twin validation"),
-    params:
-        results_dir=lambda w: f"results/{w.dataset}",
+        table=report(
+            "results/{dataset}/twin/calibration.csv",
+            caption="../report/twin_calibration.rst",
+            category="{dataset}",
+            subcategory="Twin validation",
+        ),
     log:
         "logs/{dataset}/twin_calibration.log",
     benchmark:
@@ -24,6 +26,8 @@ rule twin_calibration:
     threads: 1
     resources:
         **resources_for("small"),
+    params:
+        results_dir=lambda w: f"results/{w.dataset}",
     script:
         "../scripts/twin_calibration.py"
 
