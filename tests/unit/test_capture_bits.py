@@ -1,0 +1,38 @@
+"""The twin's captures held to the bit: short simulated captures of both datasets (the smoke
+campaign's runs as the workflow makes them, chunks off the truth's grid, the compiled closed loop)
+against the digests of the same captures made at a reference commit, variable by variable
+(tests/data/make_twin_capture_digests.py says which and how). A faster twin or writer must write
+the same int16 codes, attributes and /truth, so that every table made from them stays the same
+byte for byte."""
+
+import importlib.util
+import json
+
+import pytest
+
+from ..helpers import ROOT
+
+SCRIPT = ROOT / "tests" / "data" / "make_twin_capture_digests.py"
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("make_twin_capture_digests", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    module = _script()
+    paths = module.simulate_cases(tmp_path_factory.mktemp("bits"))
+    return {case: module.digests(path) for case, path in paths.items()}
+
+
+def test_the_twins_captures_are_the_reference_commits_bit_for_bit(made):
+    expected = json.loads(_script().DIGESTS.read_text())
+    assert sorted(made) == sorted(expected)
+    for case, variables in expected.items():
+        assert sorted(made[case]) == sorted(variables), case
+        differ = [name for name, digest in variables.items() if made[case][name] != digest]
+        assert not differ, f"{case}: {', '.join(differ)} differ from the reference"
