@@ -8,13 +8,17 @@ SHA-256 of its stored values (the int16 codes as written, the f4 states, the f8 
 dtype, shape and attributes, and of the file's own attributes. The codec and the chunking are
 not in the digest: they change the file's bytes, not the values a reader gets.
 
-``twin_capture_digests.json`` beside this script was made with the twin of commit 4f6151a (the
-same captures as at a4774ec), from that checkout's folder (its manifests and protocols):
+``twin_capture_digests.json`` beside this script was made with the twin of commit a4774ec (4f6151a
+makes the same), from that checkout's folder (its manifests and protocols):
 
-    cd <a checkout of 4f6151a> && PYTHONPATH=src $REPO/.venv/bin/python \
+    cd <a checkout of a4774ec> && PYTHONPATH=src $REPO/.venv/bin/python \
         $REPO/tests/data/make_twin_capture_digests.py
 
-(``$REPO``: this repository's folder, where the digests are written).
+(``$REPO``: this repository's folder, where the digests are written). The values depend on the
+platform's arithmetic as well as on the twin: numpy's vectorised cos (the drive) and glibc's cos
+and sin (the ripple) differ in the last bit from one CPU's instruction set or one libm to another.
+The file records where it was made (:func:`platform_key`: the machine, its C library, numpy's
+version and the SIMD extensions numpy found), and the test compares only where that is the same.
 
 ``tests/unit/test_capture_bits.py`` makes the same captures with the twin of the checkout and holds
 them to these digests.
@@ -44,6 +48,22 @@ RUNS = (
     ("pi_p885", "ch7_volt_150hz"),  # the thermometers and the heating
     ("tokin_nb40", "rk_static_hold"),  # the bender
 )
+
+
+def platform_key() -> dict[str, object]:
+    """What the captures' last bits depend on besides the twin: the machine, the C library (its
+    libm), numpy's version and the SIMD extensions numpy dispatches to on this CPU."""
+    import platform
+
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    return {
+        "machine": platform.machine(),
+        "system": platform.system(),
+        "libc": "-".join(platform.libc_ver()),
+        "numpy": np.__version__,
+        "simd": [f for f in __cpu_dispatch__ if __cpu_features__.get(f)],
+    }
 
 
 def _attrs(obj) -> list:
@@ -130,7 +150,8 @@ def simulate_cases(folder: Path) -> dict[str, Path]:
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cases = {case: digests(path) for case, path in simulate_cases(Path(tmp)).items()}
-    DIGESTS.write_text(json.dumps(cases, indent=1, sort_keys=True) + "\n")
+    made = {"made_on": platform_key(), "cases": cases}
+    DIGESTS.write_text(json.dumps(made, indent=1, sort_keys=True) + "\n")
 
 
 if __name__ == "__main__":

@@ -22,15 +22,16 @@ def _script():
     return module
 
 
-@pytest.fixture(scope="module")
-def made(tmp_path_factory):
+def test_the_twins_captures_are_the_reference_commits_bit_for_bit(tmp_path):
     module = _script()
-    paths = module.simulate_cases(tmp_path_factory.mktemp("bits"))
-    return {case: module.digests(path) for case, path in paths.items()}
-
-
-def test_the_twins_captures_are_the_reference_commits_bit_for_bit(made):
-    expected = json.loads(_script().DIGESTS.read_text())
+    reference = json.loads(module.DIGESTS.read_text())
+    if reference["made_on"] != module.platform_key():
+        pytest.skip(
+            f"the digests were made on {reference['made_on']}, this is {module.platform_key()}: "
+            "numpy's cos and libm's differ in the last bit across them"
+        )
+    made = {case: module.digests(path) for case, path in module.simulate_cases(tmp_path).items()}
+    expected = reference["cases"]
     assert sorted(made) == sorted(expected)
     for case, variables in expected.items():
         assert sorted(made[case]) == sorted(variables), case
