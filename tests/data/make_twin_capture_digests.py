@@ -8,6 +8,11 @@ SHA-256 of its stored values (the int16 codes as written, the f4 states, the f8 
 dtype, shape and attributes, and of the file's own attributes. The codec and the chunking are
 not in the digest: they change the file's bytes, not the values a reader gets.
 
+An int16 code absorbs most last-bit changes of the values it quantises, and /truth is stored as
+float32, so the digests also hold the float64 traces the captures are made from, where a last-bit
+change shows (:func:`float_traces`): both twins' kernels, the bench's time-only signals over
+chunks in turn, and the measured channels and truth of :meth:`Bench.step` before they are packed.
+
 ``twin_capture_digests.json`` beside this script was made with the twin of commit a4774ec (4f6151a
 makes the same), from that checkout's folder (its manifests and protocols):
 
@@ -147,9 +152,72 @@ def simulate_cases(folder: Path) -> dict[str, Path]:
     return paths
 
 
+def _digest(values) -> str:
+    values = np.ascontiguousarray(values)
+    h = hashlib.sha256(repr((values.dtype.str, values.shape)).encode())
+    h.update(values.tobytes())
+    return h.hexdigest()
+
+
+def float_traces() -> dict[str, dict[str, str]]:
+    """{case: {trace: SHA-256 hex}} of the float64 values the captures are made from."""
+    import selfsense
+    from selfsense.io.manifest import load_dataset
+    from selfsense.twin import bender
+    from selfsense.twin import kernel as K
+    from selfsense.twin.bench import Bench, experiment_seed
+    from selfsense.twin.experiment import daq_plan
+    from selfsense.twin.params import TwinParams
+
+    root = Path(selfsense.__file__).parents[2]
+    manifest = load_dataset(root / "raw", "pi_p885")
+    params, daq = TwinParams.from_manifest(manifest["twin"]), daq_plan(manifest)
+    t = np.arange(24000) / daq.fs
+    U = 50 - 50 * np.cos(2 * np.pi * 230 * t) + 20 * (t > 0.2) + 30 * np.sin(2 * np.pi * 7 * t)
+    out = {}
+    for load in (0.0, 2e8):
+        kc = K.kernel_constants(params, daq.fs, load)
+        state = K.initial_state(kc, params.thermal.T_amb)
+        ambient = np.full_like(U, params.thermal.T_amb)
+        trace = K.run(U, 1e3 * np.sin(2 * np.pi * 3 * t), ambient, kc, state)
+        out[f"stack kernel, load {load:g} N/m"] = {"out": _digest(trace), "state": _digest(state)}
+    bench = Bench(params, daq, experiment_seed(7, "traces"))
+    traces, start = {}, 0
+    for n in (65536, 1000, 30011):
+        tc = (start + np.arange(n)) / daq.fs
+        start += n
+        for k, v in bench.time_signals(tc).items():
+            traces[f"{n}: {k}"] = _digest(v)
+    traces["ripple phase"] = repr(bench.ripple.phase)
+    out["time-only signals, chunks of 65536, 1000, 30011"] = traces
+    bench = Bench(params, daq, experiment_seed(8, "step"))
+    steps, start = {}, 0
+    for n in (65536, 4321):
+        tc = (start + np.arange(n)) / daq.fs
+        start += n
+        measured, truth = bench.step(tc, 50 - 50 * np.cos(2 * np.pi * 50 * tc), truth_every=1)
+        steps |= {f"{n}: {k}": _digest(v) for k, v in (measured | truth).items()}
+    out["Bench.step before packing, chunks of 65536, 4321"] = steps
+    tokin = load_dataset(root / "raw", "tokin_nb40")
+    bp = bender.BenderParams.from_manifest(tokin["twin"])
+    fs = float(tokin["daq"]["fs"])
+    tb = np.arange(6000) / fs
+    for mode, drive in (
+        ("voltage", 100 * np.sin(2 * np.pi * 0.5 * tb)),
+        ("current", 3e-7 + 0 * tb),
+    ):
+        kc = bender.kernel_constants(bp, fs)
+        state = bender.initial_state(kc)
+        noise = 1e-12 * np.random.default_rng(3).standard_normal(len(tb))
+        trace = bender.run(mode, drive, noise, kc, state)
+        out[f"bender kernel, {mode} drive"] = {"out": _digest(trace), "state": _digest(state)}
+    return out
+
+
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cases = {case: digests(path) for case, path in simulate_cases(Path(tmp)).items()}
+    cases |= float_traces()
     made = {"made_on": platform_key(), "cases": cases}
     DIGESTS.write_text(json.dumps(made, indent=1, sort_keys=True) + "\n")
 
