@@ -4,16 +4,16 @@ Everything is evaluated at the DAQ's sample instants. The 100 kHz ripple in part
 computed as cos(φ(t_k)) at t_k = k/fs, so it aliases onto fs/ns exactly as on the bench; it is
 never simulated at a higher rate and decimated.
 
-Two of the signals that depend on time alone, the ripple's carrier and the high-pass's response
-at the ripple's frequency, are made per sample by numba loops (:func:`ripple_carrier`,
+Two of the signals that depend on time alone, the ripple's carrier and the high-pass's response at
+the ripple's frequency, are made per sample by numba loops (:func:`ripple_carrier`,
 :func:`analogue_response`) that do numpy's operations in numpy's order, so that they are numpy's
 values bit for bit: the phase's running sum in order, glibc's cos and sin (what np.exp of an
-imaginary argument calls), complex products whose one factor has a zero part (exact, so numpy's
-fused SIMD product gives the same) and numpy's complex division (Smith's, with its reciprocal
-scale). Each keeps its numpy expression as the reference (``compiled=False``), which the tests
-hold it to with ``assert_array_equal``. The two cost half of numpy's, whose every operation
-walked the chunk's arrays again. The slow drifts stay np.interp (a loop was no faster), the
-noise numpy's generator.
+imaginary argument calls), complex products in which one term of each part is an exact zero (so
+numpy's fused SIMD product rounds as the plain one does) and numpy's complex division (Smith's, with
+its reciprocal scale). Each keeps its numpy expression as the reference (``compiled=False``), which
+the tests hold it to with ``assert_array_equal``. The two cost half of numpy's, whose every
+operation walked the chunk's arrays again. The slow drifts stay np.interp (a loop was no faster),
+the noise numpy's generator.
 """
 
 from __future__ import annotations
@@ -220,9 +220,10 @@ def _polyval(p, sr, si):
 @numba.njit(cache=True)
 def analogue_response(f_hz, b, a, out):
     """HighPass.response's numpy operations per sample into out: s = (2j·π)·f as numpy makes it,
-    numerator and denominator by Horner (:func:`_polyval`: s has a zero real part, so every
-    product has a zero factor and is exact however numpy fuses it) and numpy's complex division
-    (Smith's, with its reciprocal scale)."""
+    numerator and denominator by Horner (:func:`_polyval`: s has a zero real part, so in each part
+    of a product one of its two terms is an exact zero, and numpy's fused multiply-add rounds once
+    where the plain product does) and numpy's complex division (Smith's, with its reciprocal
+    scale)."""
     wr, wi = 0.0, 2.0 * np.pi  # Python's 2j * np.pi
     for k in range(f_hz.size):
         f = f_hz[k]
