@@ -28,6 +28,20 @@ def test_operator_and_anchors_match_the_reference_along_a_path(elements):
         assert abs(M.maxwell(q, fast, C_h, v_h)[0]) <= M.span(v_h)
 
 
+def test_sliding_and_summing_in_one_pass_is_the_two_passes_bit_for_bit(elements):
+    """slide_and_sum (the kernels' once-a-sample step) against slide_anchors then maxwell: the same
+    anchors and the same U_H, equal, not close (the twins' captures are made with it)."""
+    C_h, v_h = elements
+    one, two = np.zeros(8), np.zeros(8)
+    rng = np.random.default_rng(2)
+    path = 2e-5 * np.sin(np.linspace(0, 12 * np.pi, 600)) * np.linspace(0.2, 1.0, 600)
+    for q in np.concatenate([path, rng.uniform(-3e-5, 3e-5, 400)]):
+        u = M.slide_and_sum(q, one, C_h, v_h)
+        M.slide_anchors(q, two, C_h, v_h)
+        assert u == M.maxwell(q, two, C_h, v_h)[0]
+        np.testing.assert_array_equal(one, two)
+
+
 def test_newton_step_solves_a_balance_through_the_operator(elements):
     C_h, v_h = elements
     q_b, C, target = np.zeros(8), 3e-6, 40.0

@@ -18,7 +18,7 @@ from selfsense.methods.ripple import SamplingPlan, extract_impedance
 from selfsense.scorecard.calibration import load_targets
 from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed, simulate_capture
-from selfsense.twin.instruments import SlowProcess
+from selfsense.twin.instruments import HighPass, SlowProcess
 
 from ..helpers import ROOT
 from ..tolerances import rtol
@@ -280,6 +280,41 @@ def test_compiled_instruments_follow_the_numpy_reference(
                 fast_truth[k], values, rtol=rtol(1.0, roundings=40), atol=0, err_msg=k
             )
     np.testing.assert_array_equal(benches[0].hp_i.zi, benches[1].hp_i.zi)
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    lengths=st.lists(st.integers(1, 70000), min_size=1, max_size=3),
+    seed=st.integers(0, 2**32 - 1),
+    chain=SIGNAL_CHAIN,
+    start=st.integers(0, 10**9),
+)
+def test_compiled_time_signals_are_numpys_bit_for_bit(
+    stack_params, stack_daq, lengths, seed, chain, start
+):
+    """The ripple's carrier and the high-pass's response by their numba loops against their numpy
+    expressions, over chunks in turn (the phase carries) from anywhere in a long run: equal, not
+    close, since the twin's captures are made with the loops and must stay those numpy made."""
+    params = with_signal_chain(stack_params, chain)
+    benches = [Bench(params, stack_daq, experiment_seed(seed, "signals")) for _ in range(2)]
+    for n in lengths:
+        t = (start + np.arange(n)) / FS
+        start += n
+        fast, ref = (b.time_signals(t, compiled) for b, compiled in zip(benches, (True, False)))
+        for k, values in ref.items():
+            np.testing.assert_array_equal(fast[k], values, err_msg=k)
+        assert benches[0].ripple.phase == benches[1].ripple.phase
+
+
+@given(
+    f=st.lists(st.floats(0.0, 1e7), min_size=1, max_size=50),
+    cutoff=st.floats(1.0, 1e6),
+    q=st.floats(0.1, 5.0),
+)
+def test_compiled_high_pass_response_is_numpys_bit_for_bit(f, cutoff, q):
+    hp = HighPass(cutoff, FS, q)
+    f = np.array(f)
+    np.testing.assert_array_equal(hp.response(f), hp.response(f, compiled=False))
 
 
 def test_truth_and_thermometers_keep_their_samples_whatever_the_truth_decimation(

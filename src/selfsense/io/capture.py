@@ -229,6 +229,15 @@ class CaptureWriter:
     ``path``. An interrupted or concurrent run therefore
     never leaves a file that looks complete, and every chunk carries a Fletcher-32 checksum so
     a capture damaged later fails on read (its QC) instead of giving numbers.
+
+    The read-back costs about a tenth of a simulated capture's CPU (measured 2026-12-01: 10 s of
+    capture 0.173 s without it against 0.193 s) and stays. A CRC of the arrays as they are written
+    alone would check nothing, and HDF5's Fletcher-32 (taken before the compression, checked after
+    it on every read) only makes a later read fail: without the read-back a capture whose chunks
+    did not reach the disk as written would still be renamed into place under its name, with a
+    QC report counting codes the file does not hold, and a chunk HDF5 never stored reads back as
+    fill, which no checksum flags. The capture in place is the capture that was checked only
+    because it was read back before the rename.
     """
 
     def __init__(

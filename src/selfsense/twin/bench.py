@@ -119,18 +119,20 @@ class Bench:
         self.offset_drift = SlowProcess(rng, ins.I_offset_drift, ins.I_offset_drift_bandwidth)
         self.laser_drift = SlowProcess(rng, ins.laser_drift, ins.laser_drift_bandwidth)
 
-    def time_signals(self, t: np.ndarray) -> dict[str, np.ndarray]:
+    def time_signals(self, t: np.ndarray, compiled: bool = True) -> dict[str, np.ndarray]:
         """What the instruments add that depends on time alone: the ripple's frequency and voltage
         and the high-pass's response to it, the probe offset, the laser's drift and the noise of
         the channels :data:`NOISY` lists, in this order of random draws. The closed loop makes
         them once per chunk and steps the bench through it block by block (:meth:`step`'s
-        ``signals``)."""
+        ``signals``). ``compiled``: the ripple's carrier and the high-pass's response by the numba
+        loops of :mod:`.instruments`, else by their numpy references (the same values, bit for
+        bit)."""
         ins, n, gauss = self.p.instruments, len(t), self.noise_rng.standard_normal
-        f_r, u = self.ripple.carrier(t)
+        f_r, u = self.ripple.carrier(t, compiled)
         return {
             "f_r": f_r,
             "u_ripple": u,
-            "h": self.hp_u.response(f_r),
+            "h": self.hp_u.response(f_r, compiled),
             "I_offset": ins.I_offset + self.offset_drift(t),
             "laser_drift": self.laser_drift(t),
             **{f"noise_{c}": getattr(ins, NOISY[c]) * gauss(n) for c in NOISY},
@@ -151,13 +153,13 @@ class Bench:
         at samples truth_first, truth_first + truth_every, … of these.
 
         ``signals``: :meth:`time_signals` of exactly these samples, made beforehand (by default
-        they are made here). ``compiled``: the instruments in one numba pass
+        they are made here). ``compiled``: the time-only signals and the instruments in numba
         (:func:`.record.record_block`), or else in numpy (:meth:`_instruments`, the reference
         the tests hold it to).
         """
         n = len(t)
         F_ext = np.zeros(n) if F_ext is None else F_ext
-        sig = self.time_signals(t) if signals is None else signals
+        sig = self.time_signals(t, compiled) if signals is None else signals
         U = self.amplifier(U)
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         if compiled:

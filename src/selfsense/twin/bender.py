@@ -59,8 +59,8 @@ from selfsense.twin.maxwell import (
     balanced,
     maxwell,
     maxwell_reference,
-    slide_anchors,
     slide_anchors_reference,
+    slide_and_sum,
     span,
 )
 from selfsense.twin.params import CreepParams, HysteresisParams, build_sections
@@ -324,8 +324,7 @@ def run_kernel(mode, drive, noise, sc, C_h, v_h, creep_decay, creep_R, state, ou
             if balanced(f, target):
                 break
             q, lo, hi = newton_step(q, f, 1.0 / C + slope, lo, hi)
-        slide_anchors(q, q_b, C_h, v_h)
-        uh, _ = maxwell(q, q_b, C_h, v_h)
+        uh = slide_and_sum(q, q_b, C_h, v_h)
         i_C = (q - Q) * fs
         i_l = V / R * math.sqrt((c * i_C) ** 2 + 1.0)
         current = i_C + i_l

@@ -3,12 +3,24 @@
 Everything is evaluated at the DAQ's sample instants. The 100 kHz ripple in particular is
 computed as cos(φ(t_k)) at t_k = k/fs, so it aliases onto fs/ns exactly as on the bench; it is
 never simulated at a higher rate and decimated.
+
+Two of the signals that depend on time alone, the ripple's carrier and the high-pass's response at
+the ripple's frequency, are made per sample by numba loops (:func:`ripple_carrier`,
+:func:`analogue_response`) that do numpy's operations in numpy's order, so that they are numpy's
+values bit for bit: the phase's running sum in order, glibc's cos and sin (what np.exp of an
+imaginary argument calls), complex products in which one term of each part is an exact zero (so
+numpy's fused SIMD product rounds as the plain one does) and numpy's complex division (Smith's, with
+its reciprocal scale). Each keeps its numpy expression as the reference (``compiled=False``), which
+the tests hold it to with ``assert_array_equal``. The two cost half of numpy's, whose every
+operation walked the chunk's arrays again. The slow drifts stay np.interp (a loop was no faster),
+the noise numpy's generator.
 """
 
 from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from selfsense.methods.lti import BUTTERWORTH_Q, bilinear, filter_run, highpass2
@@ -94,11 +106,22 @@ class HighPass:
         self.b, self.a = bilinear(self.b_analog, self.a_analog, fs)
         self.zi = np.zeros(len(self.a) - 1)
 
-    def response(self, f_hz: np.ndarray) -> np.ndarray:
+    def response(self, f_hz: np.ndarray, compiled: bool = True) -> np.ndarray:
         """H(j2πf) of the analogue filter (scipy.signal.freqs without its per-call overhead,
-        which the closed-loop twin paid for every 12-sample block)."""
-        s = 2j * np.pi * np.asarray(f_hz)
-        return np.polyval(self.b_analog, s) / np.polyval(self.a_analog, s)
+        which the closed-loop twin paid for every 12-sample block); ``compiled``: by
+        :func:`analogue_response`, else in numpy, the reference."""
+        f_hz = np.asarray(f_hz)
+        if not compiled or f_hz.ndim != 1 or f_hz.dtype != np.float64:
+            s = 2j * np.pi * f_hz
+            return np.polyval(self.b_analog, s) / np.polyval(self.a_analog, s)
+        out = np.empty(len(f_hz), dtype=complex)
+        analogue_response(
+            np.ascontiguousarray(f_hz),
+            np.asarray(self.b_analog, dtype=float),
+            np.asarray(self.a_analog, dtype=float),
+            out,
+        )
+        return out
 
     def leak(self, x: np.ndarray) -> np.ndarray:
         y = np.empty(len(x))
@@ -139,15 +162,23 @@ class RippleSource:
         self.wander = SlowProcess(rng, rp.wander, rp.wander_bandwidth)
         self.phase = rng.uniform(0, 2 * np.pi)
 
-    def carrier(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def carrier(self, t: np.ndarray, compiled: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Ripple frequency [Hz] and complex ripple voltage at times t; the phase carries from
-        one call to the next, so t must follow the previous call's."""
-        f_r = self.rp.f_nominal + self.wander(t)
-        phi = self.phase + 2 * np.pi * np.cumsum(f_r) / self.fs - 2 * np.pi * f_r / self.fs
-        self.phase = (
-            float((phi[-1] + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi)) if len(t) else self.phase
+        one call to the next, so t must follow the previous call's. ``compiled``: by
+        :func:`ripple_carrier`, else in numpy, the reference."""
+        wander = self.wander(t)
+        if not compiled or not len(t):
+            f_r = self.rp.f_nominal + wander
+            phi = self.phase + 2 * np.pi * np.cumsum(f_r) / self.fs - 2 * np.pi * f_r / self.fs
+            if len(t):
+                self.phase = float((phi[-1] + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi))
+            return f_r, self.rp.amplitude * np.exp(1j * phi)
+        f_r, u = np.empty(len(t)), np.empty(len(t), dtype=complex)
+        last = ripple_carrier(
+            wander, self.rp.f_nominal, self.phase, self.fs, self.rp.amplitude, f_r, u
         )
-        return f_r, self.rp.amplitude * np.exp(1j * phi)
+        self.phase = float((np.float64(last) + 2 * np.pi * f_r[-1] / self.fs) % (2 * np.pi))
+        return f_r, u
 
     @staticmethod
     def current(f_r: np.ndarray, u: np.ndarray, C_e: np.ndarray, R_e: np.ndarray) -> np.ndarray:
@@ -155,3 +186,58 @@ class RippleSource:
         (R_e from :func:`effective_resistance`, which the caller also records)."""
         admittance = 1.0 / (R_e + 1.0 / (1j * 2 * np.pi * f_r * C_e))
         return u * admittance
+
+
+@numba.njit(cache=True)
+def ripple_carrier(wander, f_nominal, phase, fs, amplitude, f_r, u):
+    """RippleSource.carrier's numpy operations per sample into f_r and u; returns the last sample's
+    phase. np.cumsum adds in order, np.exp(1j·φ) is glibc's cexp of (±0, φ), that is (cos φ,
+    sin φ), and the amplitude's product with it has a zero imaginary factor (numpy's complex
+    product written out, which with a zero part is exact however numpy fuses it)."""
+    two_pi = 2 * np.pi
+    total = 0.0
+    phi = phase
+    for k in range(wander.size):
+        f = f_nominal + wander[k]
+        total = f if k == 0 else total + f
+        phi = phase + two_pi * total / fs - two_pi * f / fs
+        c, s = math.cos(phi), math.sin(phi)
+        f_r[k] = f
+        u[k] = complex(amplitude * c - 0.0 * s, amplitude * s + 0.0 * c)
+    return phi
+
+
+@numba.njit(cache=True)
+def _polyval(p, sr, si):
+    """np.polyval(p, s) at one s = sr + j·si, real coefficients: y = y·s + p_k from y = 0, with
+    numpy's complex product and sum (a real p_k is p_k + 0j)."""
+    yr, yi = 0.0, 0.0
+    for k in range(p.size):
+        yr, yi = (yr * sr - yi * si) + p[k], (yr * si + yi * sr) + 0.0
+    return yr, yi
+
+
+@numba.njit(cache=True)
+def analogue_response(f_hz, b, a, out):
+    """HighPass.response's numpy operations per sample into out: s = (2j·π)·f as numpy makes it,
+    numerator and denominator by Horner (:func:`_polyval`: s has a zero real part, so in each part
+    of a product one of its two terms is an exact zero, and numpy's fused multiply-add rounds once
+    where the plain product does) and numpy's complex division (Smith's, with its reciprocal
+    scale)."""
+    wr, wi = 0.0, 2.0 * np.pi  # Python's 2j * np.pi
+    for k in range(f_hz.size):
+        f = f_hz[k]
+        sr, si = wr * f - wi * 0.0, wr * 0.0 + wi * f
+        nr, ni = _polyval(b, sr, si)
+        dr, di = _polyval(a, sr, si)
+        if abs(dr) >= abs(di):
+            if dr == 0.0 and di == 0.0:
+                out[k] = complex(nr / abs(dr), ni / abs(dr))
+                continue
+            rat = di / dr
+            scl = 1.0 / (dr + di * rat)
+            out[k] = complex((nr + ni * rat) * scl, (ni - nr * rat) * scl)
+        else:
+            rat = dr / di
+            scl = 1.0 / (di + dr * rat)
+            out[k] = complex((nr * rat + ni) * scl, (ni * rat - nr) * scl)

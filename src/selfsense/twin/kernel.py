@@ -33,8 +33,8 @@ from selfsense.twin.maxwell import (
     balanced,
     maxwell,
     maxwell_reference,
-    slide_anchors,
     slide_anchors_reference,
+    slide_and_sum,
     span,
 )
 from selfsense.twin.params import TwinParams
@@ -147,20 +147,22 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
         # f(u) = u + U_H(q(u)) - target is monotone with |U_H| <= vmax
         lo = target - vmax - 1.0
         hi = target + vmax + 1.0
+        solved = False
         for _ in range(MAX_ITERATIONS):
             q, dq = _charge(u_p, x_free, F[n], dT, sc)
             uh, slope = maxwell(q, q_b, C_h, v_h)
             f = u_p + uh - target
             if balanced(f, target):
+                solved = True
                 break
             u_p, lo, hi = newton_step(u_p, f, 1.0 + slope * dq, lo, hi)
-        q, _ = _charge(u_p, x_free, F[n], dT, sc)
+        if not solved:  # else q is already the charge at this u_p
+            q, _ = _charge(u_p, x_free, F[n], dT, sc)
         c_p = sc[1] + sc[3] * dT + sc[2] * u_p
         force = alpha * u_p + F[n]
         x = x_free + sc[21] * force
         v = sc[19] * s1 + sc[20] * s2 + sc[22] * force
-        slide_anchors(q, q_b, C_h, v_h)
-        uh, _ = maxwell(q, q_b, C_h, v_h)
+        uh = slide_and_sum(q, q_b, C_h, v_h)
         current = (q - q_prev) * fs
         acc = (force - sc[13] * v - sc[14] * x) / sc[12]
         out[n, 0] = x

@@ -99,6 +99,31 @@ def slide_anchors(q, q_b, C_h, v_h):
 
 
 @numba.njit(cache=True)
+def slide_and_sum(q, q_b, C_h, v_h):
+    """:func:`slide_anchors`, then U_H(q) of :func:`maxwell` with the anchors moved, in one pass
+    over the elements: an element whose anchor stays keeps the voltage just computed (the same
+    division), one whose anchor slides has it computed again from the new anchor, and the sum
+    runs over the elements in order, so U_H is maxwell's bit for bit at one division an element
+    fewer (the kernels call it once a sample)."""
+    u = 0.0
+    for i in range(q_b.size):
+        e = (q - q_b[i]) / C_h[i]
+        if e > v_h[i]:
+            q_b[i] = q - v_h[i] * C_h[i]
+            e = (q - q_b[i]) / C_h[i]
+        elif e < -v_h[i]:
+            q_b[i] = q + v_h[i] * C_h[i]
+            e = (q - q_b[i]) / C_h[i]
+        if e > v_h[i]:
+            u += v_h[i]
+        elif e < -v_h[i]:
+            u -= v_h[i]
+        else:
+            u += e
+    return u
+
+
+@numba.njit(cache=True)
 def span(v_h):
     """max |U_H| = Σ v_h, which brackets a voltage balance's root."""
     vmax = 0.0
