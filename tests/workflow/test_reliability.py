@@ -69,10 +69,11 @@ def parse_repo(tmp_path_factory):
     (folder / "dataset.yaml").write_text(
         yaml.safe_dump(manifest("bench_hyphen", ["ch3-sine-10hz"]))
     )
-    # the Chapter 4 runs, an actuator without its moving mass
+    # the Chapter 4 runs (a run of each role the identify stage reads: a set that is also the
+    # recovery drive, the force record, the static tests), an actuator without its moving mass
     folder = repo / "raw" / "bench_nomass"
     folder.mkdir()
-    runs = ["ch4_sine_10hz_s1", "ch4_static_free", "ch4_static_blocked"]
+    runs = ["ch4_sine_10hz_s1", "ch4_sine_50hz_s1", "ch4_static_free", "ch4_static_blocked"]
     actuator = {k: v for k, v in PI["actuator"].items() if k != "moving_mass_kg"}
     doc = manifest("bench_nomass", runs, actuator=actuator, protocols=["ch3", "ch4"])
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
