@@ -440,6 +440,8 @@ GAMMA_T_TABLES = {
 }
 COUPLED_FIGURES = figure_names.CH7_COUPLED
 RONKANEN_FIGURES = figure_names.RONKANEN
+POWERLOSS = "results/{dataset}/powerloss"
+RONKANEN_REPORT = {"category": "{dataset}", "subcategory": "Ronkanen 2002"}  # the report's place
 
 
 # ---- Runs by role (selfsense.io.roles): which run plays which part is the catalogue's roles:, or
@@ -529,16 +531,6 @@ LEAK_RUNS = {
 }
 
 
-# ---- Ronkanen 2002 (power loss)
-
-POWERLOSS = "results/{dataset}/powerloss"
-
-RONKANEN_REPORT = {
-    "category": "{dataset}",
-    "subcategory": "Ronkanen 2002",
-}  # where the report files them
-
-
 def ronkanen_runs(dataset, parts):
     """{part: experiment} of the Ronkanen runs of parts ({part: role})."""
     return {part: role_run(dataset, role) for part, role in parts.items()}
@@ -557,6 +549,10 @@ def identification_runs(dataset):
         "hold": role_run(dataset, "powerloss.hold"),
         "ramps": role_runs(dataset, "powerloss.ramp"),
     }
+
+
+# ---- The twin's simulations: the runs simulated together, and those that need identified
+# values (a closed loop, Eq 15's compensation)
 
 
 def uses_identification(dataset, experiment):
