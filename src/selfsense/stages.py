@@ -21,9 +21,7 @@ from typing import Any
 
 from selfsense.io.capture import DISPLACEMENT
 from selfsense.io.manifest import require_keys
-from selfsense.io.roles import ROLES, Experiments, by_frequency, run, runs
-
-__all__ = ["Experiments", "run", "runs", "by_frequency"]
+from selfsense.io.roles import ROLES, Experiments, by_frequency, runs
 
 #: the Chapter 3 series by drive frequency (Figures 3.9–3.14, hysteresis, C_e recovery): roles
 CH3_SERIES = {"10 Hz": "ch3.series_10hz", "1 Hz": "ch3.series_1hz", "0.1 Hz": "ch3.series_0p1hz"}
