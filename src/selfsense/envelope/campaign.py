@@ -355,6 +355,155 @@ def batch_tables(
     return rows.reset_index(), target_frame.reset_index()
 
 
+def stamps(declaration: str | Path, unknowns: str | Path) -> dict[str, str]:
+    """What every output of the validation's provenance names: the declaration's and the
+    unknowns' sha256 and the commit."""
+    from selfsense.envelope.unknowns import unknowns_hash
+    from selfsense.envelope.validation import validation_hash
+    from selfsense.io.provenance import commit
+
+    return {
+        "validation_sha256": validation_hash(declaration),
+        "unknowns_sha256": unknowns_hash(unknowns),
+        "commit": commit(),
+    }
+
+
 def row_keys(declaration) -> list[str]:
     """The declaration's rows as the tables name them (``<source> · <quantity>``)."""
     return [row_key(r.source, r.quantity) for r in declaration.rows]
+
+
+# --- the workflow's view: what is done, what this run makes -------------------------------------
+
+
+@dataclass(frozen=True)
+class Validation:
+    """The validation as one workflow run sees it: the plan, the unknowns varied (ids), every
+    batch of the known waves with the folder its tables are in (None: not made yet), the
+    batches this run makes, their members' manifests, the wave whose design this run makes
+    (None: none), and the tables the declaration's targets read in a member's results."""
+
+    plan: Plan
+    ids: tuple[str, ...] = ()
+    batches: tuple[Batch, ...] = ()
+    done: Mapping[str, str] = field(default_factory=dict)
+    selected: tuple[str, ...] = ()
+    inputs: Mapping[str, pd.DataFrame] = field(default_factory=dict)
+    plans: Mapping[str, pd.DataFrame] = field(default_factory=dict)
+    manifests: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    design_wave: int | None = None
+    designs: Mapping[int, str] = field(default_factory=dict)
+    targets: tuple[tuple[str, Mapping[str, Any]], ...] = ()
+    rows: tuple[str, ...] = ()
+    first: int = 0  # the number of runs of the waves before the design this run makes
+
+    @property
+    def tables(self) -> list[str]:
+        """The tables (relative to results/<member>/) the common targets read."""
+        return list(dict.fromkeys(loc["table"] for _, loc in self.targets))
+
+    def batch(self, batch_id: str) -> Batch:
+        return next(b for b in self.batches if b.id == batch_id)
+
+    def folder(self, batch_id: str, results: str) -> str:
+        """Where a batch's tables are: a done batch's folder, else the one this run writes."""
+        return self.done.get(batch_id, f"{results}/{batch_id}")
+
+
+def undrawn(plan: Plan) -> Validation:
+    """The validation of a run that asks for none of it: its plan alone, nothing read."""
+    return Validation(plan)
+
+
+def _has_tables(folder: Path) -> bool:
+    return all((folder / name).is_file() for name in TABLES.values())
+
+
+def draw(
+    plan: Plan,
+    declaration,
+    base: Mapping[str, Any],
+    unknowns: Sequence[Unknown],
+    campaign: str,
+    results: str | Path,
+    snapshot: str | Path,
+    named: Iterable[str] = (),
+) -> Validation:
+    """The validation of this run: the declared waves' runs as far as their designs exist (wave
+    1 always; a later one once its design table was made, under ``results`` or the committed
+    ``snapshot``), each capped at ``plan.members``, in batches; a batch whose tables exist in
+    either place is done (and checked to be the current draw's, :func:`check_done`), the first
+    ``plan.batches`` of the others (all with 0) are made by this run, with the members in
+    ``named`` (a target naming one) drawn too. When every batch of the last known wave is done
+    and ``plan.waves`` asks for more, the next wave's design is this run's to make."""
+    if declaration.dataset != plan.dataset:
+        raise ManifestError(
+            f"config.yaml: key validation.dataset: {plan.dataset} is not the dataset "
+            f"workflow/validation.yaml declares ({declaration.dataset})",
+            "validation.dataset",
+        )
+    declared = int(declaration.settings["waves"]["stop"]["max_waves"])
+    if plan.waves > declared:
+        raise ManifestError(
+            f"config.yaml: key validation.waves: {plan.waves} is more than the {declared} waves "
+            "workflow/validation.yaml declares",
+            "validation.waves",
+        )
+    prior, seed = varied(unknowns, plan.dataset)
+    ids = tuple(u.id for u in prior)
+    results, snapshot = Path(results), Path(snapshot)
+    waves = [first_wave(declaration.settings["waves"], len(ids)).head(plan.members)]
+    designs: dict[int, str] = {}
+    design_wave = None
+    all_batches: list[Batch] = []
+    done: dict[str, str] = {}
+    frames: dict[str, pd.DataFrame] = {}
+    w = 1
+    while True:
+        runs = waves[-1]
+        for b in batches(runs, plan.name, plan.batch):
+            all_batches.append(b)
+            frames[b.id] = run_frame(runs, b.rows, plan.name, ids, campaign)
+            for place in (results / b.id, snapshot / b.id):
+                if _has_tables(place):
+                    check_done(place, frames[b.id])
+                    done[b.id] = str(place)
+                    break
+        complete = all(b.id in done for b in all_batches if b.wave == w)
+        if w >= plan.waves or not complete or not len(runs):
+            break
+        w += 1
+        found = [p / f"wave{w}" / DESIGN for p in (results, snapshot)]
+        found = [p for p in found if p.is_file()]
+        first = sum(len(r) for r in waves)
+        if not found:
+            design_wave = w
+            break
+        designs[w] = str(found[0])
+        table = pd.read_csv(found[0])
+        waves.append(wave_from_design(w, table, ids, first).head(plan.members))
+    pending = [b.id for b in all_batches if b.id not in done]
+    selected = tuple(pending if plan.batches == 0 else pending[: plan.batches])
+    wanted = {m for b in all_batches if b.id in selected for m in b.members} | set(named)
+    inputs = {b: frames[b] for b in selected}
+    member_rows = pd.concat(
+        [frames[b.id][frames[b.id][MEMBER].isin(wanted)] for b in all_batches], ignore_index=True
+    )
+    drawn = manifests(base, member_rows, prior, seed, plan.stages) if len(member_rows) else {}
+    plans = {b: plan_frame(inputs[b], prior, drawn) for b in selected}
+    return Validation(
+        plan=plan,
+        ids=ids,
+        batches=tuple(all_batches),
+        done=done,
+        selected=selected,
+        inputs=inputs,
+        plans=plans,
+        manifests=drawn,
+        design_wave=design_wave,
+        designs=designs,
+        targets=tuple((t.id, dict(t.locate)) for t in declaration.targets),
+        rows=tuple(row_keys(declaration)),
+        first=sum(len(r) for r in waves),
+    )
