@@ -133,3 +133,26 @@ def test_the_seeds_come_from_the_waves_one_stream():
     runs = campaign.first_wave(WAVES, d=4)
     drawn = streams(11)
     assert runs.seed[0] == drawn.runs[0] and runs.seed[3] == drawn.runs[12]
+
+
+def test_the_snapshot_keeps_every_done_batch_and_the_verdicts_not_a_batch_left_unfinished(
+    tmp_path,
+):
+    from ..helpers import ROOT, load_module
+
+    update_docs = load_module(ROOT / "scripts" / "update_docs.py")
+    folder = tmp_path / "results" / "validation" / "v"
+    done, half = folder / "wave1" / "batch01", folder / "wave1" / "batch02"
+    for batch, names in ((done, campaign.TABLES.values()), (half, ["inputs.csv"])):
+        batch.mkdir(parents=True)
+        for name in names:
+            (batch / name).write_text("member\n")
+            (batch / f"{name}.json").write_text("{}\n")
+    (folder / "verdicts.csv").write_text("verdict\n")
+    target = update_docs.snapshot_validation(folder, tmp_path / "snapshot")
+    assert target == tmp_path / "snapshot" / "validation" / "v"
+    assert sorted(p.name for p in (target / "wave1" / "batch01").iterdir()) == sorted(
+        [*campaign.TABLES.values(), *(f"{n}.json" for n in campaign.TABLES.values())]
+    )
+    assert not (target / "wave1" / "batch02").exists()
+    assert (target / "verdicts.csv").is_file()

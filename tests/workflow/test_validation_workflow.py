@@ -50,9 +50,7 @@ def test_the_default_dag_has_no_validation_job():
     assert run.returncode == 0, run.stderr[-3000:]
     planned = jobs(run)
     assert planned.get("all") == 1
-    assert not {"validate", "validation_batch", "validation_wave", "envelope_member"} & set(
-        planned
-    )
+    assert not {"validate", "validation_batch", "validation_wave", "envelope_member"} & set(planned)
     assert "_validation~" not in run.stdout + run.stderr
 
 
