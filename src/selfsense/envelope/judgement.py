@@ -444,7 +444,7 @@ def _asserts(r) -> str:
         return ""
     low, high = (float(inverse(r.transform, np.array(v))) for v in (r.low, r.high))
     if r.low == r.high:
-        return f"= {r.published:g}"
+        return f"value {r.published:g}"
     if math.isinf(r.low) or (r.transform == "log" and low == 0):
         return f"≤ {high:.4g}"
     return f"≥ {low:.4g}"
@@ -522,7 +522,7 @@ def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df) -> s
         f"wave {w}: {r} runs, {100 * f:.3g} % of the prior left"
         for w, r, f in zip(sorted(set(ens.wave)), cut.runs, cut.fractions)
     )
-    low, high = binomial_band(max(cov.judged, 1))
+    low, high = (min(max(b, 0.0), 1.0) for b in binomial_band(max(cov.judged, 1)))
     lines = [
         f"Validation of {declaration.dataset} under workflow/validation.yaml version "
         f"{declaration.version} ({declaration.date}): {len(ens.members)} runs "
