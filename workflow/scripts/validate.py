@@ -39,7 +39,8 @@ def main(ids, pdf, units, rows, targets, declaration, registry, unknowns, inputs
     for fig, path in drawn:
         figures.validation_figure(fig, path, inputs=inputs, pdf=pdf, **extra)
     with atomic_path(out["summary"]) as tmp:
-        tmp.write_text(result.summary, encoding="utf-8")
+        named = ", ".join(f"{k} {v}" for k, v in stamps(declaration, unknowns).items())
+        tmp.write_text(f"{result.summary}\nProvenance: {named}.\n", encoding="utf-8")
     logger.info("%s", result.summary.splitlines()[4])
 
 
