@@ -31,6 +31,7 @@ include: "workflow/rules/stages.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/twin.smk"
 include: "workflow/rules/envelope.smk"
+include: "workflow/rules/validation.smk"
 
 
 # A measured capture or manifest replaced by other bytes with an older mtime (cp -p, rsync -t,

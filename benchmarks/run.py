@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
                                        [--keep-results DIR]] [--envelope [--members-only]]
+                                       [--validate]
                                        [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
@@ -20,6 +21,9 @@ Prints, in three parts that can be skipped one by one:
   a new clone: two members alone, one after the other (a member's cost on 2 cores; the first
   compiles the twin's kernels), then the rest (not with --members-only), and each member's
   jobs' own seconds;
+- with --validate, the DAG part is the validation, `snakemake validate --cores 2`, in a new clone
+  with a new venv (the config's members, from nothing: the members' simulations and analyses,
+  the batches' tables and the verdicts), then the verdicts again from the tables alone;
 - streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
   `thermal_extract` for a capture of --seconds and one 10× longer (each in a fresh process, so
   peaks do not mix).
@@ -503,6 +507,29 @@ def bench_envelope(config, keep_results=None, members_only=False):
             shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
 
 
+def bench_validate(config):
+    """`snakemake validate --cores 2` in a new clone of HEAD with a new venv, from nothing (the
+    install apart), then the verdicts alone again from the batches' tables (rule validate forced:
+    no member runs)."""
+    from selfsense.io.manifest import load_config
+
+    section = load_config(ROOT / config)["validation"]
+    with tempfile.TemporaryDirectory() as tmp:
+        repo, python, install = new_clone(tmp)
+        snakemake = [str(python), "-m", "snakemake", "--cores", "2"]
+        wall, peak, cpu = run_sampled([*snakemake, "validate", "--configfile", config], repo)
+        print(
+            f"validate ({config}, {section['members'] or 'the declared'} members a wave in "
+            f"batches of {section['batch']}): install {install:.0f} s, `snakemake validate` "
+            f"{wall:.0f} s (CPU {cpu:.0f} s, peak RSS {peak:.0f} MB): {install + wall:.0f} s "
+            "from a new clone"
+        )
+        again, _, _ = run_sampled(
+            [*snakemake, "validate", "--forcerun", "validate", "--configfile", config], repo
+        )
+        print(f"  the verdicts again from the tables alone: {again:.0f} s")
+
+
 def main():
     cli = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -541,6 +568,12 @@ def main():
         action="store_true",
         help="with --envelope: only the two members alone, not the whole envelope",
     )
+    cli.add_argument(
+        "--validate",
+        action="store_true",
+        help="the DAG part is `snakemake validate`, in a new clone of HEAD (from nothing, then "
+        "the verdicts again from the tables alone)",
+    )
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
     print(
@@ -554,7 +587,9 @@ def main():
             bench_ripple_and_hpo(path)
     if not args.skip_dag:
         for config in args.configs:
-            if args.envelope:
+            if args.validate:
+                bench_validate(config)
+            elif args.envelope:
                 bench_envelope(config, args.keep_results, args.members_only)
             elif args.fresh:
                 bench_fresh_clone(config, args.keep_results, not args.no_warm)

@@ -17,6 +17,11 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
   there with its provenance: commit, workflow/unknowns.yaml's sha256, members; a design of its
   own, such as Chapter 7's, judges the rows the others have no envelope for).
 
+``--validation``: the results/validation/<name>/ folder of a `snakemake validate` run, copied to
+docs/snapshot/validation/<name>/: every done batch's tables (members × inputs, the plan, members ×
+rows, members × targets, with their provenance), the later waves' designs and the verdicts. A
+clone's `snakemake validate` finds those batches done and extends them, never draws them again.
+
 ``--rejudge-envelope`` remakes the snapshot's envelope verdicts from the percentiles it keeps,
 with the registry as it is now (selfsense.envelope.verdicts.rejudge: a change of the judge alone),
 before writing the blocks.
@@ -212,6 +217,28 @@ def snapshot_envelope(folder: Path, snapshot: Path, wall_s: float | None) -> Non
     (target / "provenance.json").write_text(json.dumps(record, indent=1) + "\n")
 
 
+#: what a validation's snapshot keeps besides its batches: the verdicts and their figures
+VALIDATION_SUFFIXES = (".csv", ".json", ".png", ".pdf", ".rst")
+
+
+def snapshot_validation(folder: Path, snapshot: Path) -> Path:
+    """Copy a validation's results into snapshot/validation/<name>/: every batch with its four
+    tables (a batch left unfinished is not a batch done), the later waves' designs, the
+    verdicts, each with its provenance sidecar."""
+    target = snapshot / "validation" / folder.name
+    tables = ("inputs.csv", "plan.csv", "rows.csv", "targets.csv")
+    for path in sorted(p for p in folder.rglob("*") if p.is_file()):
+        relative = path.relative_to(folder)
+        if path.suffix not in VALIDATION_SUFFIXES or ".part" in path.name:
+            continue
+        if relative.parts[0].startswith("wave") and len(relative.parts) == 3:
+            if not all((path.parent / t).is_file() for t in tables):
+                continue  # a batch whose tables are not all there is not done
+        (target / relative).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(path, target / relative)
+    return target
+
+
 def rejudge_envelopes(snapshot: Path = SNAPSHOT, raw: Path = Path("raw")) -> None:
     """Remake every snapshot envelope's scorecard, summary and forest plot from the percentiles
     its scorecard keeps, judged with the registry as it is now; its provenance then names the
@@ -249,6 +276,7 @@ def main(
     envelope: Path | None = None,
     wall_s=None,
     rejudge_envelope: bool = False,
+    validation: Path | None = None,
 ):
     """Snapshot the run's scorecards (``results``; None: keep the snapshot's) and an envelope's
     results (``envelope``), remake the envelopes' verdicts if asked, then write every page's
@@ -260,6 +288,8 @@ def main(
         snapshot_envelope(envelope, snapshot, wall_s)
     if rejudge_envelope:
         rejudge_envelopes(snapshot)
+    if validation is not None:
+        snapshot_validation(validation, snapshot)
     for name, body in render(snapshot).items():
         PAGES[name].write_text(
             replace_block(PAGES[name].read_text(encoding="utf-8"), name, body), encoding="utf-8"
@@ -298,11 +328,19 @@ if __name__ == "__main__":
         help="remake the snapshot's envelope verdicts from the percentiles it keeps (a change of "
         "the judge alone), keeping the snapshot's scorecards",
     )
+    cli.add_argument(
+        "--validation",
+        type=Path,
+        help="results/validation/<name>/ of a validation: its done batches' tables and its "
+        "verdicts into docs/snapshot/validation/<name>/, keeping the snapshot's scorecards",
+    )
     args = cli.parse_args()
-    results = None if args.envelope_only or args.rejudge_envelope else args.results
+    only = args.envelope_only or args.rejudge_envelope or args.validation is not None
+    results = None if only else args.results
     main(
         results,
         envelope=args.envelope,
         wall_s=args.envelope_wall_s,
         rejudge_envelope=args.rejudge_envelope,
+        validation=args.validation,
     )

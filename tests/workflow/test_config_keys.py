@@ -44,8 +44,10 @@ STRUCTURAL = {
     "twin.together",  # which runs share a job: the same captures, made by fewer jobs
 }
 #: the envelope's design, which its own rules take whole as a param: read by another rule's
-#: inputs, it says which datasets are its members (rule all and the scorecard leave them out)
-STRUCTURAL_SECTIONS = ("envelope.",)
+#: inputs, it says which datasets are its members (rule all and the scorecard leave them out);
+#: and the validation's plan, which says which members and batches exist (its rules take what it
+#: draws as their params: a member's manifest, a batch's runs)
+STRUCTURAL_SECTIONS = ("envelope.", "validation.")
 
 #: a few keys and the rules that read them, as the rule files say: the parse must find these
 KNOWN = {

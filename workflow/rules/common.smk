@@ -38,6 +38,8 @@ from selfsense.envelope.design import (
     undrawn,
 )
 from selfsense.envelope.unknowns import load_unknowns
+from selfsense.envelope import campaign as validation_campaign
+from selfsense.envelope.validation import load_validation
 from selfsense import stages
 from selfsense.io import roles
 
@@ -210,6 +212,41 @@ else:
     ENVELOPE = undrawn(ENVELOPE_DESIGN)
 DATASETS |= ENVELOPE.manifests
 
+# ---- The validation (workflow/rules/validation.smk): workflow/validation.yaml's waves, each run a
+# member as the envelope's (<name>~NNN, rule envelope_member writes its manifest), in batches whose
+# tables are kept under results/validation/<name>/ (or committed under docs/snapshot/validation/).
+# A batch whose tables exist is done and a source from then on: no rule makes it again, none of
+# its members joins the DAG. Drawn only when a target names the validation or one of its members.
+VALIDATION_DECLARATION = "workflow/validation.yaml"
+VALIDATION_PLAN = validation_campaign.Plan.from_config(config["validation"], CONFIG_SOURCE)
+VALIDATION_FOLDER = f"results/validation/{VALIDATION_PLAN.name}"
+VALIDATION_SNAPSHOT = f"docs/snapshot/validation/{VALIDATION_PLAN.name}"
+if TARGETS is None or validation_campaign.asked(TARGETS, VALIDATION_PLAN.name):
+    if VALIDATION_PLAN.dataset not in DATASETS:
+        raise ValueError(
+            f"config.yaml: key validation.dataset: {VALIDATION_PLAN.dataset} is not among "
+            f"datasets ({', '.join(NOMINAL)})"
+        )
+    VALIDATION = validation_campaign.draw(
+        VALIDATION_PLAN,
+        load_validation(VALIDATION_DECLARATION),
+        DATASETS[VALIDATION_PLAN.dataset],
+        load_unknowns(UNKNOWNS, raw_dir=RAW),
+        config["campaign"],
+        VALIDATION_FOLDER,
+        VALIDATION_SNAPSHOT,
+        named=re.findall(rf"{re.escape(VALIDATION_PLAN.name)}~\d+", " ".join(TARGETS or ())),
+    )
+    check_member_manifests(VALIDATION, RAW, f"{VALIDATION_FOLDER}/plan.csv")
+else:
+    VALIDATION = validation_campaign.undrawn(VALIDATION_PLAN)
+DATASETS |= VALIDATION.manifests
+#: every member (the envelope's and the validation's): its manifest, and whose member it is
+MEMBERS = {**ENVELOPE.manifests, **VALIDATION.manifests}
+MEMBER_BASE = dict.fromkeys(ENVELOPE.manifests, ENVELOPE.design.dataset) | dict.fromkeys(
+    VALIDATION.manifests, VALIDATION_PLAN.dataset
+)
+
 
 def envelope_inputs(wildcards):
     """Rule envelope's inputs: the nominal scorecard, every member's, the plan; one line if the
@@ -230,9 +267,7 @@ def envelope_inputs(wildcards):
 
 def nominal(*outputs):
     """The outputs of the run's own datasets, without the envelope members'."""
-    return [
-        o for group in outputs for o in group if not any(f"/{m}/" in o for m in ENVELOPE.manifests)
-    ]
+    return [o for group in outputs for o in group if not any(f"/{m}/" in o for m in MEMBERS)]
 
 
 SIMULATED = [n for n, m in DATASETS.items() if m["source"] == "simulated"]
@@ -718,6 +753,14 @@ def scorecard_tables(dataset):
                 and ENVELOPE.design.judges(e.chapter)
             )
         )
+    elif dataset in VALIDATION.manifests:  # every chapter's: the declaration folds them all
+        read = list(
+            dict.fromkeys(
+                e.locate.table
+                for e in entries
+                if e.kind in ("emergent", "calibration") and e.locate
+            )
+        )
     else:
         read = dataset_tables(SCORECARD, DATASETS[dataset])
     return [t for t in (f"results/{dataset}/{t}" for t in read) if t in stage_outputs()]
@@ -760,3 +803,68 @@ def calibration_tables(dataset):
         for t in (f"results/{dataset}/{t}" for t in TWIN_CALIBRATION.tables())
         if t in stage_outputs()
     ]
+
+
+# ---- The validation's rules' inputs (workflow/rules/validation.smk)
+
+
+def validation_batch_inputs(wildcards):
+    """Rule validation_batch's inputs: every member's scorecard and the tables its common
+    targets read (those its stages make)."""
+    members = VALIDATION.batch(wildcards.batch).members
+    made = stage_outputs()
+    return {
+        "cards": [f"results/{m}/scorecard.csv" for m in members],
+        "tables": [
+            t
+            for m in members
+            for t in (f"results/{m}/{table}" for table in VALIDATION.tables)
+            if t in made
+        ],
+    }
+
+
+def validation_tables(kinds, waves=None):
+    """The batches' tables of kinds (inputs, plan, rows, targets), done and made by this run, of
+    the waves given (None: all), in run order: where a done batch's are, or where this run
+    writes them."""
+    return [
+        f"{VALIDATION.folder(b.id, VALIDATION_FOLDER)}/{validation_campaign.TABLES[k]}"
+        for b in VALIDATION.batches
+        if (b.id in VALIDATION.done or b.id in VALIDATION.selected)
+        and (waves is None or b.wave in waves)
+        for k in kinds
+    ]
+
+
+def validate_inputs(wildcards):
+    """Rule validate's inputs: every batch's tables (done, or made by this run), the later
+    waves' designs, and the next wave's when this run makes it."""
+    designs = list(VALIDATION.designs.values())
+    if VALIDATION.design_wave is not None:
+        designs.append(f"{VALIDATION_FOLDER}/wave{VALIDATION.design_wave}/design.csv")
+    return {
+        "units": validation_tables(["inputs"]),
+        "rows": validation_tables(["rows"]),
+        "targets": validation_tables(["targets"]),
+        "designs": designs,
+    }
+
+
+def validation_wave_inputs(wildcards):
+    """Rule validation_wave's inputs: the earlier waves' members × inputs and members × targets
+    (never their rows: the waves are cut on the common targets only)."""
+    earlier = range(1, int(wildcards.wave))
+    return {
+        "units": validation_tables(["inputs"], earlier),
+        "targets": validation_tables(["targets"], earlier),
+    }
+
+
+#: what the declaration's loader reads besides the declaration and the registry: the signatures,
+#: the protocols and the dataset's manifest
+VALIDATION_SOURCES = [
+    "workflow/twin_calibration.yaml",
+    *sorted(str(p) for p in Path("workflow/protocols").glob("*.yaml")),
+    str(RAW / VALIDATION_PLAN.dataset / "dataset.yaml"),
+]

@@ -6,11 +6,11 @@
 
 
 rule envelope_member:
-    """A member's manifest, raw/<member>/dataset.yaml: the envelope dataset's with the member's
-    draw of every varied unknown (a protocol's values as protocol_overrides), running only the
-    envelope's stages."""
+    """A member's manifest, raw/<member>/dataset.yaml: the envelope's (or the validation's)
+    dataset's with the member's draw of every varied unknown (a protocol's values as
+    protocol_overrides), running only its design's stages."""
     input:
-        base=lambda w: RAW / ENVELOPE.design.dataset / "dataset.yaml",
+        base=lambda w: RAW / MEMBER_BASE[w.dataset] / "dataset.yaml",
         unknowns=UNKNOWNS,
         library=library_sources("envelope_member"),
     output:
@@ -20,13 +20,13 @@ rule envelope_member:
     benchmark:
         "benchmarks/out/{dataset}/envelope_member.tsv"
     wildcard_constraints:
-        dataset="|".join(ENVELOPE.manifests) or "^$",
+        dataset="|".join(MEMBERS) or "^$",
     localrule: True
     threads: 1
     resources:
         **resources_for("small"),
     params:
-        member=lambda w: ENVELOPE.manifests[w.dataset],
+        member=lambda w: MEMBERS[w.dataset],
     script:
         "../scripts/envelope_member.py"
 

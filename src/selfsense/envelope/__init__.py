@@ -20,5 +20,7 @@ The validation's modules:
 - ``history_matching``: implausibility, the region not ruled out and the waves' designs;
 - ``fold_prediction``: every fold predicted from the others, its verdicts and the
   fold-compatibility map;
-- ``coverage``: the method's own test on pseudo-theses with known truth.
+- ``coverage``: the method's own test on pseudo-theses with known truth;
+- ``campaign``: the declared waves as workflow members in resumable batches, and their tables;
+- ``judgement``: the verdicts, the next wave's design and the coverage from those tables alone.
 """

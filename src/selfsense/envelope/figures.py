@@ -380,3 +380,54 @@ def tornado_figure(
     table. Without a Morris screening (a Latin hypercube envelope) a single panel says so.
     """
     _save(tornado(sensitivity, card, title, top), path, inputs, config, pdf)
+
+
+# --- the validation's figures -------------------------------------------------------------------
+
+
+def pit_histogram(histogram: Any, coverage: float, judged: int, title: str):
+    """The pseudo-theses' PIT histogram: the held-out rows' F(z) in tenths of [0, 1], the flat
+    line a calibrated predictive gives (a hump: too wide; a U: too narrow; a slope: biased)."""
+    counts = np.asarray(histogram, dtype=float)
+    fig, ax = plt.subplots(figsize=(5.0, 3.2))
+    edges = np.linspace(0.0, 1.0, len(counts) + 1)
+    ax.bar(edges[:-1], counts, width=np.diff(edges), align="edge", color="#9ecae1", ec="0.3")
+    if judged:
+        ax.axhline(judged / len(counts), color="0.2", ls="--", lw=1, label="calibrated")
+        ax.legend(fontsize=7, loc="upper right")
+    ax.set_xlim(0, 1)
+    ax.set_xlabel("PIT of a held-out row, F(z) [1]", fontsize=8)
+    ax.set_ylabel("held-out rows [count]", fontsize=8)
+    shown = f"{coverage:.1%}" if judged else "no held-out row"
+    ax.set_title(plain(f"{title}: {judged} held-out rows, 95 % coverage {shown}"), fontsize=8)
+    ax.tick_params(labelsize=7)
+    return fig
+
+
+def compatibility_map(folds: list[str], table: Any, title: str):
+    """The fold-compatibility map: for every pair of folds, the share of the prior points the
+    common targets and both folds' rows leave (the diagonal: one fold with the common targets);
+    a zero is drawn black: no bench reproduces both."""
+    table = np.asarray(table, dtype=float)
+    n = max(len(folds), 1)
+    fig, ax = plt.subplots(figsize=(1.0 + 0.35 * n, 0.8 + 0.35 * n))
+    shown = np.where(table > 0, table, np.nan)
+    image = ax.imshow(
+        shown, cmap="viridis", vmin=0.0, vmax=max(float(np.nanmax(table, initial=0)), 1e-9)
+    )
+    for i, j in zip(*np.nonzero(table == 0)):
+        ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, color="black"))
+    ax.set_xticks(range(len(folds)), [plain(f) for f in folds], rotation=90, fontsize=7)
+    ax.set_yticks(range(len(folds)), [plain(f) for f in folds], fontsize=7)
+    fig.colorbar(image, ax=ax, label="share of the prior points left [1]")
+    ax.set_title(plain(title), fontsize=8)
+    return fig
+
+
+def validation_figure(fig, path: str | os.PathLike, *, inputs=(), pdf: bool = True, **extra):
+    """Save a validation figure (PNG, with ``pdf`` a PDF beside it) with its provenance
+    (``extra``: the declaration's and the unknowns' sha256)."""
+    try:
+        save_figure(fig, path, inputs=inputs, pdf=pdf, **extra)
+    finally:
+        plt.close(fig)

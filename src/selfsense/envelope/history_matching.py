@@ -232,6 +232,37 @@ def screen(
     )
 
 
+@dataclass(frozen=True)
+class Streams:
+    """Every random number the waves use, drawn in one order from the declared seed: each run's
+    noise seed (in run order over all waves), wave 1's maximin design, the prior candidates the
+    waves screen, and each later wave's maximin subset. :func:`run_waves` and the workflow's
+    waves (:mod:`selfsense.envelope.campaign`) take them from here, so that the same declaration
+    gives the same runs whichever drives them."""
+
+    runs: np.ndarray  # uint64 noise seeds, in run order
+    design: int
+    candidates: int
+    later: tuple[int, ...]
+
+
+#: how many noise seeds a declaration's waves may draw, and how many later waves
+SEEDS, LATER_WAVES = 10**6, 64
+
+
+def streams(seed: int) -> Streams:
+    """The waves' random numbers from ``seed`` (see :class:`Streams`)."""
+    rng = np.random.default_rng(seed)
+    runs = rng.integers(0, 2**32 - 1, size=SEEDS, dtype=np.uint64)
+    design, candidates = int(rng.integers(2**31)), int(rng.integers(2**31))
+    return Streams(
+        runs,
+        design,
+        candidates,
+        tuple(int(rng.integers(2**31)) for _ in range(LATER_WAVES)),
+    )
+
+
 def run_waves(
     simulate: Callable[[np.ndarray, np.ndarray], np.ndarray],
     d: int,
@@ -261,13 +292,13 @@ def run_waves(
     and screens the prior ``candidates``; the next wave is a maximin subset of the survivors.
     Stops after ``max_waves``, or when a wave rules out less than ``shrink_below`` of what the
     last left (the declaration's stopping rule), or when nothing is left."""
-    rng = np.random.default_rng(seed)
-    seeds = iter(rng.integers(0, 2**32 - 1, size=10**6, dtype=np.uint64))
+    drawn = streams(seed)
+    seeds, later = iter(drawn.runs), iter(drawn.later)
 
     def run(X: np.ndarray) -> np.ndarray:
         return simulate(X, np.array([next(seeds) for _ in range(len(X))]))
 
-    design = maximin_latin_hypercube(first_runs, d, int(rng.integers(2**31)), maximin_candidates)
+    design = maximin_latin_hypercube(first_runs, d, drawn.design, maximin_candidates)
     outputs = run(design)
     # replicates: the first points run again with fresh seeds; they measure Var_ens, and every
     # run, replicate or not, trains the emulators (the nugget is fitted on all of them)
@@ -276,7 +307,7 @@ def run_waves(
     reps = np.stack([outputs[: len(points)], *repeats], axis=1)
     replicate_var = ensemble_variance(reps)
     df = len(points) * (replicate_seeds - 1)
-    cands = prior_candidates(candidates, d, int(rng.integers(2**31)))
+    cands = prior_candidates(candidates, d, drawn.candidates)
     X_all = np.vstack([design, *[points] * len(repeats)])
     Y_all = np.vstack([outputs, *repeats])
     waves: list[Wave] = []
@@ -295,9 +326,7 @@ def run_waves(
         if w + 1 == max_waves or fraction == 0.0 or (w > 0 and shrink < shrink_below):
             break
         last = fraction
-        design = maximin_subset(
-            cands[mask], later_runs, int(rng.integers(2**31)), maximin_candidates
-        )
+        design = maximin_subset(cands[mask], later_runs, next(later), maximin_candidates)
         outputs = run(design)
         X_all, Y_all = np.vstack([X_all, design]), np.vstack([Y_all, outputs])
     return Matching(

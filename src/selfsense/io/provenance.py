@@ -217,6 +217,19 @@ def code_version() -> dict[str, Any]:
     }
 
 
+@lru_cache(maxsize=1)
+def commit() -> str:
+    """The checkout's commit (``git rev-parse HEAD`` where the workflow runs; "unknown" outside
+    a git checkout): what an output that names its commit records."""
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=Path.cwd(), capture_output=True, text=True, timeout=10
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        head = ""
+    return head or "unknown"
+
+
 def _version(package: str) -> str:
     try:
         return metadata.version(package)

@@ -1,0 +1,139 @@
+# The validation (docs/validation.md): workflow/validation.yaml's waves run as members (VALIDATION
+# in common.smk; their manifests by rule envelope_member), each batch's tables kept, and the
+# verdicts made from those tables alone. Not part of rule all: `snakemake validate`. These are
+# local rules: they read and write kilobytes, and on a cluster the members are the jobs.
+
+
+rule validation_batch:
+    """One batch's tables, from its members' scorecards and the tables the common targets read:
+    members × inputs (the unit cube, the noise seed), the plan, members × rows, members ×
+    targets. A batch whose tables exist is done: this rule never makes it again."""
+    input:
+        unpack(validation_batch_inputs),
+        declaration=VALIDATION_DECLARATION,
+        unknowns=UNKNOWNS,
+        library=library_sources("validation_batch"),
+    output:
+        unit=f"{VALIDATION_FOLDER}/{{batch}}/inputs.csv",
+        plan=f"{VALIDATION_FOLDER}/{{batch}}/plan.csv",
+        rows=f"{VALIDATION_FOLDER}/{{batch}}/rows.csv",
+        targets=f"{VALIDATION_FOLDER}/{{batch}}/targets.csv",
+    log:
+        f"logs/validation/{VALIDATION_PLAN.name}/{{batch}}.log",
+    benchmark:
+        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/{{batch}}.tsv"
+    wildcard_constraints:
+        batch="|".join(VALIDATION.selected) or "^$",
+    localrule: True
+    threads: 1
+    resources:
+        **resources_for("small"),
+    params:
+        runs=lambda w: VALIDATION.inputs[w.batch].to_dict("list"),
+        drawn=lambda w: VALIDATION.plans[w.batch].to_dict("list"),
+        row_keys=list(VALIDATION.rows),
+        locate=[list(t) for t in VALIDATION.targets],
+    script:
+        "../scripts/validation_batch.py"
+
+
+rule validation_wave:
+    """A later wave's design, from the earlier waves' members × inputs and × targets alone: a
+    maximin subset of the prior candidates the common targets' emulators leave (no judged row
+    steers where the simulator runs), or none, with the reason the waves stop."""
+    input:
+        unpack(validation_wave_inputs),
+        declaration=VALIDATION_DECLARATION,
+        sources=VALIDATION_SOURCES,
+        registry=SCORECARD_REGISTRY,
+        unknowns=UNKNOWNS,
+        library=library_sources("validation_wave"),
+    output:
+        design=f"{VALIDATION_FOLDER}/wave{{wave}}/design.csv",
+    log:
+        f"logs/validation/{VALIDATION_PLAN.name}/wave{{wave}}_design.log",
+    benchmark:
+        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/wave{{wave}}_design.tsv"
+    wildcard_constraints:
+        wave=str(VALIDATION.design_wave or "^$"),
+    localrule: True
+    threads: 1
+    resources:
+        **resources_for("large"),
+    params:
+        ids=list(VALIDATION.ids),
+        first=VALIDATION.first,
+    script:
+        "../scripts/validation_wave.py"
+
+
+rule validate:
+    """The validation's verdicts from the ensemble's tables alone: per emergent row its fold,
+    conditioning folds, NROY fraction, posterior-predictive 2.5/50/97.5, the published value's
+    implausibility and PIT, and verdict; the emulators' leave-one-out diagnostics; the waves'
+    cut; the fold-compatibility map; the pseudo-theses' coverage and PIT histogram."""
+    input:
+        unpack(validate_inputs),
+        declaration=VALIDATION_DECLARATION,
+        sources=VALIDATION_SOURCES,
+        registry=SCORECARD_REGISTRY,
+        unknowns=UNKNOWNS,
+        library=library_sources("validate"),
+    output:
+        verdicts=report(
+            f"{VALIDATION_FOLDER}/verdicts.csv",
+            caption="../report/validation_verdicts.rst",
+            category="Validation",
+            subcategory="Verdicts",
+        ),
+        emulators=report(
+            f"{VALIDATION_FOLDER}/emulators.csv",
+            caption="../report/validation_emulators.rst",
+            category="Validation",
+            subcategory="Emulators",
+        ),
+        waves=f"{VALIDATION_FOLDER}/waves.csv",
+        compatibility=report(
+            f"{VALIDATION_FOLDER}/compatibility.csv",
+            caption="../report/validation_compatibility.rst",
+            category="Validation",
+            subcategory="Folds",
+        ),
+        compatibility_map=report(
+            f"{VALIDATION_FOLDER}/compatibility.png",
+            caption="../report/validation_compatibility_map.rst",
+            category="Validation",
+            subcategory="Folds",
+        ),
+        coverage=report(
+            f"{VALIDATION_FOLDER}/coverage.csv",
+            caption="../report/validation_coverage.rst",
+            category="Validation",
+            subcategory="Pseudo-theses",
+        ),
+        pit=f"{VALIDATION_FOLDER}/pit.csv",
+        pit_histogram=report(
+            f"{VALIDATION_FOLDER}/pit_histogram.png",
+            caption="../report/validation_pit_histogram.rst",
+            category="Validation",
+            subcategory="Pseudo-theses",
+        ),
+        summary=report(
+            f"{VALIDATION_FOLDER}/validation_summary.rst",
+            caption="../report/validation_summary.rst",
+            category="Validation",
+            subcategory="Verdicts",
+        ),
+    log:
+        f"logs/validation/{VALIDATION_PLAN.name}/validate.log",
+    benchmark:
+        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/validate.tsv"
+    localrule: True
+    threads: 1
+    resources:
+        **resources_for("large"),
+    params:
+        ids=list(VALIDATION.ids),
+        pdf=FIGURE_PDF,
+    script:
+        "../scripts/validate.py"
