@@ -44,6 +44,7 @@ from selfsense.twin.instruments import (
 )
 from selfsense.twin.params import TwinParams
 from selfsense.twin.record import NOISY, TRUTH, record
+from selfsense.twin.variants import series_load
 
 
 @dataclass(frozen=True)
@@ -96,6 +97,9 @@ class Bench:
         self.daq = daq
         rng = np.random.default_rng(seed)
         self.noise_rng = np.random.default_rng(rng.integers(2**63))
+        # the load the stack pushes on, through the load path's compliance (the force sensor
+        # reads the force that crosses it)
+        load_stiffness = series_load(load_stiffness, params.load_path.compliance)
         self.kc = kernel.kernel_constants(params, daq.fs, load_stiffness)
         self.T_amb = params.thermal.T_amb if T_amb is None else T_amb
         self.state = kernel.initial_state(self.kc, self.T_amb)

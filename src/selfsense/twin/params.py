@@ -7,7 +7,7 @@ the instruments' data sheets); none is an analysis setting. Units are SI.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, fields
+from dataclasses import MISSING, asdict, dataclass, field, fields
 from typing import Any, get_type_hints
 
 import numpy as np
@@ -25,9 +25,11 @@ def _build(cls, values: Mapping[str, Any], where: str):
 
 def build_sections(cls, twin: Mapping[str, Any], where: str):
     """A twin's parameters ``cls`` (a dataclass of sections) from a manifest's twin block: every
-    section present and none unknown, each built into the type its field is annotated with."""
+    section present but the variants (a section with a default: the term off) and none unknown,
+    each built into the type its field is annotated with."""
     kinds = get_type_hints(cls)
-    missing = sorted(set(kinds) - set(twin))
+    optional = {f.name for f in fields(cls) if f.default_factory is not MISSING}
+    missing = sorted(set(kinds) - set(twin) - optional)
     unknown = sorted(set(twin) - set(kinds))
     if missing or unknown:
         raise ValueError(
@@ -35,7 +37,11 @@ def build_sections(cls, twin: Mapping[str, Any], where: str):
             f"unknown key(s) {', '.join(unknown) or '-'}"
         )
     return cls(
-        **{name: _build(kind, twin[name], f"{where}.{name}") for name, kind in kinds.items()}
+        **{
+            name: _build(kind, twin[name], f"{where}.{name}")
+            for name, kind in kinds.items()
+            if name in twin
+        }
     )
 
 
@@ -178,6 +184,20 @@ class InstrumentParams:
 
 
 @dataclass(frozen=True)
+class LoadPathParams:
+    """A compliance in series with a run's load (the static blocked-force test's force sensor):
+    the frame, ball seats and mounts between stack and sensor. The stack pushes on
+    1/(1/k_load + compliance) (:func:`.variants.series_load`); 0: the load alone (today's twin)."""
+
+    compliance: float = 0.0  # [m/N]
+
+
+#: the twin's variants: mechanisms a manifest may switch on, each off by default (docs/twin.md,
+#: "Variants"); /truth records a variant's parameters only when it is on
+VARIANTS = ("load_path",)
+
+
+@dataclass(frozen=True)
 class TwinParams:
     stack: StackParams
     hysteresis: HysteresisParams
@@ -185,6 +205,7 @@ class TwinParams:
     ripple: RippleParams
     thermal: ThermalParams
     instruments: InstrumentParams
+    load_path: LoadPathParams = field(default_factory=LoadPathParams)
 
     @classmethod
     def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> TwinParams:
@@ -199,6 +220,8 @@ class TwinParams:
         out: dict[str, float] = {}
         for part in fields(self):
             obj = getattr(self, part.name)
+            if part.name in VARIANTS and obj == type(obj)():
+                continue  # off: today's twin, whose /truth it leaves as it was
             for key, value in asdict(obj).items():
                 if isinstance(value, (int, float)):
                     out[f"{part.name}_{key}"] = float(value)
