@@ -9,8 +9,8 @@ import pytest
 
 from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed
-from selfsense.twin.params import LoadPathParams, TwinParams
-from selfsense.twin.variants import series_load
+from selfsense.twin.params import LoadPathParams, PowerAmplifierParams, TwinParams
+from selfsense.twin.variants import PowerAmplifier, series_load
 
 FS = 48000.0
 SENSOR = 1.05e9  # the static test's force sensor, 1.05 kN/µm (ch4_static_blocked)
@@ -83,3 +83,74 @@ def test_a_manifest_switches_the_load_path_on(stack_manifest):
     assert TwinParams.from_manifest(twin).load_path.compliance == 3e-8
     with pytest.raises(ValueError, match="twin.load_path: unknown key"):
         TwinParams.from_manifest(dict(twin) | {"load_path": {"stiffness": 1.0}})
+
+
+# --- the power amplifier (PI E-617.00F) ----------------------------------------------------------
+
+
+def step_response(tau, slew_time, V, n):
+    """The stage's response to a step to V at sample 0 in closed form: the ramp of slope
+    S = 1/slew_time while the first-order stage asks more than S·h a sample, then the geometric
+    settling e^{−h/τ} a sample from where the ramp left it."""
+    h = 1 / FS
+    gain, ramp = 1 - np.exp(-h / tau), h / slew_time
+    k = np.arange(n)
+    ramping = int(np.ceil((V - ramp / gain) / ramp))  # samples on the ramp: V − y_k > S·h/g
+    y_end = ramping * ramp
+    response = np.where(
+        k < ramping, (k + 1) * ramp, V - (V - y_end) * np.exp(-(k - ramping + 1) * h / tau)
+    )
+    return response, ramping
+
+
+@pytest.mark.parametrize("tau, slew_time", [(1.6e-4, 6.6e-6), (5e-5, 1.6e-6)])
+def test_a_step_into_the_stack_ramps_at_the_current_limit_then_settles_first_order(tau, slew_time):
+    """A 100 V step: a ramp of slope I_max/C_load = 1/slew_time, then first-order settling with
+    τ; the continuous-time response (the ramp until V − U = S·τ, then V − S·τ·e^{−(t − t₁)/τ})
+    within one sample's slew, S·h."""
+    amp = PowerAmplifier(PowerAmplifierParams(tau, slew_time), FS)
+    n = 2000
+    out = amp(np.full(n, 100.0))
+    expected, ramping = step_response(tau, slew_time, 100.0, n)
+    # the recursion against its closed form: a rounding a sample, n samples
+    np.testing.assert_allclose(out, expected, rtol=0, atol=n * 4 * np.finfo(float).eps * 100)
+    S, t = 1 / slew_time, (np.arange(n) + 1) / FS
+    t1 = (100.0 - S * tau) / S
+    continuous = np.where(t < t1, S * t, 100.0 - S * tau * np.exp(-(t - t1) / tau))
+    np.testing.assert_allclose(out, continuous, rtol=0, atol=S / FS)
+    assert np.max(np.diff(out)) <= 1 / FS / slew_time * (1 + 1e-12)
+    assert ramping >= 5  # the current limit acts: 100 V into 3.1 µF at 2 A take 7 samples
+
+
+def test_the_amplifier_clips_at_its_output_range_and_carries_its_state_across_chunks():
+    u = np.concatenate([np.full(300, 150.0), np.full(300, -40.0)])
+    amp = PowerAmplifier(PowerAmplifierParams(1e-5, 0.0), FS)
+    whole = amp(u)
+    assert whole.max() == pytest.approx(120.0) and whole.min() == pytest.approx(-20.0)
+    amp = PowerAmplifier(PowerAmplifierParams(1e-5, 0.0), FS)
+    np.testing.assert_array_equal(np.concatenate([amp(u[:77]), amp(u[77:])]), whole)
+
+
+def test_the_compiled_stage_is_its_numpy_reference_bit_for_bit():
+    rng = np.random.default_rng(5)
+    u = np.cumsum(rng.normal(0, 5, 5000)) + 50
+    fast = PowerAmplifier(PowerAmplifierParams(1e-4, 4e-6), FS)
+    slow = PowerAmplifier(PowerAmplifierParams(1e-4, 4e-6), FS)
+    np.testing.assert_array_equal(fast(u), slow(u, compiled=False))
+    np.testing.assert_array_equal(fast.z, slow.z)
+
+
+def test_the_amplifier_off_is_the_ideal_or_the_signal_chains_and_refuses_both(
+    stack_params, stack_daq
+):
+    bench = Bench(stack_params, stack_daq, experiment_seed(1, "x"))
+    assert type(bench.amplifier).__name__ == "Amplifier" and bench.amplifier.ideal
+    assert "power_amplifier_slew_time" not in stack_params.truth_attrs()
+    with pytest.raises(ValueError, match="two models of one amplifier"):
+        dataclasses.replace(
+            stack_params,
+            power_amplifier=PowerAmplifierParams(1e-4, 0.0),
+            instruments=dataclasses.replace(
+                stack_params.instruments, amplifier_gain_at_folded_ripple=0.5
+            ),
+        )

@@ -44,7 +44,7 @@ from selfsense.twin.instruments import (
 )
 from selfsense.twin.params import TwinParams
 from selfsense.twin.record import NOISY, TRUTH, record
-from selfsense.twin.variants import series_load
+from selfsense.twin.variants import PowerAmplifier, series_load
 
 
 @dataclass(frozen=True)
@@ -119,7 +119,11 @@ class Bench:
         # ripple alone
         if not drive_leak:
             self.hp_u.b = self.hp_i.b = np.zeros_like(self.hp_u.b)
-        self.amplifier = Amplifier(ins.amplifier_gain_at_folded_ripple, daq.fs, daq.ns)
+        self.amplifier = (
+            PowerAmplifier(params.power_amplifier, daq.fs)
+            if params.power_amplifier.on
+            else Amplifier(ins.amplifier_gain_at_folded_ripple, daq.fs, daq.ns)
+        )
         self.offset_drift = SlowProcess(rng, ins.I_offset_drift, ins.I_offset_drift_bandwidth)
         self.laser_drift = SlowProcess(rng, ins.laser_drift, ins.laser_drift_bandwidth)
 

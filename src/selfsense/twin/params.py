@@ -192,9 +192,24 @@ class LoadPathParams:
     compliance: float = 0.0  # [m/N]
 
 
+@dataclass(frozen=True)
+class PowerAmplifierParams:
+    """The stack's PI E-617.00F from command to stack (:class:`.variants.PowerAmplifier`): a first
+    order stage of time constant τ whose output slews at most 1/slew_time volts a second (its
+    current limit I_max into the load C_load: slew_time = C_load/I_max), output −20…120 V (the
+    E-617's −2…12 V input at gain 10). Both 0: the ideal amplifier (today's twin)."""
+
+    time_constant: float = 0.0  # τ = 1/(2π f_c) of its small-signal bandwidth f_c [s]
+    slew_time: float = 0.0  # C_load/I_max [s/V]
+
+    @property
+    def on(self) -> bool:
+        return self.time_constant > 0 or self.slew_time > 0
+
+
 #: the twin's variants: mechanisms a manifest may switch on, each off by default (docs/twin.md,
 #: "Variants"); /truth records a variant's parameters only when it is on
-VARIANTS = ("load_path",)
+VARIANTS = ("load_path", "power_amplifier")
 
 
 @dataclass(frozen=True)
@@ -206,6 +221,14 @@ class TwinParams:
     thermal: ThermalParams
     instruments: InstrumentParams
     load_path: LoadPathParams = field(default_factory=LoadPathParams)
+    power_amplifier: PowerAmplifierParams = field(default_factory=PowerAmplifierParams)
+
+    def __post_init__(self):
+        if self.power_amplifier.on and self.instruments.amplifier_gain_at_folded_ripple < 1:
+            raise ValueError(
+                "twin: power_amplifier and instruments.amplifier_gain_at_folded_ripple below 1 "
+                "are two models of one amplifier: set one"
+            )
 
     @classmethod
     def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> TwinParams:

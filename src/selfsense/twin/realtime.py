@@ -5,7 +5,8 @@ numba loop (Chapter 6).
 block (:func:`.bench._closed_loop_chunk` with
 :class:`selfsense.twin.closed_loop.HPOIntegralController`, whose ``run_blocks`` calls it): the
 controller's command from the errors of the block before (Eq 6.1–6.3), the amplifier's
-(:class:`.instruments.Amplifier`, unless ideal), the stack's response
+(:class:`.instruments.Amplifier`, unless ideal, or the power amplifier of
+:class:`.variants.PowerAmplifier`), the stack's response
 (:func:`.kernel.run_kernel`), the instruments as :meth:`.bench.Bench.step` makes them
 (:func:`.record.record_block` over the block: ripple current through R_e–C_e, the ripple channels'
 high-pass, the probes' offsets and drifts, the ADC), then, sample by sample, the real-time chain on
@@ -30,6 +31,7 @@ from selfsense.methods.lti import filter_run
 from selfsense.methods.observer import hpo_update
 from selfsense.twin.kernel import N_OUT, run_kernel
 from selfsense.twin.record import MEASURED, TRUTH, bench_arrays, record_block
+from selfsense.twin.variants import rate_limited
 
 
 @numba.njit(cache=True)
@@ -64,8 +66,10 @@ def closed_loop_kernel(
 ):
     """Advance the closed loop over len(t_ref) samples, block by block; see the module docstring.
 
-    sig, bench, adc: as record.record_block. amp: the amplifier's [ideal, b0, b1, 1, a1]
-    (:class:`.instruments.Amplifier`), amp_z its state. weights: sin and cos rows (ns).
+    sig, bench, adc: as record.record_block. amp: the amplifier's [ideal, b0, b1, 1, a1,
+    rate limited, gain, max step, low, high] (:class:`.instruments.Amplifier`, or the power
+    amplifier's stage, :class:`.variants.PowerAmplifier`), amp_z its state. weights: sin and
+    cos rows (ns).
     tail: (2, ns) samples of the open period; sums: (4, np − 1) last whole periods' sums, oldest
     first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
     loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np,
@@ -99,7 +103,9 @@ def closed_loop_kernel(
             U[k] = min(max(u + acc, u_lo), u_hi)
         if nb:
             u = U[nb - 1]
-        if not amp[0]:
+        if amp[5]:  # the power amplifier's rate-limited stage (twin.variants)
+            rate_limited(U[:nb], amp[6:10], amp_z, V[:nb])
+        elif not amp[0]:
             filter_run(amp[1:3], amp[3:5], U[:nb], amp_z, V[:nb])
         run_kernel(
             V[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb]
