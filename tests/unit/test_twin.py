@@ -452,7 +452,10 @@ def test_drive_in_short_blocks_equals_the_whole_span(durations, levels, block):
             "adc_bits": 12,
             "highpass_q": 0.5,
         },
-        {"power_amplifier": {"time_constant": 1.6e-4, "slew_time": 6.6e-6}},
+        {
+            "power_amplifier": {"time_constant": 1.6e-4, "slew_time": 6.6e-6},
+            "loop": {"delay_samples": 2},
+        },
     ],
     ids=["nominal", "signal chain at its ranges' ends", "the variants on"],
 )

@@ -9,8 +9,8 @@ import pytest
 
 from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed
-from selfsense.twin.params import LoadPathParams, PowerAmplifierParams, TwinParams
-from selfsense.twin.variants import PowerAmplifier, series_load
+from selfsense.twin.params import LoadPathParams, LoopParams, PowerAmplifierParams, TwinParams
+from selfsense.twin.variants import Delay, PowerAmplifier, series_load
 
 FS = 48000.0
 SENSOR = 1.05e9  # the static test's force sensor, 1.05 kN/µm (ch4_static_blocked)
@@ -154,3 +154,43 @@ def test_the_amplifier_off_is_the_ideal_or_the_signal_chains_and_refuses_both(
                 stack_params.instruments, amplifier_gain_at_folded_ripple=0.5
             ),
         )
+
+
+# --- the loop's delay -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("d", [1, 2, 5])
+def test_the_delay_lags_a_sine_by_omega_t(d):
+    """A sine through d samples of latency lags by ωT, T = d/fs: its phase from a least-squares
+    fit of cos and sin over whole periods (exact to the fit's rounding)."""
+    f = 125.0
+    t = np.arange(int(FS / f) * 8) / FS
+    out = Delay(d)(np.sin(2 * np.pi * f * t))
+    settled = t >= d / FS  # before, the commands in flight (0 V)
+    basis = np.column_stack([np.sin(2 * np.pi * f * t), np.cos(2 * np.pi * f * t)])[settled]
+    (a, b), *_ = np.linalg.lstsq(basis, out[settled], rcond=None)
+    assert -np.arctan2(b, a) == pytest.approx(2 * np.pi * f * d / FS, rel=1e-10)
+
+
+@pytest.mark.parametrize("chunk", [1, 3, 1000])
+def test_the_compiled_delay_is_its_numpy_reference_and_chunk_invariant(chunk):
+    u = np.random.default_rng(2).normal(size=2001)
+    whole = Delay(2)(u)
+    np.testing.assert_array_equal(whole[2:], u[:-2])
+    assert not whole[:2].any()
+    fast, slow = Delay(2), Delay(2)
+    parts = [
+        (fast(u[i : i + chunk]), slow(u[i : i + chunk], compiled=False))
+        for i in range(0, len(u), chunk)
+    ]
+    np.testing.assert_array_equal(np.concatenate([p for p, _ in parts]), whole)
+    np.testing.assert_array_equal(np.concatenate([q for _, q in parts]), whole)
+
+
+def test_no_delay_is_the_command_itself(stack_params, stack_daq):
+    u = np.ones(5)
+    assert Delay(0)(u) is u
+    assert Bench(stack_params, stack_daq, experiment_seed(1, "x")).delay.buffer.size == 0
+    assert "loop_delay_samples" not in stack_params.truth_attrs()
+    on = dataclasses.replace(stack_params, loop=LoopParams(1))
+    assert on.truth_attrs()["loop_delay_samples"] == 1

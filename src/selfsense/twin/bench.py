@@ -44,7 +44,7 @@ from selfsense.twin.instruments import (
 )
 from selfsense.twin.params import TwinParams
 from selfsense.twin.record import NOISY, TRUTH, record
-from selfsense.twin.variants import PowerAmplifier, series_load
+from selfsense.twin.variants import Delay, PowerAmplifier, series_load
 
 
 @dataclass(frozen=True)
@@ -119,6 +119,7 @@ class Bench:
         # ripple alone
         if not drive_leak:
             self.hp_u.b = self.hp_i.b = np.zeros_like(self.hp_u.b)
+        self.delay = Delay(params.loop.delay_samples)
         self.amplifier = (
             PowerAmplifier(params.power_amplifier, daq.fs)
             if params.power_amplifier.on
@@ -156,8 +157,9 @@ class Bench:
         truth_first: int = 0,
         compiled: bool = True,
     ):
-        """Advance over the samples at times t with the command U (the amplifier's output drives
-        the stack and is what the U channel records); returns (measured, truth) dicts, the truth
+        """Advance over the samples at times t with the command U (through the DAQ's output
+        latency, if any, to the amplifier, whose output drives the stack and is what the U channel
+        records); returns (measured, truth) dicts, the truth
         at samples truth_first, truth_first + truth_every, … of these.
 
         ``signals``: :meth:`time_signals` of exactly these samples, made beforehand (by default
@@ -168,7 +170,7 @@ class Bench:
         n = len(t)
         F_ext = np.zeros(n) if F_ext is None else F_ext
         sig = self.time_signals(t, compiled) if signals is None else signals
-        U = self.amplifier(U)
+        U = self.amplifier(self.delay(U))
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         if compiled:
             return record(self, U, out, sig, truth_every, truth_first)

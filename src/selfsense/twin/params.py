@@ -207,9 +207,17 @@ class PowerAmplifierParams:
         return self.time_constant > 0 or self.slew_time > 0
 
 
+@dataclass(frozen=True)
+class LoopParams:
+    """The DAQ's output latency (:class:`.variants.Delay`): a command reaches the amplifier
+    delay_samples samples after the sample it was computed at; 0: at once (today's twin)."""
+
+    delay_samples: int = 0
+
+
 #: the twin's variants: mechanisms a manifest may switch on, each off by default (docs/twin.md,
 #: "Variants"); /truth records a variant's parameters only when it is on
-VARIANTS = ("load_path", "power_amplifier")
+VARIANTS = ("load_path", "power_amplifier", "loop")
 
 
 @dataclass(frozen=True)
@@ -222,6 +230,7 @@ class TwinParams:
     instruments: InstrumentParams
     load_path: LoadPathParams = field(default_factory=LoadPathParams)
     power_amplifier: PowerAmplifierParams = field(default_factory=PowerAmplifierParams)
+    loop: LoopParams = field(default_factory=LoopParams)
 
     def __post_init__(self):
         if self.power_amplifier.on and self.instruments.amplifier_gain_at_folded_ripple < 1:

@@ -80,3 +80,40 @@ def rate_limited_reference(u, stage, z, out) -> None:
         y = y + np.clip(gain * (np.clip(command, lo, hi) - y), -max_step, max_step)
         out[n] = y
     z[0] = y
+
+
+class Delay:
+    """The DAQ's output latency of d samples (:class:`.params.LoopParams`): the command of sample n
+    reaches the amplifier at sample n + d, a pure delay T = d/fs whose phase lag at ω is ωT. The
+    d commands in flight are its state, carried across chunks (0 V before a run)."""
+
+    def __init__(self, samples: int):
+        self.buffer = np.zeros(samples)
+
+    def __call__(self, command: np.ndarray, compiled: bool = True) -> np.ndarray:
+        """The delayed command (the same array when d = 0); ``compiled=False``: the numpy
+        reference."""
+        if not len(self.buffer):
+            return command
+        command = np.ascontiguousarray(command, dtype=float)
+        out = np.empty(len(command))
+        (delay_run if compiled else delay_reference)(command, self.buffer, out)
+        return out
+
+
+@numba.njit(cache=True)
+def delay_run(u, buffer, out):
+    """:class:`Delay` over u into out; buffer: the commands in flight, oldest first (updated)."""
+    d = buffer.size
+    for n in range(u.size):
+        out[n] = buffer[0]
+        for i in range(d - 1):
+            buffer[i] = buffer[i + 1]
+        buffer[d - 1] = u[n]
+
+
+def delay_reference(u, buffer, out) -> None:
+    """The numpy reference of :func:`delay_run`: the commands in flight, then u, shifted by d."""
+    line = np.concatenate([buffer, u])
+    out[:] = line[: len(u)]
+    buffer[:] = line[len(u) :]
