@@ -9,8 +9,16 @@ import pytest
 
 from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed
-from selfsense.twin.params import LoadPathParams, LoopParams, PowerAmplifierParams, TwinParams
+from selfsense.twin.params import (
+    HysteresisRateParams,
+    LoadPathParams,
+    LoopParams,
+    PowerAmplifierParams,
+    TwinParams,
+)
 from selfsense.twin.variants import Delay, PowerAmplifier, series_load
+
+from ..tolerances import rtol
 
 FS = 48000.0
 SENSOR = 1.05e9  # the static test's force sensor, 1.05 kN/µm (ch4_static_blocked)
@@ -194,3 +202,96 @@ def test_no_delay_is_the_command_itself(stack_params, stack_daq):
     assert "loop_delay_samples" not in stack_params.truth_attrs()
     on = dataclasses.replace(stack_params, loop=LoopParams(1))
     assert on.truth_attrs()["loop_delay_samples"] == 1
+
+
+# --- rate-dependent hysteresis --------------------------------------------------------------------
+
+
+def rate_dependent(params, beta, q_sat_max=5e-5):
+    """``params`` with β and a Maxwell loop all of whose elements have broken away by mid-stroke
+    (q_sat_max ≪ the 100 V swing's ≈ 500 µC), creep off: there U_H = ±v_total·(1 + β|I|)."""
+    return dataclasses.replace(
+        params,
+        hysteresis=dataclasses.replace(params.hysteresis, q_sat_max=q_sat_max, R_visc=0.0),
+        creep=dataclasses.replace(params.creep, C=(1e6,), tau=(1.0,)),
+        hysteresis_rate=HysteresisRateParams(beta),
+    )
+
+
+def sine_run(params, f, cycles=3):
+    t = np.arange(int(round(cycles / f * FS))) / FS
+    U = 50.0 - 50.0 * np.cos(2 * np.pi * f * t)
+    kc = K.kernel_constants(params, FS)
+    state = K.initial_state(kc, params.thermal.T_amb)
+    out = K.run(U, 0 * U, 0 * U + params.thermal.T_amb, kc, state)
+    return t, dict(zip(K.OUTPUTS, out.T)), kc, state
+
+
+def smoothed(current):
+    """The kernel's Ī at each sample: the current smoothed over RATE_SMOOTHING up to the sample
+    before (0 before the run)."""
+    a = np.exp(-1 / FS / K.RATE_SMOOTHING)
+    out, i = np.empty_like(current), 0.0
+    for n, c in enumerate(current):
+        out[n] = i
+        i = a * i + (1 - a) * c
+    return out
+
+
+def mid_width(t, out, f):
+    """The loop's width along U_H at mid-charge of the last cycle (U_H rising minus falling) and
+    |Ī| at those two samples."""
+    last = t >= t[-1] - 1 / f
+    q, uh, rate = out["q"][last], out["U_H"][last], smoothed(out["I"])[last]
+    mid = 0.5 * (q.max() + q.min())
+    rising = np.diff(q) > 0
+    at = np.abs(q[1:] - mid)
+    up = np.argmin(np.where(rising, at, np.inf)) + 1
+    down = np.argmin(np.where(~rising, at, np.inf)) + 1
+    return uh[up] - uh[down], np.abs(rate[[up, down]])
+
+
+def test_the_break_away_voltages_follow_the_smoothed_current(stack_params):
+    """Where every element has broken away, U_H is ±v_total·(1 + β|Ī|), sample by sample."""
+    params = rate_dependent(stack_params, 6.0)  # the declared range's top
+    t, out, _, _ = sine_run(params, 100.0)
+    v = params.hysteresis.v_total
+    expected = v * (1 + 6.0 * np.abs(smoothed(out["I"])))
+    saturated = np.abs(np.abs(out["U_H"]) - expected) < 1e-9 * v
+    assert saturated.sum() > len(t) / 4  # most of each branch: the elements keep up
+    assert np.ptp(np.abs(out["I"][len(t) // 2 :])) > 0.1  # …with no ringing of the current
+    np.testing.assert_array_less(np.abs(np.diff(out["I"][len(t) // 2 :])), 0.01)
+
+
+def test_the_loop_widens_with_frequency_by_the_declared_law(stack_params):
+    """Loop width at mid-charge 2·v_total + β·v_total·(|Ī_up| + |Ī_down|) at 10 and 100 Hz (to
+    rounding), so its widening grows with f as the charge rate does; β = 0 gives the
+    rate-independent 2·v_total at both."""
+    widths = {}
+    for beta in (0.0, 4.0):
+        params = rate_dependent(stack_params, beta)
+        for f in (10.0, 100.0):
+            t, out, _, _ = sine_run(params, f)
+            width, rates = mid_width(t, out, f)
+            expected = params.hysteresis.v_total * (2 + beta * rates.sum())
+            assert width == pytest.approx(expected, rel=1e-9)
+            widths[beta, f] = width
+    assert widths[0.0, 10.0] == pytest.approx(widths[0.0, 100.0], rel=1e-9)
+    growth = (widths[4.0, 100.0] - widths[0.0, 100.0]) / (widths[4.0, 10.0] - widths[0.0, 10.0])
+    # ∝ f but for the smoothing's 1/(1 + ω²τ²) and the narrower swing a wider loop leaves
+    assert 7.0 < growth < 10.0
+
+
+@pytest.mark.parametrize("beta", [0.0, 3.0])
+def test_the_rate_dependent_kernel_equals_its_reference(stack_params, beta):
+    params = dataclasses.replace(stack_params, hysteresis_rate=HysteresisRateParams(beta))
+    t = np.arange(4800) / FS
+    U = 50 - 50 * np.cos(2 * np.pi * 100 * t) + 3 * np.sin(2 * np.pi * 700 * t)
+    kc = K.kernel_constants(params, FS)
+    s1, s2 = K.initial_state(kc, 23.0), K.initial_state(kc, 23.0)
+    fast = K.run(U, 0 * U, 0 * U + 23, kc, s1)
+    slow = K.run_reference(U, 0 * U, 0 * U + 23, kc, s2)
+    tol = float(rtol(1.0, roundings=4 * len(U)))  # as test_twin's kernel-vs-reference
+    assert np.max(np.abs(fast - slow) / np.max(np.abs(slow), axis=0)) < tol
+    np.testing.assert_allclose(s1, s2, rtol=tol, atol=1e-15)
+    assert len(s1) == K.kernel_constants(stack_params, FS).n_state + (beta > 0)

@@ -215,9 +215,20 @@ class LoopParams:
     delay_samples: int = 0
 
 
+@dataclass(frozen=True)
+class HysteresisRateParams:
+    """Rate-dependent hysteresis: every Maxwell element's break-away voltage v_i times
+    1 + width_per_current·|Ī|, Ī the stack's current up to the sample before, smoothed over
+    :data:`.kernel.RATE_SMOOTHING` (the rate-dependent thresholds of a Prandtl–Ishlinskii
+    operator: the loop widens with the drive's rate). 0: the rate-independent operator (today's
+    twin)."""
+
+    width_per_current: float = 0.0  # β [1/A]
+
+
 #: the twin's variants: mechanisms a manifest may switch on, each off by default (docs/twin.md,
 #: "Variants"); /truth records a variant's parameters only when it is on
-VARIANTS = ("load_path", "power_amplifier", "loop")
+VARIANTS = ("load_path", "power_amplifier", "loop", "hysteresis_rate")
 
 
 @dataclass(frozen=True)
@@ -231,6 +242,7 @@ class TwinParams:
     load_path: LoadPathParams = field(default_factory=LoadPathParams)
     power_amplifier: PowerAmplifierParams = field(default_factory=PowerAmplifierParams)
     loop: LoopParams = field(default_factory=LoopParams)
+    hysteresis_rate: HysteresisRateParams = field(default_factory=HysteresisRateParams)
 
     def __post_init__(self):
         if self.power_amplifier.on and self.instruments.amplifier_gain_at_folded_ripple < 1:
