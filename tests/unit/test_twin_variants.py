@@ -10,6 +10,7 @@ import pytest
 from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed
 from selfsense.twin.params import (
+    DielectricParams,
     HysteresisRateParams,
     LoadPathParams,
     LoopParams,
@@ -295,3 +296,74 @@ def test_the_rate_dependent_kernel_equals_its_reference(stack_params, beta):
     assert np.max(np.abs(fast - slow) / np.max(np.abs(slow), axis=0)) < tol
     np.testing.assert_allclose(s1, s2, rtol=tol, atol=1e-15)
     assert len(s1) == K.kernel_constants(stack_params, FS).n_state + (beta > 0)
+
+
+# --- the dielectric loss growing with frequency ----------------------------------------------
+
+
+def phasor(t, y, f):
+    """The complex amplitude of y at f over whole periods (least squares on cos, sin and 1)."""
+    basis = np.column_stack([np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t), np.ones_like(t)])
+    (a, b, _), *_ = np.linalg.lstsq(basis, y, rcond=None)
+    return a - 1j * b
+
+
+def branch_admittance(f, C_d, tau):
+    """The branch's admittance as the kernel makes it (U held over each sample, the current a
+    backward difference of its charge), and the continuous Debye form jωC_d/(1 + jωτ)."""
+    a, z = np.exp(-1 / FS / tau), np.exp(-2j * np.pi * f / FS)
+    discrete = C_d * FS * (1 - z) * (1 - a) / (1 - a * z)
+    w = 2 * np.pi * f
+    return discrete, 1j * w * C_d / (1 + 1j * w * tau)
+
+
+@pytest.mark.parametrize("f", [10.0, 100.0])
+def test_the_dielectric_branch_adds_its_debye_current_and_heat(stack_params, f):
+    """The same drive with and without the branch: the currents differ by Y_d(f)·U (the branch
+    does not touch the stack but through its heat), Y_d's phase the Debye form's to ωh: a loss
+    angle arctan(ωτ) that grows with f below 1/(2πτ), and the heat it adds is ½|U|²·Re Y_d."""
+    C_d, tau = 3.1e-7, 1e-3
+    # C_P's temperature coefficient off: the branch's heat would otherwise reach the stack
+    stack_params = dataclasses.replace(
+        stack_params, stack=dataclasses.replace(stack_params.stack, kappa_T=0.0)
+    )
+    on = dataclasses.replace(stack_params, dielectric=DielectricParams(C_d, tau))
+    t = np.arange(int(round(5 / f * FS))) / FS
+    U = 50.0 - 50.0 * np.cos(2 * np.pi * f * t)
+    runs = {}
+    for name, params in (("off", stack_params), ("on", on)):
+        kc = K.kernel_constants(params, FS)
+        state = K.initial_state(kc, 23.0)
+        runs[name] = dict(zip(K.OUTPUTS, K.run(U, 0 * U, 0 * U + 23.0, kc, state).T))
+    np.testing.assert_array_equal(runs["on"]["x"], runs["off"]["x"])
+    last = t >= t[-1] - 2 / f  # two periods after the branch's start-up (τ ≪ 3 periods)
+    i_d = phasor(t[last], runs["on"]["I"][last] - runs["off"]["I"][last], f)
+    u = phasor(t[last], U[last], f)
+    discrete, debye = branch_admittance(f, C_d, tau)
+    assert i_d / u == pytest.approx(discrete, rel=1e-6)  # the start-up's e^{−3 periods/τ} left
+    assert np.angle(discrete) == pytest.approx(np.angle(debye), abs=2 * np.pi * f / FS)
+    heat = runs["on"]["T"][-1] - runs["off"]["T"][-1]
+    gamma = stack_params.thermal.gamma * (1 - np.exp(-t[-1] / stack_params.thermal.tau))
+    assert heat == pytest.approx(0.5 * abs(u) ** 2 * discrete.real * gamma, rel=0.05)
+    assert np.degrees(np.angle(debye)) == pytest.approx(
+        90 - np.degrees(np.arctan(2 * np.pi * f * tau))
+    )
+
+
+def test_the_dielectric_off_is_todays_kernel(stack_params):
+    kc = K.kernel_constants(stack_params, FS)
+    assert not kc.branch_state and "dielectric_C_d" not in stack_params.truth_attrs()
+
+
+@pytest.mark.parametrize("C_d", [0.0, 3.1e-7])
+def test_the_dielectric_kernel_equals_its_reference(stack_params, C_d):
+    params = dataclasses.replace(stack_params, dielectric=DielectricParams(C_d, 1e-3))
+    t = np.arange(4800) / FS
+    U = 50 - 50 * np.cos(2 * np.pi * 100 * t)
+    kc = K.kernel_constants(params, FS)
+    s1, s2 = K.initial_state(kc, 23.0), K.initial_state(kc, 23.0)
+    fast = K.run(U, 0 * U, 0 * U + 23, kc, s1)
+    slow = K.run_reference(U, 0 * U, 0 * U + 23, kc, s2)
+    tol = float(rtol(1.0, roundings=4 * len(U)))
+    assert np.max(np.abs(fast - slow) / np.max(np.abs(slow), axis=0)) < tol
+    np.testing.assert_allclose(s1, s2, rtol=tol, atol=1e-15)

@@ -69,6 +69,8 @@ _SCALARS = (
     "d2",
     "rate_width",
     "rate_decay",
+    "branch_C",
+    "branch_decay",
 )
 #: the rate-dependent hysteresis reads the current smoothed over this time [s]: 19 samples at
 #: 48 kHz, so that its explicit (last-sample) coupling stays stable over β's declared range (the
@@ -111,6 +113,8 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
         d2=Dd[1, 0],
         rate_width=p.hysteresis_rate.width_per_current,
         rate_decay=np.exp(-h / RATE_SMOOTHING),
+        branch_C=p.dielectric.C_d,
+        branch_decay=np.exp(-h / p.dielectric.tau),
     )
     return KernelConstants.build(
         _HEAD,
@@ -119,6 +123,7 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
         p.creep,
         lambda tau: np.exp(-h / tau),
         int(p.hysteresis_rate.width_per_current > 0),
+        int(p.dielectric.C_d > 0),
     )
 
 
@@ -152,6 +157,9 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
     beta, rate_decay = sc[23], sc[24]
     v_use = v_h if beta == 0.0 else v_h.copy()
     i_last = state[5 + nh + nc] if beta != 0.0 else 0.0
+    # the dielectric branch (twin.variants): C_d's voltage, kept at the state's end
+    c_d, d_decay = sc[25], sc[26]
+    u_d = state[state.size - 1] if c_d != 0.0 else 0.0
     vmax = span(v_h)
     for n in range(U.size):
         if beta != 0.0:
@@ -196,16 +204,27 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
         out[n, 6] = T
         out[n, 7] = current
         out[n, 8] = c_p
+        branch_heat = 0.0
+        if c_d != 0.0:  # exact for U held over the sample: charge C_d·Δu_d, loss U·Δq − ΔE_C
+            u_new = U[n] + (u_d - U[n]) * d_decay
+            dq_d = c_d * (u_new - u_d)
+            out[n, 7] = current + dq_d * fs
+            branch_heat = dq_d * (U[n] - 0.5 * (u_d + u_new)) * fs
+            u_d = u_new
         # Creep and heat respond to this sample's current over the next sample (ZOH).
         for j in range(nc):
             U_c[j] = U_c[j] * creep_decay[j] + current * creep_R[j] * (1.0 - creep_decay[j])
         power = (uh + uc_sum) * current
+        if c_d != 0.0:
+            power += branch_heat
         T = T_amb[n] + (T - T_amb[n]) * sc[15] + power * sc[16]
         s1, s2 = sc[6] * s1 + sc[7] * s2 + sc[10] * force, sc[8] * s1 + sc[9] * s2 + sc[11] * force
         q_prev = q
     state[0], state[1], state[2], state[3], state[4] = s1, s2, T, q_prev, u_p
     if beta != 0.0:
         state[5 + nh + nc] = i_last
+    if c_d != 0.0:
+        state[state.size - 1] = u_d
 
 
 def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.ndarray:
@@ -219,7 +238,9 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
     s1, s2, T, q_prev, u_p = state[:5]
     out = np.empty((len(U), N_OUT))
     beta = sc["rate_width"]
-    i_last = state[kc.n_state - 1] if kc.rate_state else 0.0
+    i_last = state[kc.head + len(kc.C_h) + len(kc.creep_R)] if kc.rate_state else 0.0
+    c_d, d_decay = sc["branch_C"], sc["branch_decay"]
+    u_d = state[-1] if c_d else 0.0
 
     def charge(u_p, dT, x):
         c0 = sc["C_P0"] + sc["kappa_T"] * dT
@@ -256,9 +277,17 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         v = sc["c21"] * s1 + sc["c22"] * s2 + sc["d2"] * force
         acc = (force - sc["b"] * v - sc["k_tot"] * x) / sc["m"]
         c_p = sc["C_P0"] + sc["kappa_T"] * dT + sc["dC_U"] * u_p
-        out[n] = (x, v, acc, q, u_p, uh + uc_sum, T, current, c_p)
+        power = (uh + uc_sum) * current
+        total = current
+        if c_d:
+            u_new = U[n] + (u_d - U[n]) * d_decay
+            dq_d = c_d * (u_new - u_d)
+            total = current + dq_d * sc["fs"]
+            power = power + dq_d * (U[n] - 0.5 * (u_d + u_new)) * sc["fs"]
+            u_d = u_new
+        out[n] = (x, v, acc, q, u_p, uh + uc_sum, T, total, c_p)
         U_c[:] = U_c * kc.creep_decay + current * kc.creep_R * (1.0 - kc.creep_decay)
-        T = T_amb[n] + (T - T_amb[n]) * sc["th_decay"] + (uh + uc_sum) * current * sc["th_gain"]
+        T = T_amb[n] + (T - T_amb[n]) * sc["th_decay"] + power * sc["th_gain"]
         s1, s2 = (
             sc["a11"] * s1 + sc["a12"] * s2 + sc["b1"] * force,
             sc["a21"] * s1 + sc["a22"] * s2 + sc["b2"] * force,
@@ -266,7 +295,9 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         q_prev = q
     state[:5] = s1, s2, T, q_prev, u_p
     if kc.rate_state:
-        state[kc.n_state - 1] = i_last
+        state[kc.head + len(kc.C_h) + len(kc.creep_R)] = i_last
+    if c_d:
+        state[-1] = u_d
     return out
 
 

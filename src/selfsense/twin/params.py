@@ -226,9 +226,19 @@ class HysteresisRateParams:
     width_per_current: float = 0.0  # β [1/A]
 
 
+@dataclass(frozen=True)
+class DielectricParams:
+    """A dielectric relaxation across the stack's terminals (Debye): a branch C_d in series with
+    R_d = tau/C_d, driven by the terminal voltage, its admittance jωC_d/(1 + jωτ); its current
+    adds to the stack's, its R_d·I_d² to the heat. C_d = 0: no branch (today's twin)."""
+
+    C_d: float = 0.0  # [F]
+    tau: float = 1.0e-3  # R_d·C_d [s]
+
+
 #: the twin's variants: mechanisms a manifest may switch on, each off by default (docs/twin.md,
 #: "Variants"); /truth records a variant's parameters only when it is on
-VARIANTS = ("load_path", "power_amplifier", "loop", "hysteresis_rate")
+VARIANTS = ("load_path", "power_amplifier", "loop", "hysteresis_rate", "dielectric")
 
 
 @dataclass(frozen=True)
@@ -243,6 +253,7 @@ class TwinParams:
     power_amplifier: PowerAmplifierParams = field(default_factory=PowerAmplifierParams)
     loop: LoopParams = field(default_factory=LoopParams)
     hysteresis_rate: HysteresisRateParams = field(default_factory=HysteresisRateParams)
+    dielectric: DielectricParams = field(default_factory=DielectricParams)
 
     def __post_init__(self):
         if self.power_amplifier.on and self.instruments.amplifier_gain_at_folded_ripple < 1:
