@@ -64,9 +64,7 @@ class KernelConstants:
 
     @property
     def n_state(self) -> int:
-        return (
-            self.head + len(self.C_h) + len(self.creep_R) + self.rate_state + self.branch_state
-        )
+        return self.head + len(self.C_h) + len(self.creep_R) + self.rate_state + self.branch_state
 
     def elements(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Views of the anchors q_b and the creep voltages U_c in ``state``."""
