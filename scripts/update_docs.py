@@ -137,15 +137,25 @@ def recovery_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
 
 
 def envelope_design_markdown(record: Mapping, unknowns: Path = UNKNOWNS) -> str:
-    """docs/envelope.md's sentence on a design (an envelope snapshot's provenance): the unknowns
-    it varies of its dataset's in workflow/unknowns.yaml, its groups, the unknowns it holds."""
+    """docs/envelope.md's sentences on a design (an envelope snapshot's provenance): the unknowns
+    it varied of those its dataset declared when it ran (its varied and held ones), its groups,
+    the unknowns it held, and those workflow/unknowns.yaml declares since, with their groups."""
     design = record["design"]
     entries = yaml.safe_load(unknowns.read_text(encoding="utf-8"))["unknowns"]
-    declared = sum(1 for e in entries if e["dataset"] == design["dataset"])
+    ran = set(record["varied"]) | set(record["held"])
+    since = [e for e in entries if e["dataset"] == design["dataset"] and e["id"] not in ran]
     held = ", ".join(f"`{u}`" for u in record["held"])
+    text = (
+        f"The shipped design varied {len(record['varied'])} of the {len(ran)} unknowns"
+        f" {design['dataset']} declared when it ran, in {len(design['groups'])} groups; it held"
+        f" {len(record['held'])}: {held}."
+    )
+    if not since:
+        return text
+    groups = ", ".join(dict.fromkeys(e["group"] for e in since))
     return (
-        f"The shipped design varies {len(record['varied'])} of {design['dataset']}'s {declared}"
-        f" unknowns in {len(design['groups'])} groups; it holds {len(record['held'])}: {held}."
+        f"{text} {len(since)} more are declared since, in groups it did not vary ({groups}):"
+        f" {len(ran) + len(since)} in all."
     )
 
 

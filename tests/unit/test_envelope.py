@@ -236,6 +236,18 @@ def test_member_manifest_sets_files_and_protocols(shipped):
     assert "stages: list" in plan.lacks["identify"][0]
 
 
+def test_member_manifest_writes_a_variant_key_the_manifest_leaves_out(shipped):
+    """A twin variant's key (off by default, absent from the shipped manifest) is written with its
+    section, so a design that varies the variant's group switches its term on."""
+    _, manifests, unknowns = shipped
+    (support,) = [u for u in unknowns if u.id == "support_compliance"]
+    base = manifests["pi_p885"]
+    member = member_manifest(base, [support], {"support_compliance": 2e-7}, "pi_p885~04", [])
+    validate_document(member, "dataset.schema.yaml", "member")
+    assert member["twin"]["support"] == {"compliance": 2e-7}
+    assert "support" not in base["twin"]
+
+
 def test_protocol_override_must_name_a_number(shipped):
     _, manifests, _ = shipped
     base = manifests["pi_p885"]

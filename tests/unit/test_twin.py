@@ -19,6 +19,7 @@ from selfsense.scorecard.calibration import load_targets
 from selfsense.twin import kernel as K
 from selfsense.twin.bench import Bench, experiment_seed, simulate_capture
 from selfsense.twin.instruments import HighPass, SlowProcess
+from selfsense.twin.params import VARIANTS
 
 from ..helpers import ROOT
 from ..tolerances import rtol
@@ -241,8 +242,12 @@ def with_signal_chain(params, chain):
     chain = dict(chain)
     q = chain.pop("highpass_q", params.ripple.highpass_q)
     ripple = dataclasses.replace(params.ripple, highpass_q=q)
+    # a twin variant's section ({"power_amplifier": {...}}) replaces the params' own
+    variants = {
+        name: type(getattr(params, name))(**chain.pop(name)) for name in VARIANTS if name in chain
+    }
     instruments = dataclasses.replace(params.instruments, **chain)
-    return dataclasses.replace(params, ripple=ripple, instruments=instruments)
+    return dataclasses.replace(params, ripple=ripple, instruments=instruments, **variants)
 
 
 @settings(max_examples=20, deadline=None)
@@ -447,8 +452,12 @@ def test_drive_in_short_blocks_equals_the_whole_span(durations, levels, block):
             "adc_bits": 12,
             "highpass_q": 0.5,
         },
+        {
+            "power_amplifier": {"time_constant": 1.6e-4, "slew_time": 6.6e-6},
+            "loop": {"delay_samples": 2},
+        },
     ],
-    ids=["nominal", "signal chain at its ranges' ends"],
+    ids=["nominal", "signal chain at its ranges' ends", "the variants on"],
 )
 def test_compiled_closed_loop_follows_the_python_reference(
     tmp_path, stack_params, stack_daq, chain

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from selfsense.envelope.design import physical
 from selfsense.envelope.unknowns import load_unknowns, unknowns_hash
-from selfsense.io.manifest import ManifestError, load_dataset, load_yaml
+from selfsense.io.manifest import ManifestError, load_dataset, load_yaml, schema_default
 
 from ..helpers import ROOT
 
@@ -79,9 +79,14 @@ def test_every_entry_has_range_or_distribution_and_source(document):
 
 
 def _value(doc, key):
+    """The value at a dotted key; a twin variant's key a manifest leaves out holds the dataset
+    schema's default, the term off."""
     node = doc
-    for part in key.split("."):
-        node = node[int(part)] if isinstance(node, list) else node[part]
+    try:
+        for part in key.split("."):
+            node = node[int(part)] if isinstance(node, list) else node[part]
+    except KeyError:
+        return schema_default("dataset.schema.yaml", key.split("."))
     return node
 
 
@@ -199,6 +204,41 @@ def test_refuses_what_no_schema_can_check(tmp_path, document, change, says):
     entry.update(change)
     message = refusal(tmp_path, doc)
     assert "(bench_zeta)" in message and says in message
+
+
+VARIANT_GROUPS = (
+    "amplifier",
+    "load path",
+    "support mode",
+    "rate-dependent hysteresis",
+    "frequency-dependent loss",
+    "loop delay",
+)
+
+
+def test_the_variants_are_declared_off_and_not_varied_by_the_shipped_design(unknowns):
+    """Each variant's keys are declared with a source, their nominal the term off, which a
+    manifest leaving them out holds (the schema's default), in groups of their own that the
+    shipped envelope design does not vary, so its results do not move."""
+    variants = [u for u in unknowns if u.group in VARIANT_GROUPS]
+    assert {u.group for u in variants} == set(VARIANT_GROUPS)
+    manifest = load_dataset(ROOT / "raw", "pi_p885")
+    for u in variants:
+        (path,) = u.paths
+        # the shipped manifest leaves it out
+        assert path.split(".")[1] not in manifest["twin"], u.id
+        assert schema_default("dataset.schema.yaml", path.split(".")) == u.nominal, u.id
+        assert u.source, u.id
+    design = load_yaml(ROOT / "config.yaml")["envelope"]["groups"]
+    assert not set(design) & set(VARIANT_GROUPS)
+
+
+def test_refuses_a_variant_declared_off_elsewhere_than_the_schemas_default(tmp_path, document):
+    doc = only(document, "load_path_compliance")
+    doc["unknowns"][0]["nominal"] = 1e-8
+    message = refusal(tmp_path, doc)
+    assert "(load_path_compliance)" in message
+    assert "holds 0.0 at twin.load_path.compliance" in message
 
 
 def test_refuses_an_id_declared_twice(tmp_path, document):

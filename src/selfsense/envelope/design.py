@@ -28,7 +28,7 @@ import pandas as pd
 import yaml
 
 from selfsense.envelope.unknowns import MODEL_PREFIX, PROTOCOL_PATH, Unknown
-from selfsense.io.manifest import DATASET_NAME, ManifestError, validate_document
+from selfsense.io.manifest import DATASET_NAME, ManifestError, schema_default, validate_document
 from selfsense.io.provenance import atomic_path
 
 #: between a dataset's name and a member's number: pi_p885~07
@@ -310,13 +310,23 @@ def member_manifest(
 
 
 def _set(doc: Any, keys: Sequence[str], value: float, where: str) -> None:
+    """Set a manifest's value at a dotted key; a key it leaves out that the dataset schema gives a
+    default (a twin variant's, off by default) is written with the sections above it."""
+    try:
+        schema_default("dataset.schema.yaml", keys)
+        optional = True
+    except (KeyError, TypeError):
+        optional = False
     node = doc
     for key in keys[:-1]:
-        node = node[int(key)] if isinstance(node, list) else node[key]
+        if optional and isinstance(node, dict):
+            node = node.setdefault(key, {})
+        else:
+            node = node[int(key)] if isinstance(node, list) else node[key]
     last = keys[-1]
     if isinstance(node, list):
         node[int(last)] = value
-    elif last in node:
+    elif last in node or optional:
         node[last] = value
     else:
         raise ManifestError(f"{where}: the manifest has no such key")

@@ -9,7 +9,8 @@ envelope result exists: ranges come from sources, never from the results they wo
 :func:`load_unknowns` validates the file against ``schemas/unknowns.schema.yaml`` and then makes
 the checks a schema cannot: every range in order with its nominal inside, ids unique, and every
 location the entry names present in its file (the dataset manifest, or a protocol of the
-catalogue) with the nominal as its value, so a declaration cannot drift from the bench it
+catalogue) with the nominal as its value (a twin variant's key the manifest leaves out: the
+dataset schema's default, the term off), so a declaration cannot drift from the bench it
 describes. Each refusal is one line naming the file and the entry's id. :func:`unknowns_hash` is
 the file's sha256, for the provenance of everything drawn from it. It reads files and writes
 none.
@@ -30,6 +31,7 @@ from selfsense.io.manifest import (
     ManifestError,
     load_dataset,
     load_yaml,
+    schema_default,
     validate_document,
 )
 
@@ -236,7 +238,8 @@ class _Files:
                 files = [(f"raw/{d}/dataset.yaml", self.manifest(d)) for d in unknown.datasets]
                 key = location
             for file, doc in files:
-                value = _lookup(doc, key.split("."), f"{where}: {location}: {file}")
+                look = _lookup if match else _manifest_value
+                value = look(doc, key.split("."), f"{where}: {location}: {file}")
                 if not _equal(value, unknown.nominal):
                     raise ManifestError(
                         f"{where}: {file} holds {value!r} at {key}, not the nominal "
@@ -255,6 +258,18 @@ def _lookup(doc: Any, keys: Sequence[str], where: str) -> Any:
         else:
             raise ManifestError(f"{where} has no key {'.'.join(keys[: depth + 1])}")
     return node
+
+
+def _manifest_value(doc: Any, keys: Sequence[str], where: str) -> Any:
+    """The value at a dotted key of a dataset manifest: the dataset schema's default where the
+    manifest leaves the key out and the schema gives one (a twin variant's term off)."""
+    try:
+        return _lookup(doc, keys, where)
+    except ManifestError as missing:
+        try:
+            return schema_default("dataset.schema.yaml", keys)
+        except (KeyError, TypeError):
+            raise missing from None
 
 
 def _equal(value: Any, nominal: float) -> bool:

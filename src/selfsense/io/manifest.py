@@ -338,6 +338,17 @@ def _fill_defaults(doc: dict, schema: Mapping[str, Any]) -> None:
             _fill_defaults(doc[key], sub)
 
 
+def schema_default(schema_name: str, keys: Sequence[str]) -> Any:
+    """The default the schema <schema_name> gives the key at ``keys`` (a dotted key's parts),
+    through nested objects' properties; KeyError where it gives none. A dataset manifest that
+    leaves out a twin variant's key holds this default, the term off (docs/twin.md,
+    "Variants")."""
+    node: Any = load_yaml(SCHEMAS / schema_name)
+    for key in keys:
+        node = node["properties"][key]
+    return node["default"]
+
+
 def load_dataset(raw_dir: str | Path, name: str) -> dict:
     """The manifest raw/<name>/dataset.yaml, validated; its name must match its folder."""
     path = Path(raw_dir) / name / "dataset.yaml"

@@ -4,7 +4,8 @@
   workflow uses (a manifest and a catalogue experiment in, a capture out);
 - ``params``: the twin's parameters from a manifest;
 - ``bench``: the stack's bench, sample by sample (``kernel``, ``record``, ``instruments``,
-  ``maxwell`` its physics, ``realtime`` its compiled closed loop);
+  ``maxwell`` its physics, ``realtime`` its compiled closed loop, ``variants`` its switchable
+  terms, off by default);
 - ``closed_loop``: the bench's real-time self-sensing loop (Chapter 6);
 - ``bender``: Ronkanen's bender and its current amplifier.
 

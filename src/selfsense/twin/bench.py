@@ -44,6 +44,7 @@ from selfsense.twin.instruments import (
 )
 from selfsense.twin.params import TwinParams
 from selfsense.twin.record import NOISY, TRUTH, record
+from selfsense.twin.variants import Delay, PowerAmplifier, series_load
 
 
 @dataclass(frozen=True)
@@ -96,6 +97,9 @@ class Bench:
         self.daq = daq
         rng = np.random.default_rng(seed)
         self.noise_rng = np.random.default_rng(rng.integers(2**63))
+        # the load the stack pushes on, through the load path's compliance (the force sensor
+        # reads the force that crosses it)
+        load_stiffness = series_load(load_stiffness, params.load_path.compliance)
         self.kc = kernel.kernel_constants(params, daq.fs, load_stiffness)
         self.T_amb = params.thermal.T_amb if T_amb is None else T_amb
         self.state = kernel.initial_state(self.kc, self.T_amb)
@@ -115,7 +119,12 @@ class Bench:
         # ripple alone
         if not drive_leak:
             self.hp_u.b = self.hp_i.b = np.zeros_like(self.hp_u.b)
-        self.amplifier = Amplifier(ins.amplifier_gain_at_folded_ripple, daq.fs, daq.ns)
+        self.delay = Delay(params.loop.delay_samples)
+        self.amplifier = (
+            PowerAmplifier(params.power_amplifier, daq.fs)
+            if params.power_amplifier.on
+            else Amplifier(ins.amplifier_gain_at_folded_ripple, daq.fs, daq.ns)
+        )
         self.offset_drift = SlowProcess(rng, ins.I_offset_drift, ins.I_offset_drift_bandwidth)
         self.laser_drift = SlowProcess(rng, ins.laser_drift, ins.laser_drift_bandwidth)
 
@@ -148,8 +157,9 @@ class Bench:
         truth_first: int = 0,
         compiled: bool = True,
     ):
-        """Advance over the samples at times t with the command U (the amplifier's output drives
-        the stack and is what the U channel records); returns (measured, truth) dicts, the truth
+        """Advance over the samples at times t with the command U (through the DAQ's output
+        latency, if any, to the amplifier, whose output drives the stack and is what the U channel
+        records); returns (measured, truth) dicts, the truth
         at samples truth_first, truth_first + truth_every, … of these.
 
         ``signals``: :meth:`time_signals` of exactly these samples, made beforehand (by default
@@ -160,7 +170,7 @@ class Bench:
         n = len(t)
         F_ext = np.zeros(n) if F_ext is None else F_ext
         sig = self.time_signals(t, compiled) if signals is None else signals
-        U = self.amplifier(U)
+        U = self.amplifier(self.delay(U))
         out = kernel.run(U, F_ext, np.full(n, self.T_amb), self.kc, self.state)
         if compiled:
             return record(self, U, out, sig, truth_every, truth_first)

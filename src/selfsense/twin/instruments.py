@@ -88,8 +88,9 @@ class Amplifier:
         return out
 
     def coefficients(self) -> np.ndarray:
-        """[ideal, b0, b1, a0, a1]: the compiled closed loop's copy."""
-        return np.array([float(self.ideal), *self.b, *self.a])
+        """[ideal, b0, b1, a0, a1], then five zeros (not the rate-limited stage of
+        :meth:`.variants.PowerAmplifier.coefficients`): the compiled closed loop's copy."""
+        return np.array([float(self.ideal), *self.b, *self.a, 0.0, 0.0, 0.0, 0.0, 0.0])
 
 
 class HighPass:

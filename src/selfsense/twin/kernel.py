@@ -67,7 +67,16 @@ _SCALARS = (
     "c22",
     "d1",
     "d2",
+    "rate_width",
+    "rate_decay",
+    "branch_C",
+    "branch_decay",
 )
+#: the rate-dependent hysteresis reads the current smoothed over this time [s]: 19 samples at
+#: 48 kHz, so that its explicit (last-sample) coupling stays stable over β's declared range (the
+#: raw current rings from β·v_total·C·fs ≈ 1, β ≈ 0.4 1/A), and still far below the drive's
+#: periods (ωτ = 0.5 at 200 Hz)
+RATE_SMOOTHING = 4.0e-4
 
 
 def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> KernelConstants:
@@ -102,6 +111,10 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
         c22=Cd[1, 1],
         d1=Dd[0, 0],
         d2=Dd[1, 0],
+        rate_width=p.hysteresis_rate.width_per_current,
+        rate_decay=np.exp(-h / RATE_SMOOTHING),
+        branch_C=p.dielectric.C_d,
+        branch_decay=np.exp(-h / p.dielectric.tau),
     )
     return KernelConstants.build(
         _HEAD,
@@ -109,6 +122,8 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
         p.hysteresis,
         p.creep,
         lambda tau: np.exp(-h / tau),
+        int(p.hysteresis_rate.width_per_current > 0),
+        int(p.dielectric.C_d > 0),
     )
 
 
@@ -136,8 +151,22 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
     U_c = state[5 + nh : 5 + nh + nc]
     s1, s2, T, q_prev, u_p = state[0], state[1], state[2], state[3], state[4]
     alpha, fs = sc[0], sc[5]
+    # rate-dependent hysteresis (twin.variants): the break-away voltages v_h·(1 + β|Ī|) with Ī
+    # the current smoothed up to the last sample, kept at the state's end; β = 0 uses v_h
+    # itself, today's arithmetic
+    beta, rate_decay = sc[23], sc[24]
+    v_use = v_h if beta == 0.0 else v_h.copy()
+    i_last = state[5 + nh + nc] if beta != 0.0 else 0.0
+    # the dielectric branch (twin.variants): C_d's voltage, kept at the state's end
+    c_d, d_decay = sc[25], sc[26]
+    u_d = state[state.size - 1] if c_d != 0.0 else 0.0
     vmax = span(v_h)
     for n in range(U.size):
+        if beta != 0.0:
+            scale = 1.0 + beta * abs(i_last)
+            for i in range(nh):
+                v_use[i] = v_h[i] * scale
+            vmax = span(v_use)
         uc_sum = 0.0
         for j in range(nc):
             uc_sum += U_c[j]
@@ -150,7 +179,7 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
         solved = False
         for _ in range(MAX_ITERATIONS):
             q, dq = _charge(u_p, x_free, F[n], dT, sc)
-            uh, slope = maxwell(q, q_b, C_h, v_h)
+            uh, slope = maxwell(q, q_b, C_h, v_use)
             f = u_p + uh - target
             if balanced(f, target):
                 solved = True
@@ -162,8 +191,9 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
         force = alpha * u_p + F[n]
         x = x_free + sc[21] * force
         v = sc[19] * s1 + sc[20] * s2 + sc[22] * force
-        uh = slide_and_sum(q, q_b, C_h, v_h)
+        uh = slide_and_sum(q, q_b, C_h, v_use)
         current = (q - q_prev) * fs
+        i_last = rate_decay * i_last + (1.0 - rate_decay) * current
         acc = (force - sc[13] * v - sc[14] * x) / sc[12]
         out[n, 0] = x
         out[n, 1] = v
@@ -174,14 +204,27 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
         out[n, 6] = T
         out[n, 7] = current
         out[n, 8] = c_p
+        branch_heat = 0.0
+        if c_d != 0.0:  # exact for U held over the sample: charge C_d·Δu_d, loss U·Δq − ΔE_C
+            u_new = U[n] + (u_d - U[n]) * d_decay
+            dq_d = c_d * (u_new - u_d)
+            out[n, 7] = current + dq_d * fs
+            branch_heat = dq_d * (U[n] - 0.5 * (u_d + u_new)) * fs
+            u_d = u_new
         # Creep and heat respond to this sample's current over the next sample (ZOH).
         for j in range(nc):
             U_c[j] = U_c[j] * creep_decay[j] + current * creep_R[j] * (1.0 - creep_decay[j])
         power = (uh + uc_sum) * current
+        if c_d != 0.0:
+            power += branch_heat
         T = T_amb[n] + (T - T_amb[n]) * sc[15] + power * sc[16]
         s1, s2 = sc[6] * s1 + sc[7] * s2 + sc[10] * force, sc[8] * s1 + sc[9] * s2 + sc[11] * force
         q_prev = q
     state[0], state[1], state[2], state[3], state[4] = s1, s2, T, q_prev, u_p
+    if beta != 0.0:
+        state[5 + nh + nc] = i_last
+    if c_d != 0.0:
+        state[state.size - 1] = u_d
 
 
 def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.ndarray:
@@ -194,16 +237,21 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
     q_b, U_c = kc.elements(state)
     s1, s2, T, q_prev, u_p = state[:5]
     out = np.empty((len(U), N_OUT))
-    vmax = kc.v_h.sum()
+    beta = sc["rate_width"]
+    i_last = state[kc.head + len(kc.C_h) + len(kc.creep_R)] if kc.rate_state else 0.0
+    c_d, d_decay = sc["branch_C"], sc["branch_decay"]
+    u_d = state[-1] if c_d else 0.0
 
     def charge(u_p, dT, x):
         c0 = sc["C_P0"] + sc["kappa_T"] * dT
         return c0 * u_p + 0.5 * sc["dC_U"] * u_p**2 + sc["alpha"] * x
 
     def u_h(q):
-        return maxwell_reference(q, q_b, kc.C_h, kc.v_h)
+        return maxwell_reference(q, q_b, kc.C_h, v_h)
 
     for n in range(len(U)):
+        v_h = kc.v_h * (1.0 + beta * abs(i_last)) if beta else kc.v_h
+        vmax = v_h.sum()
         uc_sum = float(U_c.sum())
         dT = T - sc["T_ref"]
         target = U[n] - uc_sum
@@ -221,22 +269,35 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         )
         x = position(u_p)
         q = charge(u_p, dT, x)
-        slide_anchors_reference(q, q_b, kc.C_h, kc.v_h)
+        slide_anchors_reference(q, q_b, kc.C_h, v_h)
         uh = u_h(q)
         current = (q - q_prev) * sc["fs"]
+        i_last = sc["rate_decay"] * i_last + (1.0 - sc["rate_decay"]) * current
         force = sc["alpha"] * u_p + F[n]
         v = sc["c21"] * s1 + sc["c22"] * s2 + sc["d2"] * force
         acc = (force - sc["b"] * v - sc["k_tot"] * x) / sc["m"]
         c_p = sc["C_P0"] + sc["kappa_T"] * dT + sc["dC_U"] * u_p
-        out[n] = (x, v, acc, q, u_p, uh + uc_sum, T, current, c_p)
+        power = (uh + uc_sum) * current
+        total = current
+        if c_d:
+            u_new = U[n] + (u_d - U[n]) * d_decay
+            dq_d = c_d * (u_new - u_d)
+            total = current + dq_d * sc["fs"]
+            power = power + dq_d * (U[n] - 0.5 * (u_d + u_new)) * sc["fs"]
+            u_d = u_new
+        out[n] = (x, v, acc, q, u_p, uh + uc_sum, T, total, c_p)
         U_c[:] = U_c * kc.creep_decay + current * kc.creep_R * (1.0 - kc.creep_decay)
-        T = T_amb[n] + (T - T_amb[n]) * sc["th_decay"] + (uh + uc_sum) * current * sc["th_gain"]
+        T = T_amb[n] + (T - T_amb[n]) * sc["th_decay"] + power * sc["th_gain"]
         s1, s2 = (
             sc["a11"] * s1 + sc["a12"] * s2 + sc["b1"] * force,
             sc["a21"] * s1 + sc["a22"] * s2 + sc["b2"] * force,
         )
         q_prev = q
     state[:5] = s1, s2, T, q_prev, u_p
+    if kc.rate_state:
+        state[kc.head + len(kc.C_h) + len(kc.creep_R)] = i_last
+    if c_d:
+        state[-1] = u_d
     return out
 
 

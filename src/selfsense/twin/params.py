@@ -7,7 +7,7 @@ the instruments' data sheets); none is an analysis setting. Units are SI.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, fields
+from dataclasses import MISSING, asdict, dataclass, field, fields
 from typing import Any, get_type_hints
 
 import numpy as np
@@ -25,9 +25,11 @@ def _build(cls, values: Mapping[str, Any], where: str):
 
 def build_sections(cls, twin: Mapping[str, Any], where: str):
     """A twin's parameters ``cls`` (a dataclass of sections) from a manifest's twin block: every
-    section present and none unknown, each built into the type its field is annotated with."""
+    section present but the variants (a section with a default: the term off) and none unknown,
+    each built into the type its field is annotated with."""
     kinds = get_type_hints(cls)
-    missing = sorted(set(kinds) - set(twin))
+    optional = {f.name for f in fields(cls) if f.default_factory is not MISSING}
+    missing = sorted(set(kinds) - set(twin) - optional)
     unknown = sorted(set(twin) - set(kinds))
     if missing or unknown:
         raise ValueError(
@@ -35,7 +37,11 @@ def build_sections(cls, twin: Mapping[str, Any], where: str):
             f"unknown key(s) {', '.join(unknown) or '-'}"
         )
     return cls(
-        **{name: _build(kind, twin[name], f"{where}.{name}") for name, kind in kinds.items()}
+        **{
+            name: _build(kind, twin[name], f"{where}.{name}")
+            for name, kind in kinds.items()
+            if name in twin
+        }
     )
 
 
@@ -178,6 +184,64 @@ class InstrumentParams:
 
 
 @dataclass(frozen=True)
+class LoadPathParams:
+    """A compliance in series with a run's load (the static blocked-force test's force sensor):
+    the frame, ball seats and mounts between stack and sensor. The stack pushes on
+    1/(1/k_load + compliance) (:func:`.variants.series_load`); 0: the load alone (today's twin)."""
+
+    compliance: float = 0.0  # [m/N]
+
+
+@dataclass(frozen=True)
+class PowerAmplifierParams:
+    """The stack's PI E-617.00F from command to stack (:class:`.variants.PowerAmplifier`): a first
+    order stage of time constant τ whose output slews at most 1/slew_time volts a second (its
+    current limit I_max into the load C_load: slew_time = C_load/I_max), output −20…120 V (the
+    E-617's −2…12 V input at gain 10). Both 0: the ideal amplifier (today's twin)."""
+
+    time_constant: float = 0.0  # τ = 1/(2π f_c) of its small-signal bandwidth f_c [s]
+    slew_time: float = 0.0  # C_load/I_max [s/V]
+
+    @property
+    def on(self) -> bool:
+        return self.time_constant > 0 or self.slew_time > 0
+
+
+@dataclass(frozen=True)
+class LoopParams:
+    """The DAQ's output latency (:class:`.variants.Delay`): a command reaches the amplifier
+    delay_samples samples after the sample it was computed at; 0: at once (today's twin)."""
+
+    delay_samples: int = 0
+
+
+@dataclass(frozen=True)
+class HysteresisRateParams:
+    """Rate-dependent hysteresis: every Maxwell element's break-away voltage v_i times
+    1 + width_per_current·|Ī|, Ī the stack's current up to the sample before, smoothed over
+    :data:`.kernel.RATE_SMOOTHING` (the rate-dependent thresholds of a Prandtl–Ishlinskii
+    operator: the loop widens with the drive's rate). 0: the rate-independent operator (today's
+    twin)."""
+
+    width_per_current: float = 0.0  # β [1/A]
+
+
+@dataclass(frozen=True)
+class DielectricParams:
+    """A dielectric relaxation across the stack's terminals (Debye): a branch C_d in series with
+    R_d = tau/C_d, driven by the terminal voltage, its admittance jωC_d/(1 + jωτ); its current
+    adds to the stack's, its R_d·I_d² to the heat. C_d = 0: no branch (today's twin)."""
+
+    C_d: float = 0.0  # [F]
+    tau: float = 1.0e-3  # R_d·C_d [s]
+
+
+#: the twin's variants: mechanisms a manifest may switch on, each off by default (docs/twin.md,
+#: "Variants"); /truth records a variant's parameters only when it is on
+VARIANTS = ("load_path", "power_amplifier", "loop", "hysteresis_rate", "dielectric")
+
+
+@dataclass(frozen=True)
 class TwinParams:
     stack: StackParams
     hysteresis: HysteresisParams
@@ -185,6 +249,18 @@ class TwinParams:
     ripple: RippleParams
     thermal: ThermalParams
     instruments: InstrumentParams
+    load_path: LoadPathParams = field(default_factory=LoadPathParams)
+    power_amplifier: PowerAmplifierParams = field(default_factory=PowerAmplifierParams)
+    loop: LoopParams = field(default_factory=LoopParams)
+    hysteresis_rate: HysteresisRateParams = field(default_factory=HysteresisRateParams)
+    dielectric: DielectricParams = field(default_factory=DielectricParams)
+
+    def __post_init__(self):
+        if self.power_amplifier.on and self.instruments.amplifier_gain_at_folded_ripple < 1:
+            raise ValueError(
+                "twin: power_amplifier and instruments.amplifier_gain_at_folded_ripple below 1 "
+                "are two models of one amplifier: set one"
+            )
 
     @classmethod
     def from_manifest(cls, twin: Mapping[str, Any], where: str = "twin") -> TwinParams:
@@ -199,6 +275,8 @@ class TwinParams:
         out: dict[str, float] = {}
         for part in fields(self):
             obj = getattr(self, part.name)
+            if part.name in VARIANTS and obj == type(obj)():
+                continue  # off: today's twin, whose /truth it leaves as it was
             for key, value in asdict(obj).items():
                 if isinstance(value, (int, float)):
                     out[f"{part.name}_{key}"] = float(value)

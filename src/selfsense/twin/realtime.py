@@ -4,8 +4,9 @@ numba loop (Chapter 6).
 :func:`run_blocks` does over a stretch of engaged samples what the Python reference does block by
 block (:func:`.bench._closed_loop_chunk` with
 :class:`selfsense.twin.closed_loop.HPOIntegralController`, whose ``run_blocks`` calls it): the
-controller's command from the errors of the block before (Eq 6.1–6.3), the amplifier's
-(:class:`.instruments.Amplifier`, unless ideal), the stack's response
+controller's command from the errors of the block before (Eq 6.1–6.3), the DAQ's output
+latency (:class:`.variants.Delay`, if any), the amplifier's (:class:`.instruments.Amplifier`,
+unless ideal, or the power amplifier of :class:`.variants.PowerAmplifier`), the stack's response
 (:func:`.kernel.run_kernel`), the instruments as :meth:`.bench.Bench.step` makes them
 (:func:`.record.record_block` over the block: ripple current through R_e–C_e, the ripple channels'
 high-pass, the probes' offsets and drifts, the ADC), then, sample by sample, the real-time chain on
@@ -30,6 +31,7 @@ from selfsense.methods.lti import filter_run
 from selfsense.methods.observer import hpo_update
 from selfsense.twin.kernel import N_OUT, run_kernel
 from selfsense.twin.record import MEASURED, TRUTH, bench_arrays, record_block
+from selfsense.twin.variants import delay_run, rate_limited
 
 
 @numba.njit(cache=True)
@@ -50,6 +52,7 @@ def closed_loop_kernel(
     adc,
     amp,
     amp_z,
+    delay,
     weights,
     tail,
     sums,
@@ -64,8 +67,11 @@ def closed_loop_kernel(
 ):
     """Advance the closed loop over len(t_ref) samples, block by block; see the module docstring.
 
-    sig, bench, adc: as record.record_block. amp: the amplifier's [ideal, b0, b1, 1, a1]
-    (:class:`.instruments.Amplifier`), amp_z its state. weights: sin and cos rows (ns).
+    sig, bench, adc: as record.record_block. amp: the amplifier's [ideal, b0, b1, 1, a1,
+    rate limited, gain, max step, low, high] (:class:`.instruments.Amplifier`, or the power
+    amplifier's stage, :class:`.variants.PowerAmplifier`), amp_z its state. delay: the commands
+    in flight through the DAQ's output latency (:class:`.variants.Delay`; empty: none). weights:
+    sin and cos rows (ns).
     tail: (2, ns) samples of the open period; sums: (4, np − 1) last whole periods' sums, oldest
     first. gamma: b0..bj [µm/µF^i]. hpo: Ad, Bd, Cd, Dd stacked (4, 2, 2).
     loop: [block_len, K_I, fs, u, u_lo, u_hi, x_cp, n, masked, tail_len, sums_len, fr, g, T, np,
@@ -84,7 +90,8 @@ def closed_loop_kernel(
     Ad, Bd, Cd, Dd = hpo[0], hpo[1], hpo[2], hpo[3]
     out = np.empty((b, N_OUT))
     U = np.empty(b)
-    V = U if amp[0] else np.empty(b)  # the stack's voltage: the amplifier's output
+    D = U if delay.size == 0 else np.empty(b)  # the command after the DAQ's output latency
+    V = D if amp[0] else np.empty(b)  # the stack's voltage: the amplifier's output
     zeros = np.zeros(b)
     ambient = np.full(b, bench[6])
     window = np.empty(4)
@@ -99,8 +106,12 @@ def closed_loop_kernel(
             U[k] = min(max(u + acc, u_lo), u_hi)
         if nb:
             u = U[nb - 1]
-        if not amp[0]:
-            filter_run(amp[1:3], amp[3:5], U[:nb], amp_z, V[:nb])
+        if delay.size:
+            delay_run(U[:nb], delay, D[:nb])
+        if amp[5]:  # the power amplifier's rate-limited stage (twin.variants)
+            rate_limited(D[:nb], amp[6:10], amp_z, V[:nb])
+        elif not amp[0]:
+            filter_run(amp[1:3], amp[3:5], D[:nb], amp_z, V[:nb])
         run_kernel(
             V[:nb], zeros[:nb], ambient[:nb], sc, C_h, v_h, creep_decay, creep_R, state, out[:nb]
         )
@@ -217,6 +228,7 @@ def run_blocks(bench, controller, t: np.ndarray, signals) -> tuple[dict, dict, d
         adc,
         bench.amplifier.coefficients(),
         bench.amplifier.z,
+        bench.delay.buffer,
         np.ascontiguousarray(windows._weights, float),
         tail,
         sums,
