@@ -156,3 +156,18 @@ def test_the_snapshot_keeps_every_done_batch_and_the_verdicts_not_a_batch_left_u
     )
     assert not (target / "wave1" / "batch02").exists()
     assert (target / "verdicts.csv").is_file()
+
+
+def test_the_prior_holds_the_twins_variants_off_and_draws_every_other_unknown():
+    from pathlib import Path
+
+    from selfsense.envelope.unknowns import load_unknowns
+
+    root = Path(__file__).resolve().parents[2]
+    declared = load_unknowns(root / "workflow" / "unknowns.yaml", raw_dir=root / "raw")
+    prior, seed = campaign.varied(declared, "pi_p885")
+    variants = [u for u in declared if u.variant and "pi_p885" in u.datasets]
+    assert variants and not {u.id for u in variants} & {u.id for u in prior}
+    assert seed is not None and seed.paths == ("seed",)
+    others = [u for u in declared if "pi_p885" in u.datasets and not u.in_model and not u.variant]
+    assert len(prior) == len(others) - 1  # all but the seed, which is noise

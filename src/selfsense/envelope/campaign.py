@@ -120,8 +120,9 @@ def member_name(name: str, number: int) -> str:
 
 def varied(unknowns: Sequence[Unknown], dataset: str) -> tuple[list[Unknown], Unknown | None]:
     """(the declared prior, the noise seed): the dataset's unknowns a file holds, but the one at
-    the manifest's ``seed`` (the seed is noise, drawn per run), and that one."""
-    own = [u for u in unknowns if dataset in u.datasets and not u.in_model]
+    the manifest's ``seed`` (the seed is noise, drawn per run), and that one. The twin's variants
+    are not in the prior: each is a model of its own, held off here and compared as a whole."""
+    own = [u for u in unknowns if dataset in u.datasets and not u.in_model and not u.variant]
     seed = next((u for u in own if u.paths == ("seed",)), None)
     return [u for u in own if u is not seed], seed
 

@@ -67,6 +67,8 @@ class Unknown:
     where: str = ""  # the source file that fixes a model:<name> value
     mean: float | None = None  # normal only
     sd: float | None = None  # normal only
+    #: a term of the twin's physics off today: a model variant, not a draw of the prior
+    variant: bool = False
 
     @property
     def datasets(self) -> tuple[str, ...]:
@@ -196,6 +198,7 @@ def _parse(entry: Mapping[str, Any], where: str) -> Unknown:
         where=entry.get("where", ""),
         mean=mean,
         sd=sd,
+        variant=bool(entry.get("variant", False)),
     )
 
 
