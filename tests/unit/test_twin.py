@@ -456,8 +456,9 @@ def test_drive_in_short_blocks_equals_the_whole_span(durations, levels, block):
             "power_amplifier": {"time_constant": 1.6e-4, "slew_time": 6.6e-6},
             "loop": {"delay_samples": 2},
         },
+        {"support": {"compliance": 1e-6, "mass": 1.0, "zeta": 0.05}},
     ],
-    ids=["nominal", "signal chain at its ranges' ends", "the variants on"],
+    ids=["nominal", "signal chain at its ranges' ends", "the variants on", "the support mode on"],
 )
 def test_compiled_closed_loop_follows_the_python_reference(
     tmp_path, stack_params, stack_daq, chain

@@ -15,6 +15,7 @@ from selfsense.twin.params import (
     LoadPathParams,
     LoopParams,
     PowerAmplifierParams,
+    SupportParams,
     TwinParams,
 )
 from selfsense.twin.variants import Delay, PowerAmplifier, series_load
@@ -367,3 +368,154 @@ def test_the_dielectric_kernel_equals_its_reference(stack_params, C_d):
     tol = float(rtol(1.0, roundings=4 * len(U)))
     assert np.max(np.abs(fast - slow) / np.max(np.abs(slow), axis=0)) < tol
     np.testing.assert_allclose(s1, s2, rtol=tol, atol=1e-15)
+
+
+# --- the support mode (a two-mass bench) ------------------------------------------------------
+
+
+def on_support(params, compliance, mass=1.0, zeta=0.05, stack_zeta=None):
+    stack = params.stack
+    if stack_zeta is not None:
+        stack = dataclasses.replace(stack, zeta=stack_zeta)
+    return dataclasses.replace(params, stack=stack, support=SupportParams(compliance, mass, zeta))
+
+
+def two_mass_frequencies(params):
+    """The undamped two-mass bench's natural frequencies in closed form: the roots ω² of
+    det(K − ω²M) = 0, K = [[k_P + k_spring, −k_P], [−k_P, k_P + k_s]], M = diag(m, m_s)."""
+    s, sp = params.stack, params.support
+    k_p, k_0, k_s = s.k - s.k_spring, s.k_spring, 1 / sp.compliance
+    a, d = (k_p + k_0) / s.m, (k_p + k_s) / sp.mass
+    det = ((k_p + k_0) * (k_p + k_s) - k_p**2) / (s.m * sp.mass)
+    root = np.sqrt((a + d) ** 2 - 4 * det)
+    return np.sqrt([(a + d - root) / 2, (a + d + root) / 2]) / (2 * np.pi)
+
+
+def kernel_run(params, U, F=None):
+    kc = K.kernel_constants(params, FS)
+    state = K.initial_state(kc, 23.0)
+    F = 0 * U if F is None else F
+    return dict(zip(K.OUTPUTS, K.run(U, F, 0 * U + 23.0, kc, state).T)), kc, state
+
+
+@pytest.mark.parametrize("compliance, mass", [(1e-6, 1.0), (1e-7, 0.2)])
+def test_the_two_mass_resonances_are_the_closed_forms(stack_params, compliance, mass):
+    """An impulse of force on the moving mass: the peaks of the laser's x spectrum are the
+    two-mass bench's natural frequencies (closed form above), as Tustin's map puts them,
+    f_d = (fs/π)·atan(π f/fs) (0.9 % below f at 2.5 kHz, so the map is part of what is tested).
+    Tolerance: the spectrum's bin fs/N, a peak located by its highest bin and a parabola through
+    its neighbours lies within one bin of the sampled spectrum's maximum, plus ζ²·f, the bound of a
+    lightly damped mode's peak shift from its undamped frequency (both modes' ζ ≤ 0.01 here)."""
+    zeta = 0.01
+    params = on_support(quiet(stack_params), compliance, mass, zeta, stack_zeta=zeta)
+    n = 1 << 17  # 2.7 s: the slower mode (ζω ≈ 6 1/s at ≈ 150 Hz) decays to e^−16
+    F = np.zeros(n)
+    F[0] = 100.0
+    out, _, _ = kernel_run(params, np.zeros(n), F)
+    spectrum = np.abs(np.fft.rfft(out["x"]))
+    freqs = np.fft.rfftfreq(n, 1 / FS)
+    expected = two_mass_frequencies(params)
+    warped = FS / np.pi * np.arctan(np.pi * expected / FS)
+    bin_hz = FS / n
+    for f in warped:
+        near = np.abs(freqs - f) < 0.1 * f  # the two modes are ≥ 5× apart
+        i = np.flatnonzero(near)[np.argmax(spectrum[near])]
+        y0, y1, y2 = np.log(spectrum[i - 1 : i + 2])
+        peak = freqs[i] + 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2) * bin_hz
+        assert peak == pytest.approx(f, abs=bin_hz + zeta**2 * f)
+    # the second mode is the stack's, above today's single mode: the support moves against it
+    assert expected[1] > params.stack.f_bench
+
+
+def test_the_stacks_reaction_holds_the_static_stroke(stack_params):
+    """The stack's force is internal, α U_P on the moving mass and −α U_P on the support: held at
+    100 V the stroke is today's but for the preload spring's force on the support,
+    x = αU/(k_P (1 + k_spring/k_s) + k_spring) (with no reaction it would grow by αU·c_s, 0.9 mm
+    at c_s = 1 µm/N), the Tustin map's DC gain exact."""
+    t = np.arange(int(0.3 * FS)) / FS
+    U = 100.0 * np.minimum(t / 0.05, 1.0)
+    for c in (1e-6, 1e-7):
+        params = on_support(quiet(stack_params), c, 1.0, 0.2, stack_zeta=0.2)
+        out, _, _ = kernel_run(params, U)
+        s = params.stack
+        k_p, k_0 = s.k - s.k_spring, s.k_spring
+        x = s.alpha * 100.0 / (k_p * (1 + k_0 * c) + k_0)
+        assert out["x"][-1] == pytest.approx(x, rel=1e-6)
+
+
+def test_a_stiff_support_approaches_todays_single_mode(stack_params):
+    """c_s → 0: the two-mass bench's response to a drive approaches today's single-mode twin's, its
+    difference falling in proportion to c_s (the support's deflection under the stack's reaction
+    and its mode's share of x), and c_s = 0 is today's kernel, bit for bit."""
+    t = np.arange(4800) / FS
+    U = 50 - 50 * np.cos(2 * np.pi * 100 * t) + 3 * np.sin(2 * np.pi * 700 * t)
+    today, kc0, _ = kernel_run(stack_params, U)
+    gaps = []
+    for c in (1e-9, 1e-10, 1e-11):
+        out, _, _ = kernel_run(on_support(stack_params, c), U)
+        gaps.append(np.max(np.abs(out["x"] - today["x"])) / np.ptp(today["x"]))
+    assert gaps[0] < 0.05
+    for coarse, fine in zip(gaps, gaps[1:]):
+        assert 5 < coarse / fine < 20  # ∝ c_s: a decade a decade
+    # the stack's mode is the lower one now, the support's (50 kHz) far above it
+    stack_mode, support_mode = two_mass_frequencies(on_support(stack_params, 1e-11))
+    assert stack_mode == pytest.approx(stack_params.stack.f_bench, rel=1e-3)
+    assert support_mode > 20 * stack_mode
+    off, kc, _ = kernel_run(on_support(stack_params, 0.0, 3.0, 0.2), U)
+    np.testing.assert_array_equal(kc.scalars, kc0.scalars)
+    assert kc.n_state == kc0.n_state
+    for name in K.OUTPUTS:
+        np.testing.assert_array_equal(off[name], today[name])
+
+
+@pytest.mark.parametrize(
+    "variants",
+    [
+        {"support": SupportParams(1e-6, 1.0, 0.05)},
+        {
+            "support": SupportParams(2e-7, 0.3, 0.02),
+            "hysteresis_rate": HysteresisRateParams(3.0),
+            "dielectric": DielectricParams(3.1e-7, 1e-3),
+        },
+    ],
+    ids=["support", "support with the other kernel states"],
+)
+def test_the_support_kernel_equals_its_reference(stack_params, variants):
+    params = dataclasses.replace(stack_params, **variants)
+    t = np.arange(4800) / FS
+    U = 50 - 50 * np.cos(2 * np.pi * 100 * t) + 3 * np.sin(2 * np.pi * 700 * t)
+    F = 20 * np.sin(2 * np.pi * 300 * t)
+    kc = K.kernel_constants(params, FS)
+    s1, s2 = K.initial_state(kc, 23.0), K.initial_state(kc, 23.0)
+    half = len(U) // 2  # two chunks: the support's states carry across
+    fast = np.concatenate(
+        [
+            K.run(U[:half], F[:half], 0 * U[:half] + 23, kc, s1),
+            K.run(U[half:], F[half:], 0 * U[half:] + 23, kc, s1),
+        ]
+    )
+    slow = np.concatenate(
+        [
+            K.run_reference(U[:half], F[:half], 0 * U[:half] + 23, kc, s2),
+            K.run_reference(U[half:], F[half:], 0 * U[half:] + 23, kc, s2),
+        ]
+    )
+    tol = float(rtol(1.0, roundings=4 * len(U)))
+    assert np.max(np.abs(fast - slow) / np.max(np.abs(slow), axis=0)) < tol
+    np.testing.assert_allclose(s1, s2, rtol=tol, atol=1e-15)
+    assert (
+        kc.n_state
+        == K.kernel_constants(dataclasses.replace(params, support=SupportParams()), FS).n_state + 2
+    )
+
+
+def test_the_support_mode_from_a_manifest_and_in_truth_only_when_on(stack_manifest, stack_params):
+    twin = dict(stack_manifest["twin"]) | {"support": {"compliance": 2e-7, "mass": 0.5}}
+    params = TwinParams.from_manifest(twin)
+    assert params.support == SupportParams(2e-7, 0.5, 0.05)
+    assert params.truth_attrs()["support_compliance"] == pytest.approx(2e-7)
+    with pytest.raises(ValueError, match="twin.support: unknown key"):
+        TwinParams.from_manifest(dict(twin) | {"support": {"stiffness": 1.0}})
+    rigid = TwinParams.from_manifest(dict(twin) | {"support": {"compliance": 0.0, "mass": 3.0}})
+    assert "support_mass" not in rigid.truth_attrs()
+    assert rigid.truth_attrs().keys() == stack_params.truth_attrs().keys()

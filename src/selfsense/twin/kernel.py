@@ -17,7 +17,19 @@ The fast kernel does it by safeguarded Newton on the piecewise-smooth monotone b
 reference (`run_reference`) by Brent's method, so the two agree only if both solve the same model.
 
 State vector layout: [s1, s2, T, q, U_P] (s = Tustin state of the mechanics) + q_b (Maxwell element
-anchors) + U_c (creep voltages); U_P is kept only as the next sample's starting guess.
+anchors) + U_c (creep voltages); U_P is kept only as the next sample's starting guess. The variants
+(twin.variants) append their states: the smoothed current, the support mode's two further Tustin
+states, the dielectric branch's voltage, in this order.
+
+The support mode (twin.support, on when its compliance is above 0) makes the mechanics a two-mass
+bench, Tustin-discretised as the one-mass is, states z = (x, ẋ, y, ẏ):
+
+    m ẍ + b (ẋ − ẏ) + k_P (x − y) + (k_spring + k_L) x = α U_P + F     moving mass (laser: x)
+    m_s ÿ + b_s ẏ + k_s y − b (ẋ − ẏ) − k_P (x − y) = −α U_P           support (the reaction)
+
+the stack (k_P = k − k_spring, b) between the moving mass and the support, the preload spring and
+the load from the moving mass to the frame, and the charge's α x (Eq 4.6) the stack's elongation
+α (x − y). Its Tustin matrices are a block of scalars after :data:`_SCALARS` (zeros when off).
 """
 
 from __future__ import annotations
@@ -72,6 +84,17 @@ _SCALARS = (
     "branch_C",
     "branch_decay",
 )
+#: the support mode's block of scalars after _SCALARS: on (1.0 or 0.0), k_P, k_spring + k_L, then
+#: the two-mass Tustin matrices Ad (4×4), Bd (4×2: α·U_P, F), Cd (4×4), Dd (4×2), row-major
+_SUPPORT = (
+    ("sup_on", "sup_k", "sup_k0")
+    + tuple(f"sup_a{i}{j}" for i in range(4) for j in range(4))
+    + tuple(f"sup_b{i}{j}" for i in range(4) for j in range(2))
+    + tuple(f"sup_c{i}{j}" for i in range(4) for j in range(4))
+    + tuple(f"sup_d{i}{j}" for i in range(4) for j in range(2))
+)
+SUP = len(_SCALARS)
+_SA, _SB, _SC, _SD = SUP + 3, SUP + 19, SUP + 27, SUP + 43
 #: the rate-dependent hysteresis reads the current smoothed over this time [s]: 19 samples at
 #: 48 kHz, so that its explicit (last-sample) coupling stays stable over β's declared range (the
 #: raw current rings from β·v_total·C·fs ≈ 1, β ≈ 0.4 1/A), and still far below the drive's
@@ -87,7 +110,10 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
     B = np.array([[0.0], [1.0 / s.m]])
     Ad, Bd, Cd, Dd = tustin(A, B, np.eye(2), np.zeros((2, 1)), h)
     th_decay = np.exp(-h / th.tau)
-    scalars = dict(
+    support = dict.fromkeys(_SUPPORT, 0.0)
+    if p.support.on:
+        support |= dict(zip(_SUPPORT, support_matrices(p, h, load_stiffness)))
+    scalars = support | dict(
         alpha=s.alpha,
         C_P0=s.C_P0,
         dC_U=s.dC_U,
@@ -118,13 +144,40 @@ def kernel_constants(p: TwinParams, fs: float, load_stiffness: float = 0.0) -> K
     )
     return KernelConstants.build(
         _HEAD,
-        np.array([scalars[k] for k in _SCALARS]),
+        np.array([scalars[k] for k in _SCALARS + _SUPPORT]),
         p.hysteresis,
         p.creep,
         lambda tau: np.exp(-h / tau),
         int(p.hysteresis_rate.width_per_current > 0),
         int(p.dielectric.C_d > 0),
+        2 * int(p.support.on),
     )
+
+
+def two_mass(p: TwinParams, load_stiffness: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of the two-mass bench (module docstring), states (x, ẋ, y, ẏ), inputs (α U_P, F)."""
+    s, sp = p.stack, p.support
+    k_p, k_0, m, b = s.k - s.k_spring, s.k_spring + load_stiffness, s.m, s.b
+    ms, ks, bs = sp.mass, sp.k, sp.b
+    A = np.array(
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [-(k_p + k_0) / m, -b / m, k_p / m, b / m],
+            [0.0, 0.0, 0.0, 1.0],
+            [k_p / ms, b / ms, -(k_p + ks) / ms, -(b + bs) / ms],
+        ]
+    )
+    B = np.array([[0.0, 0.0], [1.0 / m, 1.0 / m], [0.0, 0.0], [-1.0 / ms, 0.0]])
+    return A, B
+
+
+def support_matrices(p: TwinParams, h: float, load_stiffness: float = 0.0) -> np.ndarray:
+    """The support mode's block of scalars (:data:`_SUPPORT`): Tustin's map of :func:`two_mass`."""
+    A, B = two_mass(p, load_stiffness)
+    Ad, Bd, Cd, Dd = tustin(A, B, np.eye(4), np.zeros((4, 2)), h)
+    s = p.stack
+    head = [1.0, s.k - s.k_spring, s.k_spring + load_stiffness]
+    return np.concatenate([head, Ad.ravel(), Bd.ravel(), Cd.ravel(), Dd.ravel()])
 
 
 def initial_state(kc: KernelConstants, T0: float) -> np.ndarray:
@@ -140,6 +193,21 @@ def _charge(u_p, x_free, F, dT, sc):
     alpha, d1 = sc[0], sc[21]
     q = c0 * u_p + 0.5 * sc[2] * u_p * u_p + alpha * (x_free + d1 * (alpha * u_p + F))
     return q, c0 + sc[2] * u_p + alpha * alpha * d1
+
+
+@numba.njit(cache=True)
+def _charge_support(u_p, e_base, d_e, dT, sc):
+    """q(U_P) on the two-mass bench: the elongation x_n − y_n = e_base + d_e·α U_P substituted."""
+    c0 = sc[1] + sc[3] * dT
+    alpha = sc[0]
+    q = c0 * u_p + 0.5 * sc[2] * u_p * u_p + alpha * (e_base + d_e * alpha * u_p)
+    return q, c0 + sc[2] * u_p + alpha * alpha * d_e
+
+
+@numba.njit(cache=True)
+def _row(sc, at, z):
+    """Row ``at`` of a 4-column matrix in sc times the 4-vector z."""
+    return sc[at] * z[0] + sc[at + 1] * z[1] + sc[at + 2] * z[2] + sc[at + 3] * z[3]
 
 
 @numba.njit(cache=True)
@@ -160,6 +228,16 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
     # the dielectric branch (twin.variants): C_d's voltage, kept at the state's end
     c_d, d_decay = sc[25], sc[26]
     u_d = state[state.size - 1] if c_d != 0.0 else 0.0
+    # the support mode (twin.variants): the two-mass Tustin state z, its last two kept after the
+    # smoothed current's slot
+    sup = sc[SUP] != 0.0
+    i_sup = 5 + nh + nc + (1 if beta != 0.0 else 0)
+    z = np.zeros(4)
+    zn = np.zeros(4)
+    d_e = 0.0
+    if sup:
+        z[0], z[1], z[2], z[3] = s1, s2, state[i_sup], state[i_sup + 1]
+        d_e = sc[_SD] - sc[_SD + 4]  # the elongation's feed-through of α U_P
     vmax = span(v_h)
     for n in range(U.size):
         if beta != 0.0:
@@ -172,13 +250,19 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
             uc_sum += U_c[j]
         dT = T - sc[4]
         target = U[n] - uc_sum
-        x_free = sc[17] * s1 + sc[18] * s2
+        if sup:  # the elongation x − y without this sample's α U_P
+            x_free = _row(sc, _SC, z) - _row(sc, _SC + 8, z) + (sc[_SD + 1] - sc[_SD + 5]) * F[n]
+        else:
+            x_free = sc[17] * s1 + sc[18] * s2
         # f(u) = u + U_H(q(u)) - target is monotone with |U_H| <= vmax
         lo = target - vmax - 1.0
         hi = target + vmax + 1.0
         solved = False
         for _ in range(MAX_ITERATIONS):
-            q, dq = _charge(u_p, x_free, F[n], dT, sc)
+            if sup:
+                q, dq = _charge_support(u_p, x_free, d_e, dT, sc)
+            else:
+                q, dq = _charge(u_p, x_free, F[n], dT, sc)
             uh, slope = maxwell(q, q_b, C_h, v_use)
             f = u_p + uh - target
             if balanced(f, target):
@@ -186,15 +270,29 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
                 break
             u_p, lo, hi = newton_step(u_p, f, 1.0 + slope * dq, lo, hi)
         if not solved:  # else q is already the charge at this u_p
-            q, _ = _charge(u_p, x_free, F[n], dT, sc)
+            if sup:
+                q, _ = _charge_support(u_p, x_free, d_e, dT, sc)
+            else:
+                q, _ = _charge(u_p, x_free, F[n], dT, sc)
         c_p = sc[1] + sc[3] * dT + sc[2] * u_p
         force = alpha * u_p + F[n]
-        x = x_free + sc[21] * force
-        v = sc[19] * s1 + sc[20] * s2 + sc[22] * force
+        if sup:
+            drive = alpha * u_p
+            for i in range(4):
+                d = _SD + 2 * i
+                zn[i] = _row(sc, _SC + 4 * i, z) + sc[d] * drive + sc[d + 1] * F[n]
+            x, v = zn[0], zn[1]
+            acc = (
+                force - sc[13] * (zn[1] - zn[3]) - sc[SUP + 1] * (zn[0] - zn[2]) - sc[SUP + 2] * x
+            ) / sc[12]
+        else:
+            x = x_free + sc[21] * force
+            v = sc[19] * s1 + sc[20] * s2 + sc[22] * force
         uh = slide_and_sum(q, q_b, C_h, v_use)
         current = (q - q_prev) * fs
         i_last = rate_decay * i_last + (1.0 - rate_decay) * current
-        acc = (force - sc[13] * v - sc[14] * x) / sc[12]
+        if not sup:
+            acc = (force - sc[13] * v - sc[14] * x) / sc[12]
         out[n, 0] = x
         out[n, 1] = v
         out[n, 2] = acc
@@ -218,9 +316,22 @@ def run_kernel(U, F, T_amb, sc, C_h, v_h, creep_decay, creep_R, state, out):
         if c_d != 0.0:
             power += branch_heat
         T = T_amb[n] + (T - T_amb[n]) * sc[15] + power * sc[16]
-        s1, s2 = sc[6] * s1 + sc[7] * s2 + sc[10] * force, sc[8] * s1 + sc[9] * s2 + sc[11] * force
+        if sup:
+            drive = alpha * u_p
+            for i in range(4):
+                d = _SB + 2 * i
+                zn[i] = _row(sc, _SA + 4 * i, z) + sc[d] * drive + sc[d + 1] * F[n]
+            z[:] = zn
+            s1, s2 = z[0], z[1]
+        else:
+            s1, s2 = (
+                sc[6] * s1 + sc[7] * s2 + sc[10] * force,
+                sc[8] * s1 + sc[9] * s2 + sc[11] * force,
+            )
         q_prev = q
     state[0], state[1], state[2], state[3], state[4] = s1, s2, T, q_prev, u_p
+    if sup:
+        state[i_sup], state[i_sup + 1] = z[2], z[3]
     if beta != 0.0:
         state[5 + nh + nc] = i_last
     if c_d != 0.0:
@@ -233,9 +344,16 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         brentq,  # only the tests run the reference: ≈ 0.3 s of every simulation's start-up
     )
 
-    sc = dict(zip(_SCALARS, kc.scalars))
+    sc = dict(zip(_SCALARS + _SUPPORT, kc.scalars))
     q_b, U_c = kc.elements(state)
     s1, s2, T, q_prev, u_p = state[:5]
+    sup = bool(kc.support_state)
+    i_sup = kc.head + len(kc.C_h) + len(kc.creep_R) + kc.rate_state
+    if sup:  # the two-mass bench's Tustin matrices and state (x, ẋ, y, ẏ)
+        block = kc.scalars[SUP:]
+        Ad, Bd = block[3:19].reshape(4, 4), block[19:27].reshape(4, 2)
+        Cd, Dd = block[27:43].reshape(4, 4), block[43:51].reshape(4, 2)
+        z = np.array([s1, s2, *state[i_sup : i_sup + 2]])
     out = np.empty((len(U), N_OUT))
     beta = sc["rate_width"]
     i_last = state[kc.head + len(kc.C_h) + len(kc.creep_R)] if kc.rate_state else 0.0
@@ -260,6 +378,15 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         def position(u):
             return x_free + sc["d1"] * (sc["alpha"] * u + F[n])
 
+        if sup:
+
+            def outputs(u):
+                return Cd @ z + Dd @ np.array([sc["alpha"] * u, F[n]])
+
+            def position(u):  # the stack's elongation x − y, which the charge sees
+                out = outputs(u)
+                return out[0] - out[2]
+
         u_p = brentq(
             lambda u: u + u_h(charge(u, dT, position(u))) - target,
             target - vmax - 1.0,
@@ -267,8 +394,8 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
             xtol=1e-15,
             rtol=4 * np.finfo(float).eps,
         )
+        q = charge(u_p, dT, position(u_p))
         x = position(u_p)
-        q = charge(u_p, dT, x)
         slide_anchors_reference(q, q_b, kc.C_h, v_h)
         uh = u_h(q)
         current = (q - q_prev) * sc["fs"]
@@ -276,6 +403,11 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
         force = sc["alpha"] * u_p + F[n]
         v = sc["c21"] * s1 + sc["c22"] * s2 + sc["d2"] * force
         acc = (force - sc["b"] * v - sc["k_tot"] * x) / sc["m"]
+        if sup:
+            zx = outputs(u_p)
+            x, v = zx[0], zx[1]
+            stack = sc["b"] * (zx[1] - zx[3]) + sc["sup_k"] * (zx[0] - zx[2])
+            acc = (force - stack - sc["sup_k0"] * zx[0]) / sc["m"]
         c_p = sc["C_P0"] + sc["kappa_T"] * dT + sc["dC_U"] * u_p
         power = (uh + uc_sum) * current
         total = current
@@ -292,8 +424,13 @@ def run_reference(U, F, T_amb, kc: KernelConstants, state: np.ndarray) -> np.nda
             sc["a11"] * s1 + sc["a12"] * s2 + sc["b1"] * force,
             sc["a21"] * s1 + sc["a22"] * s2 + sc["b2"] * force,
         )
+        if sup:
+            z = Ad @ z + Bd @ np.array([sc["alpha"] * u_p, F[n]])
+            s1, s2 = z[0], z[1]
         q_prev = q
     state[:5] = s1, s2, T, q_prev, u_p
+    if sup:
+        state[i_sup : i_sup + 2] = z[2:]
     if kc.rate_state:
         state[kc.head + len(kc.C_h) + len(kc.creep_R)] = i_last
     if c_d:

@@ -41,6 +41,7 @@ class KernelConstants:
     creep_R: np.ndarray  # R_j = τ_j / C_j [Ω]
     rate_state: int = 0  # 1: the state holds the smoothed current (rate-dependent v_h)
     branch_state: int = 0  # 1: the state ends with the dielectric branch's voltage
+    support_state: int = 0  # 2: the support mode's Tustin states, before the branch's voltage
 
     @classmethod
     def build(
@@ -52,6 +53,7 @@ class KernelConstants:
         decay: Callable[[np.ndarray], np.ndarray],
         rate_state: int = 0,
         branch_state: int = 0,
+        support_state: int = 0,
     ) -> KernelConstants:
         """``decay`` maps the creep time constants τ_j [s] to their decay over one sample: each twin
         keeps the arithmetic its captures were made with."""
@@ -60,11 +62,20 @@ class KernelConstants:
         R_c = tau_c / np.asarray(creep.C, float)
         if hysteresis.R_visc > 0:  # the viscous drop is one more Voigt element (HysteresisParams)
             tau_c, R_c = np.append(tau_c, hysteresis.tau_visc), np.append(R_c, hysteresis.R_visc)
-        return cls(head, scalars, C_h, v_h, decay(tau_c), R_c, rate_state, branch_state)
+        return cls(
+            head, scalars, C_h, v_h, decay(tau_c), R_c, rate_state, branch_state, support_state
+        )
 
     @property
     def n_state(self) -> int:
-        return self.head + len(self.C_h) + len(self.creep_R) + self.rate_state + self.branch_state
+        return (
+            self.head
+            + len(self.C_h)
+            + len(self.creep_R)
+            + self.rate_state
+            + self.support_state
+            + self.branch_state
+        )
 
     def elements(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Views of the anchors q_b and the creep voltages U_c in ``state``."""

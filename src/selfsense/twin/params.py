@@ -236,9 +236,35 @@ class DielectricParams:
     tau: float = 1.0e-3  # R_d·C_d [s]
 
 
+@dataclass(frozen=True)
+class SupportParams:
+    """The support mode: the stack's base on a support of modal mass m_s held to the frame by a
+    stiffness k_s = 1/compliance with damping b_s = 2·zeta·√(k_s·m_s), a two-mass bench
+    (:func:`.kernel.kernel_constants`; docs/twin.md, "Variants"). The stack (k, b) acts between
+    the moving mass and the support, its force α·U_P on the one and its reaction on the other;
+    the laser reads the moving mass against the frame. compliance = 0: a rigid support (today's
+    single-mode twin, whatever mass and zeta say)."""
+
+    compliance: float = 0.0  # c_s = 1/k_s [m/N]
+    mass: float = 1.0  # m_s [kg]
+    zeta: float = 0.05  # ζ_s
+
+    @property
+    def on(self) -> bool:
+        return self.compliance > 0
+
+    @property
+    def k(self) -> float:
+        return 1.0 / self.compliance
+
+    @property
+    def b(self) -> float:
+        return 2 * self.zeta * np.sqrt(self.k * self.mass)
+
+
 #: the twin's variants: mechanisms a manifest may switch on, each off by default (docs/twin.md,
 #: "Variants"); /truth records a variant's parameters only when it is on
-VARIANTS = ("load_path", "power_amplifier", "loop", "hysteresis_rate", "dielectric")
+VARIANTS = ("load_path", "power_amplifier", "loop", "hysteresis_rate", "dielectric", "support")
 
 
 @dataclass(frozen=True)
@@ -254,6 +280,7 @@ class TwinParams:
     loop: LoopParams = field(default_factory=LoopParams)
     hysteresis_rate: HysteresisRateParams = field(default_factory=HysteresisRateParams)
     dielectric: DielectricParams = field(default_factory=DielectricParams)
+    support: SupportParams = field(default_factory=SupportParams)
 
     def __post_init__(self):
         if self.power_amplifier.on and self.instruments.amplifier_gain_at_folded_ripple < 1:
@@ -275,7 +302,7 @@ class TwinParams:
         out: dict[str, float] = {}
         for part in fields(self):
             obj = getattr(self, part.name)
-            if part.name in VARIANTS and obj == type(obj)():
+            if part.name in VARIANTS and (obj == type(obj)() or not getattr(obj, "on", True)):
                 continue  # off: today's twin, whose /truth it leaves as it was
             for key, value in asdict(obj).items():
                 if isinstance(value, (int, float)):
