@@ -58,8 +58,9 @@ KNOWN = {
     "capture.compression": {"simulate", "simulate_closed_loop", *NAMED_IN_A_LOOP["_name"]},
 }
 
-#: the rule file whose rules only `snakemake envelope` runs, not the default target
-ENVELOPE_RULES = ROOT / "workflow" / "rules" / "envelope.smk"
+#: the rule files whose rules only `snakemake envelope` and `snakemake validate` run, not the
+#: default target
+OWN_TARGETS = {ROOT / "workflow" / "rules" / f for f in ("envelope.smk", "validation.smk")}
 
 #: the keys the dry runs change, with a changed value: one read directly, one through a name of
 #: the rule files, one taken as a whole section by the rules a loop names
@@ -305,8 +306,8 @@ def test_changing_the_job_sizes_reruns_nothing(config_tree, tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("key", DRY_RUNS)
 def test_a_config_change_reruns_exactly_the_rules_that_declare_it(config_tree, tmp_path, key):
-    # the rules the parse names, but those only `snakemake envelope` runs
-    rules = {r for r in USES[key] if RULES[r][2] != ENVELOPE_RULES}
+    # the rules the parse names, but those only `snakemake envelope` or `validate` runs
+    rules = {r for r in USES[key] if RULES[r][2] not in OWN_TARGETS}
     changed = tmp_path / "changed.yaml"
     changed.write_text(yaml.safe_dump(with_change(key, DRY_RUNS[key]), sort_keys=False))
     dry = run_snakemake(config_tree, "-n", "--quiet", "rules", config=str(changed))
