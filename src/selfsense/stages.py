@@ -89,6 +89,7 @@ def _ripple(manifest, experiments):
 
 
 def _none(manifest, experiments):
+    """A stage whose needs are its roles and the stages it builds on: nothing more to lack."""
     return []
 
 
@@ -120,7 +121,7 @@ class Stage:
     #: what it needs, in words (the row's needs column)
     needs: str
     #: what of its own needs beyond its roles a dataset lacks: (manifest, experiments) -> [lack]
-    lacks: Callable[[Mapping[str, Any], Experiments], list[str]]
+    lacks: Callable[[Mapping[str, Any], Experiments], list[str]] = _none
     #: the roles (:data:`selfsense.io.roles.ROLES`) whose runs its rules read: each needs a run
     roles: tuple[str, ...] = ()
     #: the stages it builds on: a dataset that skips one of them skips this one too
@@ -147,7 +148,6 @@ STAGES = (
         "ch3",
         "hysteresis and figures (Ch. 3)",
         "ripple stage and the Chapter 3 series at 10, 1 and 0.1 Hz",
-        _none,
         roles=tuple(CH3_SERIES.values()),
         after=("ripple",),
     ),
@@ -155,7 +155,6 @@ STAGES = (
         "identify",
         "identify (Ch. 4)",
         "ripple stage, Chapter 4 sine sets and the static stiffness tests",
-        _none,
         roles=(
             "identify.set",
             "identify.static_free",
@@ -175,7 +174,6 @@ STAGES = (
         "gamma",
         "gamma (Ch. 5)",
         "ripple stage and the 0.1 Hz run Γ is fitted on",
-        _none,
         roles=("gamma.fit",),
         after=("ripple",),
     ),
@@ -191,7 +189,6 @@ STAGES = (
         "frequency_response",
         "frequency response (Ch. 5, Fig 5.3)",
         "identify stage and the stepped-sine sweep",
-        _none,
         roles=("frequency_response.sweep",),
         after=("identify",),
     ),
@@ -199,7 +196,6 @@ STAGES = (
         "control",
         "control (Ch. 6)",
         "observer and identify stages and the profiles P1–P3, open and closed loop",
-        _none,
         roles=tuple(role for pair in PROFILES.values() for role in pair),
         after=("observer", "identify"),
     ),
