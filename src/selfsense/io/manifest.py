@@ -343,7 +343,7 @@ def schema_default(schema_name: str, keys: Sequence[str]) -> Any:
     through nested objects' properties; KeyError where it gives none. A dataset manifest that
     leaves out a twin variant's key holds this default, the term off (docs/twin.md,
     "Variants")."""
-    node: Any = load_yaml(SCHEMAS / schema_name)
+    node: Any = _validator(schema_name).schema  # loaded once: a member's draws ask per unknown
     for key in keys:
         node = node["properties"][key]
     return node["default"]
