@@ -255,14 +255,15 @@ def test_a_compression_outside_the_contract_is_refused_on_open(tmp_path):
 
 
 def test_what_lands_on_disk_differing_from_what_was_written_is_never_renamed(tmp_path, monkeypatch):
-    put = CaptureWriter._put
+    flush = CaptureWriter._flush
 
-    def landing_wrong(self, name, start, values):  # a storage error after the CRC was taken
-        put(self, name, start, values)
+    def landing_wrong(self, name):  # a storage error after the CRC was taken
+        start = self._queued.get(name, (None,))[0]
+        flush(self, name)
         if name == "I" and start == 0:
-            self._nc[name][1] = values[1] + 1
+            self._nc[name][1] = self._nc[name][1] + 1
 
-    monkeypatch.setattr(CaptureWriter, "_put", landing_wrong)
+    monkeypatch.setattr(CaptureWriter, "_flush", landing_wrong)
     with pytest.raises(CaptureError) as e:
         write(tmp_path / "c.nc")
     one_line(e, tmp_path / "c.nc", "not renamed into place: variable I read back differs")

@@ -39,6 +39,8 @@ import shutil
 import time
 import zlib
 from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -218,6 +220,26 @@ class _Progress:
         self.next = (math.floor(done / self.total / PROGRESS_STEP + 1e-9) + 1) * PROGRESS_STEP
 
 
+#: chunks a variable's values are queued for before one call writes them (CaptureWriter._put)
+WRITE_BLOCKS = 8
+#: set inside :func:`scratch_captures`: the captures written are a member's scratch
+_SCRATCH: ContextVar[bool] = ContextVar("scratch_captures", default=False)
+
+
+@contextmanager
+def scratch_captures() -> Iterator[None]:
+    """Captures written inside are one in-process member's scratch, in memory and gone when the
+    member is (:mod:`selfsense.envelope.member`): stored without a codec and not read back. Their
+    codes, scales and attributes are those of the same capture written to raw/ (the codecs are
+    lossless), so a reader gets the same numbers; the read-back checks a storage medium, which a
+    scratch in memory does not have, and a codec saves space it does not need."""
+    token = _SCRATCH.set(True)
+    try:
+        yield
+    finally:
+        _SCRATCH.reset(token)
+
+
 class CaptureWriter:
     """Write a capture sequentially in chunks; the file appears only when complete and verified.
 
@@ -266,10 +288,12 @@ class CaptureWriter:
         self._attrs = dict(attrs)
         self._rate = {"time": float(attrs["fs"]), "time_slow": fs_slow}
         self._chunk_len = chunk_len
-        self._compression = (compression, complevel)
+        self._scratch = _SCRATCH.get()
+        self._compression = (None, 0) if self._scratch else (compression, complevel)
         self.stats = ChunkStats()
         self._nc: netCDF4.Dataset | None = None
         self._crc: dict[str, int] = {}
+        self._queued: dict[str, list] = {}  # per variable: [first index, arrays not yet written]
         self._progress = _Progress(f"{self.path} written", self.n_samples)
         self._seconds = {
             "packing and writing": 0.0,
@@ -394,13 +418,26 @@ class CaptureWriter:
             self._progress(start + n)
 
     def _put(self, name: str, start: int, values: np.ndarray) -> None:
-        """Write one variable's next values and fold them into its CRC-32 for the read-back (in
-        order: the writer appends sequentially)."""
+        """Queue one variable's next values (the writer appends sequentially); they reach HDF5
+        :data:`WRITE_BLOCKS` chunks at a time, since each call into netCDF4 costs about 0.1 ms
+        whatever its size (a tenth of a simulated capture's writing at one chunk a call)."""
+        queued = self._queued.setdefault(name, [start, []])
+        queued[1].append(values)
+        if sum(len(v) for v in queued[1]) >= WRITE_BLOCKS * self._chunk_len:
+            self._flush(name)
+
+    def _flush(self, name: str) -> None:
+        """Write a variable's queued values and fold them into its CRC-32 for the read-back."""
+        start, pending = self._queued.pop(name, (0, []))
+        if not pending:
+            return
+        values = pending[0] if len(pending) == 1 else np.concatenate(pending)
         try:
             self._nc[name][start : start + len(values)] = values
         except (RuntimeError, OSError) as err:  # a chunk the cache flushed failed
             raise self._unstorable(err) from None
-        self._crc[name] = zlib.crc32(np.ascontiguousarray(values), self._crc.get(name, 0))
+        if not self._scratch:
+            self._crc[name] = zlib.crc32(np.ascontiguousarray(values), self._crc.get(name, 0))
 
     def _unstorable(self, err: Exception) -> CaptureError:
         """Why HDF5 could not store a chunk. netCDF-C says only "HDF error", whether the disk is
@@ -424,6 +461,22 @@ class CaptureWriter:
             f"{self.path}: HDF5 could not store a chunk ({err}) with compression {compression}"
         )
 
+    def _flush_all(self, nc: netCDF4.Dataset) -> None:
+        """The queued values, written before the file closes; a failure leaves no file."""
+        self._nc = nc
+        try:
+            for name in list(self._queued):
+                self._flush(name)
+        except CaptureError:
+            try:
+                nc.close()
+            except (RuntimeError, OSError):
+                pass
+            _remove(self.tmp)
+            raise
+        finally:
+            self._nc = None
+
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
         """The twin's true parameters, as attributes of /truth (states go through ``write``)."""
         assert self._nc is not None and self.truth, "declare truth states to write /truth"
@@ -433,9 +486,10 @@ class CaptureWriter:
         nc, self._nc = self._nc, None
         try:
             if nc is not None:
-                if exc_type is None:
-                    nc.clipped_samples = int(sum(self.clipped.values()))
                 began = time.perf_counter()
+                if exc_type is None:
+                    self._flush_all(nc)
+                    nc.clipped_samples = int(sum(self.clipped.values()))
                 nc.close()  # flushes the chunks still cached
                 self._seconds["packing and writing"] += time.perf_counter() - began
         except (RuntimeError, OSError) as err:
@@ -456,7 +510,7 @@ class CaptureWriter:
             _remove(self.tmp)
             raise ValueError(f"{self.path}: writer stopped early at {short} samples")
         began = time.perf_counter()
-        problem = _read_back(self.tmp, self._crc, self._chunk_len)
+        problem = None if self._scratch else _read_back(self.tmp, self._crc, self._chunk_len)
         self._seconds["reading back"] = time.perf_counter() - began
         LOG.info(
             "%s: %s", self.path, ", ".join(f"{what} {s:.2f} s" for what, s in self._seconds.items())

@@ -1,0 +1,262 @@
+"""A member of the envelope or the validation run in one process: the rules' own jobs, in order.
+
+Through the rules a member is some 40–70 jobs, each a fresh interpreter that imports the library
+before its work (about a second of CPU a job, half a member's). Here the member is one job: the
+workflow's DAG for the member's outputs (Snakemake's own, built once for a batch of members by
+:func:`member_steps`) becomes a list of :class:`Step`, and :func:`run_steps` calls each rule's
+script's ``main`` in this process, through :func:`selfsense.io.provenance.run` as Snakemake
+would, with the same inputs, outputs and params. The numbers are therefore the rules' numbers by
+construction; ``tests/workflow/test_member.py`` holds one member's scorecard from here equal, value
+for value, to its scorecard through the rules.
+
+What a step writes goes under a scratch folder (in memory, /dev/shm, where the machine has one),
+not under raw/ and results/: the member's dataset is not materialised, and a reviewer who audits a
+member runs the rules on it like on any dataset (``snakemake results/<member>/scorecard.csv``).
+A capture is written as the capture contract holds it (packed int16 with its scale, the same
+CaptureWriter), so what a step reads back is what a reader of the rules' file would get, and is
+deleted after the last step that reads it, which keeps the member's memory to a few captures.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import logging
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+from selfsense.io.capture import scratch_captures
+from selfsense.io.provenance import code_version, commit, run
+
+LOG = logging.getLogger("selfsense")
+#: where a member's scratch goes when the machine has a memory file system
+MEMORY_FS = Path("/dev/shm")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One job of the workflow's DAG as its script sees it: the rule, its script file, and its
+    named inputs, outputs and params (a value a path, a list of paths, or a param's value)."""
+
+    rule: str
+    script: str
+    input: tuple[tuple[str, Any], ...]
+    output: tuple[tuple[str, Any], ...]
+    params: tuple[tuple[str, Any], ...]
+    log: tuple[str, ...]
+
+    def files(self, kind: str) -> list[str]:
+        return list(_flat(dict(getattr(self, kind)).values()))
+
+    def record(self) -> dict[str, Any]:
+        """The step as JSON holds it (a step table a rule's params can carry)."""
+        return {
+            "rule": self.rule,
+            "script": self.script,
+            **{k: [list(p) for p in getattr(self, k)] for k in ("input", "output", "params")},
+            "log": list(self.log),
+        }
+
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> Step:
+        pairs = {k: tuple((n, v) for n, v in record[k]) for k in ("input", "output", "params")}
+        return cls(record["rule"], record["script"], log=tuple(record["log"]), **pairs)
+
+
+def _flat(values: Iterable[Any]) -> Iterator[str]:
+    for value in values:
+        if isinstance(value, (list, tuple)):
+            yield from (str(v) for v in value)
+        else:
+            yield str(value)
+
+
+class _Named:
+    """The part of Snakemake's Namedlist that :func:`~selfsense.io.provenance.run` reads."""
+
+    def __init__(self, pairs: Iterable[tuple[str, Any]]):
+        self._pairs = list(pairs)
+        self._files = list(_flat(v for _, v in self._pairs))
+
+    def items(self) -> list[tuple[str, Any]]:
+        return list(self._pairs)
+
+    def get(self, name: str, default: Any = None) -> Any:
+        return dict(self._pairs).get(name, default)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._files)
+
+    def __len__(self) -> int:
+        return len(self._files)
+
+    def __getitem__(self, index: int) -> str:
+        return self._files[index]
+
+
+@dataclass(frozen=True)
+class _Job:
+    """What ``run`` reads of the ``snakemake`` object a script is given."""
+
+    rule: str
+    input: _Named
+    output: _Named
+    params: _Named
+    log: _Named
+
+
+def member_steps(
+    snakefile: str | Path,
+    targets: Sequence[str],
+    config: Mapping[str, Any],
+    given: Iterable[str] = (),
+) -> list[Step]:
+    """The jobs Snakemake runs to make ``targets`` from nothing (``--forceall``), in an order it
+    could run them, as steps; jobs whose outputs are all in ``given`` (the member's manifest,
+    already an input of the job that runs the member) are left out. The workflow is parsed with
+    ``config`` (the calling run's, command-line values included), in the current directory."""
+    from snakemake.api import SnakemakeApi
+    from snakemake.settings.types import (
+        ConfigSettings,
+        DAGSettings,
+        OutputSettings,
+        ResourceSettings,
+    )
+
+    given = set(map(str, given))
+    with SnakemakeApi(OutputSettings(quiet={"all"})) as api:
+        workflow_api = api.workflow(
+            resource_settings=ResourceSettings(cores=1),
+            config_settings=ConfigSettings(config=dict(config)),
+            snakefile=Path(snakefile),
+            workdir=Path.cwd(),
+        )
+        dag_api = workflow_api.dag(DAGSettings(targets=set(targets), forceall=True))
+        workflow = dag_api.workflow_api._workflow
+        workflow._prepare_dag(forceall=True, ignore_incomplete=True, lock_warn_only=True)
+        workflow._build_dag()
+        steps = []
+        for level in workflow.dag.toposorted():
+            for job in sorted(level, key=lambda j: (j.rule.name, [str(f) for f in j.output])):
+                outputs = [str(f) for f in job.output]
+                if outputs and set(outputs) <= given:
+                    continue
+                if job.rule.script is None:
+                    raise ValueError(f"rule {job.rule.name}: a member's step must be a script")
+                steps.append(
+                    Step(
+                        job.rule.name,
+                        str((Path(job.rule.basedir) / job.rule.script).resolve()),
+                        _pairs(job.input),
+                        _pairs(job.output),
+                        _pairs(job.params),
+                        tuple(str(f) for f in job.log),
+                    )
+                )
+    return steps
+
+
+def _pairs(named: Any) -> tuple[tuple[str, Any], ...]:
+    def plain(value: Any) -> Any:
+        if isinstance(value, (list, tuple)):
+            return [plain(v) for v in value]
+        if isinstance(value, dict):
+            return {k: plain(v) for k, v in value.items()}
+        return str(value) if isinstance(value, os.PathLike) or type(value).__name__ in (
+            "_IOFile",
+            "AnnotatedString",
+        ) else value
+
+    return tuple((name, plain(value)) for name, value in named.items())
+
+
+@cache
+def _main(script: str) -> Callable[..., Any]:
+    """A rule's script's ``main``, its module loaded once a process (not run: it runs its rule
+    only when Snakemake gives it ``snakemake``)."""
+    spec = importlib.util.spec_from_file_location(f"_step_{Path(script).stem}", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.main
+
+
+@contextmanager
+def scratch_folder(prefix: str) -> Iterator[Path]:
+    """A folder for one member's files, in memory where the machine has a memory file system,
+    removed afterwards whatever happens."""
+    base = MEMORY_FS if MEMORY_FS.is_dir() and os.access(MEMORY_FS, os.W_OK) else None
+    folder = Path(tempfile.mkdtemp(prefix=f"{prefix}.", dir=base))
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) -> dict[str, Path]:
+    """Run the steps in order in this process, in ``scratch`` as the working directory: every
+    input no step makes is linked there from the checkout under its own path, so each step's
+    paths, params included, mean what they mean to the rules. A file a step makes is deleted
+    after the last step that reads it, unless it is in ``keep``; returns where each of ``keep``
+    is. A step that fails stops the member with its rule named; the scratch is the caller's to
+    remove."""
+    keep = set(map(str, keep))
+    made = {path for step in steps for path in step.files("output")}
+    last_read = {path: i for i, step in enumerate(steps) for path in step.files("input")}
+    checkout = Path.cwd()
+    for path in sorted(_sources(set(last_read) - made, made)):
+        link = scratch / path
+        if not link.exists():
+            link.parent.mkdir(parents=True, exist_ok=True)
+            link.symlink_to(checkout / path)
+    for step in steps:
+        for path in step.files("output") + list(step.log):
+            (scratch / path).parent.mkdir(parents=True, exist_ok=True)
+    code_version(), commit()  # of the checkout, before the working directory moves
+    with _working_directory(scratch), scratch_captures():
+        for i, step in enumerate(steps):
+            job = _Job(
+                step.rule,
+                _Named(step.input),
+                _Named(step.output),
+                _Named(step.params),
+                _Named(("log", p) for p in step.log),
+            )
+            began = time.perf_counter()
+            try:
+                run(_main(step.script), job)
+            except Exception as err:
+                outputs = ", ".join(step.files("output"))
+                raise RuntimeError(f"rule {step.rule} ({outputs}): {err}") from err
+            LOG.debug("%s: %.2f s", step.rule, time.perf_counter() - began)
+            for path, last in last_read.items():
+                if last == i and path in made and path not in keep:
+                    Path(path).unlink(missing_ok=True)
+    return {path: scratch / path for path in keep}
+
+
+def _sources(inputs: Iterable[str], made: Iterable[str]) -> set[str]:
+    """What to link for ``inputs``: for each, its highest folder that holds nothing a step makes
+    (a script may read beside its input: the catalogue's other protocols), else the file."""
+    holding = {parent for path in made for parent in Path(path).parents}
+    linked = set()
+    for path in map(Path, inputs):
+        free = [p for p in path.parents if p != Path(".") and p not in holding]
+        linked.add(str(free[-1] if free else path))
+    return linked
+
+
+@contextmanager
+def _working_directory(folder: Path) -> Iterator[None]:
+    before = Path.cwd()
+    os.chdir(folder)
+    try:
+        yield
+    finally:
+        os.chdir(before)
