@@ -808,20 +808,46 @@ def calibration_tables(dataset):
 # ---- The validation's rules' inputs (workflow/rules/validation.smk)
 
 
-def validation_batch_inputs(wildcards):
-    """Rule validation_batch's inputs: every member's scorecard and the tables its common
-    targets read (those its stages make)."""
-    members = VALIDATION.batch(wildcards.batch).members
+def member_results(member):
+    """What the validation reads of a member, under results/<member>/: its scorecard and the
+    tables its common targets read (those its stages make)."""
     made = stage_outputs()
-    return {
-        "cards": [f"results/{m}/scorecard.csv" for m in members],
-        "tables": [
-            t
-            for m in members
-            for t in (f"results/{m}/{table}" for table in VALIDATION.tables)
-            if t in made
-        ],
-    }
+    tables = [t for t in VALIDATION.tables if f"results/{member}/{t}" in made]
+    return ["scorecard.csv", *tables]
+
+
+def batch_of(member):
+    """The batch a validation member runs in."""
+    return next(b.id for b in VALIDATION.batches if member in b.members)
+
+
+def member_read(wildcards):
+    """Rule validation_batch's [member, name under results/<member>/, file] of each member's
+    results: the file in the member's one job's folder (validation.in_process), or where its
+    rules' jobs make it."""
+    folder = f"{VALIDATION_FOLDER}/members/{{}}/{{}}"
+    where = folder if config["validation"]["in_process"] else "results/{}/{}"
+    members = VALIDATION.batch(wildcards.batch).members
+    return [[m, r, where.format(m, r)] for m in members for r in member_results(m)]
+
+
+def validation_batch_inputs(wildcards):
+    """Rule validation_batch's inputs: each member's one job's folder (validation.in_process),
+    or the results its rules' jobs make."""
+    if config["validation"]["in_process"]:
+        members = VALIDATION.batch(wildcards.batch).members
+        return {"results": [f"{VALIDATION_FOLDER}/members/{m}" for m in members]}
+    return {"results": [path for *_, path in member_read(wildcards)]}
+
+
+RULE_FILES = sorted(str(f) for f in Path("workflow/rules").glob("*.smk"))
+
+
+def workflow_sources():
+    """Every file of the library, the scripts and the rules: what a member run in one process
+    (rule validation_member) runs, so an edit to any of them runs it again."""
+    library = sorted({f for files in _library_sources().values() for f in files})
+    return [*library, *map(str, sorted(SCRIPTS.glob("*.py"))), "Snakefile", *RULE_FILES]
 
 
 def validation_tables(kinds, waves=None):

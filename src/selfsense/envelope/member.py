@@ -23,6 +23,7 @@ import importlib.util
 import logging
 import os
 import shutil
+import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
@@ -33,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from selfsense.io.capture import scratch_captures
-from selfsense.io.provenance import code_version, commit, run
+from selfsense.io.provenance import atomic_path, code_version, commit, one_line_reason, run
 
 LOG = logging.getLogger("selfsense")
 #: where a member's scratch goes when the machine has a memory file system
@@ -114,14 +115,17 @@ class _Job:
 
 def member_steps(
     snakefile: str | Path,
-    targets: Sequence[str],
+    groups: Mapping[str, Sequence[str]],
     config: Mapping[str, Any],
     given: Iterable[str] = (),
-) -> list[Step]:
-    """The jobs Snakemake runs to make ``targets`` from nothing (``--forceall``), in an order it
-    could run them, as steps; jobs whose outputs are all in ``given`` (the member's manifest,
-    already an input of the job that runs the member) are left out. The workflow is parsed with
-    ``config`` (the calling run's, command-line values included), in the current directory."""
+) -> dict[str, list[Step]]:
+    """Per group (a member: the files it must make), the jobs Snakemake runs to make them from
+    nothing (``--forceall``), in an order it could run them, as steps. One DAG holds every
+    group's targets; a group's steps are its targets' jobs and all they depend on. Jobs whose
+    outputs are all in ``given`` (the members' manifests, inputs of the jobs that run the
+    members) are left out. The workflow is parsed with ``config`` (the calling run's, command-line
+    values included) in the current directory, with the targets as its command line, which is
+    where the workflow looks for whether members are asked (common.smk)."""
     from snakemake.api import SnakemakeApi
     from snakemake.settings.types import (
         ConfigSettings,
@@ -131,36 +135,62 @@ def member_steps(
     )
 
     given = set(map(str, given))
-    with SnakemakeApi(OutputSettings(quiet={"all"})) as api:
-        workflow_api = api.workflow(
-            resource_settings=ResourceSettings(cores=1),
-            config_settings=ConfigSettings(config=dict(config)),
-            snakefile=Path(snakefile),
-            workdir=Path.cwd(),
-        )
-        dag_api = workflow_api.dag(DAGSettings(targets=set(targets), forceall=True))
-        workflow = dag_api.workflow_api._workflow
-        workflow._prepare_dag(forceall=True, ignore_incomplete=True, lock_warn_only=True)
-        workflow._build_dag()
-        steps = []
-        for level in workflow.dag.toposorted():
-            for job in sorted(level, key=lambda j: (j.rule.name, [str(f) for f in j.output])):
-                outputs = [str(f) for f in job.output]
-                if outputs and set(outputs) <= given:
-                    continue
-                if job.rule.script is None:
-                    raise ValueError(f"rule {job.rule.name}: a member's step must be a script")
-                steps.append(
-                    Step(
-                        job.rule.name,
-                        str((Path(job.rule.basedir) / job.rule.script).resolve()),
-                        _pairs(job.input),
-                        _pairs(job.output),
-                        _pairs(job.params),
-                        tuple(str(f) for f in job.log),
-                    )
-                )
-    return steps
+    targets = sorted({t for files in groups.values() for t in files})
+    argv, sys.argv = sys.argv, ["snakemake", *targets]
+    try:
+        with SnakemakeApi(OutputSettings(quiet={"all"})) as api:
+            workflow_api = api.workflow(
+                resource_settings=ResourceSettings(cores=1),
+                config_settings=ConfigSettings(config=dict(config)),
+                snakefile=Path(snakefile),
+                workdir=Path.cwd(),
+            )
+            dag_api = workflow_api.dag(DAGSettings(targets=set(targets), forceall=True))
+            workflow = dag_api.workflow_api._workflow
+            workflow._prepare_dag(
+                forceall=True, ignore_incomplete=True, lock_warn_only=True, nolock=True
+            )
+            workflow._build_dag()
+            dag = workflow.dag
+            order = [job for level in dag.toposorted() for job in _sorted(level)]
+            kept = [j for j in order if not {str(f) for f in j.output} <= given]
+            steps = {}
+            for name, files in groups.items():
+                needed = _ancestry(dag, files, order)
+                steps[name] = [_step(j) for j in kept if j in needed]
+            return steps
+    finally:
+        sys.argv = argv
+
+
+def _sorted(level: Iterable[Any]) -> list[Any]:
+    return sorted(level, key=lambda j: (j.rule.name, [str(f) for f in j.output]))
+
+
+def _ancestry(dag: Any, files: Sequence[str], order: Sequence[Any]) -> set[Any]:
+    """The jobs that make ``files`` and every job they depend on."""
+    wanted = set(map(str, files))
+    todo = [j for j in order if wanted & {str(f) for f in j.output}]
+    seen: set[Any] = set()
+    while todo:
+        job = todo.pop()
+        if job not in seen:
+            seen.add(job)
+            todo.extend(dag.dependencies[job])
+    return seen
+
+
+def _step(job: Any) -> Step:
+    if job.rule.script is None:
+        raise ValueError(f"rule {job.rule.name}: a member's step must be a script")
+    return Step(
+        job.rule.name,
+        str((Path(job.rule.basedir) / job.rule.script).resolve()),
+        _pairs(job.input),
+        _pairs(job.output),
+        _pairs(job.params),
+        tuple(str(f) for f in job.log),
+    )
 
 
 def _pairs(named: Any) -> tuple[tuple[str, Any], ...]:
@@ -169,10 +199,16 @@ def _pairs(named: Any) -> tuple[tuple[str, Any], ...]:
             return [plain(v) for v in value]
         if isinstance(value, dict):
             return {k: plain(v) for k, v in value.items()}
-        return str(value) if isinstance(value, os.PathLike) or type(value).__name__ in (
-            "_IOFile",
-            "AnnotatedString",
-        ) else value
+        return (
+            str(value)
+            if isinstance(value, os.PathLike)
+            or type(value).__name__
+            in (
+                "_IOFile",
+                "AnnotatedString",
+            )
+            else value
+        )
 
     return tuple((name, plain(value)) for name, value in named.items())
 
@@ -229,16 +265,45 @@ def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) ->
                 _Named(("log", p) for p in step.log),
             )
             began = time.perf_counter()
-            try:
+            with _step_logging(step):
                 run(_main(step.script), job)
-            except Exception as err:
-                outputs = ", ".join(step.files("output"))
-                raise RuntimeError(f"rule {step.rule} ({outputs}): {err}") from err
-            LOG.debug("%s: %.2f s", step.rule, time.perf_counter() - began)
+            LOG.info("%s: %.2f s", ", ".join(step.files("output")), time.perf_counter() - began)
             for path, last in last_read.items():
                 if last == i and path in made and path not in keep:
                     Path(path).unlink(missing_ok=True)
     return {path: scratch / path for path in keep}
+
+
+@contextmanager
+def _step_logging(step: Step) -> Iterator[None]:
+    """A step's script logs to its own log file (script_logging); afterwards the member's log
+    gets it, and the member's handlers and excepthook are back. A step that fails stops the
+    member in one line naming its rule and its outputs."""
+    handlers, hook = list(LOG.handlers), sys.excepthook
+    failed = None
+    try:
+        yield
+    except Exception as err:
+        failed = err
+    finally:
+        LOG.handlers[:], sys.excepthook = handlers, hook
+        for path in step.log:
+            if Path(path).is_file():
+                LOG.info("rule %s:\n%s", step.rule, Path(path).read_text().rstrip())
+    if failed is not None:
+        outputs = ", ".join(step.files("output"))
+        raise RuntimeError(f"rule {step.rule} ({outputs}): {one_line_reason(failed)}") from failed
+
+
+def run_member(steps: Sequence[Step], keep: Mapping[str, str | Path], name: str) -> None:
+    """Run a member's steps in a scratch folder (:func:`run_steps`) and put the files of
+    ``keep`` ({path in the workflow: where it goes}) where they go; the scratch is gone
+    afterwards, and a member that fails leaves none of them."""
+    with scratch_folder(name.replace("~", "_")) as scratch:
+        where = run_steps(steps, scratch, keep)
+        for path, destination in keep.items():
+            with atomic_path(destination) as tmp:
+                shutil.copyfile(where[path], tmp)
 
 
 def _sources(inputs: Iterable[str], made: Iterable[str]) -> set[str]:

@@ -1,0 +1,23 @@
+"""Rule `validation_member`: one validation member in one process (selfsense.envelope.member):
+its rules' jobs run in order, keeping the files the batch reads in the member's folder."""
+
+import json
+from pathlib import Path
+
+from selfsense.envelope.member import Step, run_member
+from selfsense.io.provenance import run, script_logging
+
+
+def main(steps, manifest, keep, folder, log=None):
+    """steps: the batch's steps (rule validation_steps); manifest: the member's, whose folder
+    names it; keep: its files the batch reads, under results/<member>/; folder: where they go."""
+    logger = script_logging(log)
+    member = Path(manifest).parent.name
+    planned = [Step.from_record(r) for r in json.loads(Path(steps).read_text())[member]]
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    run_member(planned, {f"results/{member}/{r}": Path(folder) / r for r in keep}, member)
+    logger.info("%s: %d steps, %d files kept in %s", member, len(planned), len(keep), folder)
+
+
+if "snakemake" in globals():
+    run(main, snakemake)
