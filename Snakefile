@@ -32,6 +32,7 @@ include: "workflow/rules/report.smk"
 include: "workflow/rules/twin.smk"
 include: "workflow/rules/envelope.smk"
 include: "workflow/rules/validation.smk"
+include: "workflow/rules/members.smk"
 
 
 # A measured capture or manifest replaced by other bytes with an older mtime (cp -p, rsync -t,

@@ -261,7 +261,7 @@ def envelope_inputs(wildcards):
         "nominal": f"results/{base}/scorecard.csv",
         "plan": f"{ENVELOPE_FOLDER}/plan.csv",
         "unit": f"{ENVELOPE_FOLDER}/unit.csv",
-        "members": [f"results/{m}/scorecard.csv" for m in ENVELOPE.manifests],
+        "members": member_inputs(ENVELOPE.manifests),
     }
 
 
@@ -809,35 +809,65 @@ def calibration_tables(dataset):
 
 
 def member_results(member):
-    """What the validation reads of a member, under results/<member>/: its scorecard and the
-    tables its common targets read (those its stages make)."""
+    """What is read of a member, under results/<member>/: its scorecard, and a validation
+    member's tables its common targets read (those its stages make)."""
+    if member in ENVELOPE.manifests:
+        return ["scorecard.csv"]
     made = stage_outputs()
     tables = [t for t in VALIDATION.tables if f"results/{member}/{t}" in made]
     return ["scorecard.csv", *tables]
 
 
-def batch_of(member):
-    """The batch a validation member runs in."""
-    return next(b.id for b in VALIDATION.batches if member in b.members)
+def member_job(member):
+    """Where a member run as one job keeps what is read of it, or None when its rules run as
+    the jobs of any dataset (envelope.in_process, validation.in_process)."""
+    envelope = member in ENVELOPE.manifests
+    if not config["envelope" if envelope else "validation"]["in_process"]:
+        return None
+    return f"{ENVELOPE_FOLDER if envelope else VALIDATION_FOLDER}/members/{member}"
+
+
+def member_file(member, name):
+    """Where a member's results/<member>/<name> is read: its one job's folder, or the rules'."""
+    folder = member_job(member)
+    return f"{folder or f'results/{member}'}/{name}"
+
+
+def member_inputs(members):
+    """The inputs that make members' results: their one jobs' folders, or the files themselves."""
+    return [
+        member_job(m) or f"results/{m}/{r}"
+        for m in members
+        for r in (member_results(m)[:1] if member_job(m) else member_results(m))
+    ]
+
+
+def group_members(folder, group):
+    """The members whose steps rule member_steps makes together: all the envelope's, or one
+    validation batch's."""
+    if folder == ENVELOPE_FOLDER:
+        return list(ENVELOPE.manifests)
+    return VALIDATION.batch(group).members
+
+
+def member_steps_file(member):
+    """The steps file of a member's group (rule member_steps)."""
+    if member in ENVELOPE.manifests:
+        return f"{ENVELOPE_FOLDER}/steps/all.json"
+    batch = next(b.id for b in VALIDATION.batches if member in b.members)
+    return f"{VALIDATION_FOLDER}/steps/{batch}.json"
 
 
 def member_read(wildcards):
     """Rule validation_batch's [member, name under results/<member>/, file] of each member's
-    results: the file in the member's one job's folder (validation.in_process), or where its
-    rules' jobs make it."""
-    folder = f"{VALIDATION_FOLDER}/members/{{}}/{{}}"
-    where = folder if config["validation"]["in_process"] else "results/{}/{}"
+    results."""
     members = VALIDATION.batch(wildcards.batch).members
-    return [[m, r, where.format(m, r)] for m in members for r in member_results(m)]
+    return [[m, r, member_file(m, r)] for m in members for r in member_results(m)]
 
 
 def validation_batch_inputs(wildcards):
-    """Rule validation_batch's inputs: each member's one job's folder (validation.in_process),
-    or the results its rules' jobs make."""
-    if config["validation"]["in_process"]:
-        members = VALIDATION.batch(wildcards.batch).members
-        return {"results": [f"{VALIDATION_FOLDER}/members/{m}" for m in members]}
-    return {"results": [path for *_, path in member_read(wildcards)]}
+    """Rule validation_batch's inputs: what makes each member's results."""
+    return {"results": member_inputs(VALIDATION.batch(wildcards.batch).members)}
 
 
 RULE_FILES = sorted(str(f) for f in Path("workflow/rules").glob("*.smk"))
@@ -845,7 +875,7 @@ RULE_FILES = sorted(str(f) for f in Path("workflow/rules").glob("*.smk"))
 
 def workflow_sources():
     """Every file of the library, the scripts and the rules: what a member run in one process
-    (rule validation_member) runs, so an edit to any of them runs it again."""
+    (rule member) runs, so an edit to any of them runs it again."""
     library = sorted({f for files in _library_sources().values() for f in files})
     return [*library, *map(str, sorted(SCRIPTS.glob("*.py"))), "Snakefile", *RULE_FILES]
 

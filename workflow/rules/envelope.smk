@@ -117,5 +117,6 @@ rule envelope:
         pdf=FIGURE_PDF,
         design=ENVELOPE.design.record(),
         raw_dir=config["raw_dir"],
+        cards=[member_file(m, "scorecard.csv") for m in ENVELOPE.manifests],
     script:
         "../scripts/envelope.py"

@@ -1,63 +1,8 @@
 # The validation (docs/validation.md): workflow/validation.yaml's waves run as members (VALIDATION
 # in common.smk; their manifests by rule envelope_member), each batch's tables kept, and the
 # verdicts made from those tables alone. Not part of rule all: `snakemake validate`. A member is
-# one job (validation_member) or, with validation.in_process false, its rules' jobs. The other
-# rules are local: they read and write kilobytes, and on a cluster the members are the jobs.
-
-
-rule validation_steps:
-    """A batch's members as the steps their rules' jobs are (Snakemake's own DAG of each member's
-    results, made from nothing): what rule validation_member runs in one process."""
-    input:
-        library=workflow_sources(),
-    output:
-        steps=temp(f"{VALIDATION_FOLDER}/steps/{{batch}}.json"),
-    log:
-        f"logs/validation/{VALIDATION_PLAN.name}/{{batch}}_steps.log",
-    benchmark:
-        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/{{batch}}_steps.tsv"
-    wildcard_constraints:
-        batch="|".join(VALIDATION.selected) or "^$",
-    localrule: True
-    threads: 1
-    resources:
-        **resources_for("medium"),
-    params:
-        snakefile=workflow.main_snakefile,
-        results=lambda w: {
-            m: [f"results/{m}/{r}" for r in member_results(m)]
-            for m in VALIDATION.batch(w.batch).members
-        },
-        manifests=lambda w: [
-            str(RAW / m / "dataset.yaml") for m in VALIDATION.batch(w.batch).members
-        ],
-        run_config=config,
-    script:
-        "../scripts/validation_steps.py"
-
-
-rule validation_member:
-    """One member in one job: its rules' scripts run in order in one process, its captures in a
-    scratch folder in memory (selfsense.envelope.member), keeping only what the batch reads."""
-    input:
-        steps=lambda w: f"{VALIDATION_FOLDER}/steps/{batch_of(w.member)}.json",
-        manifest=RAW / "{member}" / "dataset.yaml",
-        library=workflow_sources(),
-    output:
-        folder=temp(directory(f"{VALIDATION_FOLDER}/members/{{member}}")),
-    log:
-        f"logs/validation/{VALIDATION_PLAN.name}/members/{{member}}.log",
-    benchmark:
-        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/members/{{member}}.tsv"
-    wildcard_constraints:
-        member="|".join(VALIDATION.manifests) or "^$",
-    threads: 1
-    resources:
-        **resources_for("stream_long"),
-    params:
-        keep=lambda w: member_results(w.member),
-    script:
-        "../scripts/validation_member.py"
+# one job (members.smk) or, with validation.in_process false, its rules' jobs. These rules are
+# local: they read and write kilobytes, and on a cluster the members are the jobs.
 
 
 rule validation_batch:

@@ -14,15 +14,14 @@ from selfsense.io.provenance import atomic_path, run, script_logging, write_tabl
 from selfsense.scorecard.registry import applicable, parse_registry
 
 
-def main(design, raw_dir, nominal, unit, members, registry, unknowns, inputs, log, pdf, **out):
-    """design: the envelope's design record; members: each member's scorecard,
-    results/<member>/scorecard.csv; out: card, sensitivity, values, signatures, forest, tornado
-    and summary."""
+def main(design, raw_dir, nominal, unit, cards, registry, unknowns, inputs, log, pdf, **out):
+    """design: the envelope's design record; cards: each member's scorecard, in a folder named
+    after the member; out: card, sensitivity, values, signatures, forest, tornado and summary."""
     logger = script_logging(log)
     design = Design(**design)
     base = load_manifest(Path(raw_dir) / design.dataset / "dataset.yaml")
     entries = applicable(parse_registry(load_yaml(registry), registry), base)
-    cards = {Path(c).parent.name: pd.read_csv(c) for c in members}
+    cards = {Path(c).parent.name: pd.read_csv(c) for c in cards}
     sha = unknowns_hash(unknowns)
     drawn = pd.read_csv(unit, index_col="member")
     declared = load_unknowns(unknowns, raw_dir=raw_dir)

@@ -8,14 +8,13 @@ from selfsense.envelope.campaign import MEMBER, batch_tables, stamps
 from selfsense.io.provenance import run, script_logging, write_table
 
 
-def main(runs, drawn, row_keys, locate, read, declaration, unknowns, log, **out):
+def main(runs, drawn, row_keys, locate, read, declaration, unknowns, inputs, log, **out):
     """runs: the batch's members × inputs (as drawn when the workflow was parsed); drawn: its
     plan; read: [member, name, file] of each member's scorecard.csv and of its tables the common
     targets read (named as under results/<member>/); out: unit, plan, rows, targets."""
     logger = script_logging(log)
     frame = pd.DataFrame(runs)
     tables: dict[str, dict[str, pd.DataFrame]] = {m: {} for m in frame[MEMBER]}
-    files = [path for *_, path in read]  # provenance: the files, not a member's job's folder
     for member, name, path in read:
         tables[member][name] = pd.read_csv(path)
     scorecards = {m: t.pop("scorecard.csv") for m, t in tables.items()}
@@ -27,7 +26,7 @@ def main(runs, drawn, row_keys, locate, read, declaration, unknowns, log, **out)
         (rows, out["rows"]),
         (targets, out["targets"]),
     ):
-        write_table(table, path, inputs=[declaration, unknowns, *files], **extra)
+        write_table(table, path, inputs=inputs, **extra)
     logger.info(
         "%d members: %d of %d row values and %d of %d target values given",
         len(frame),

@@ -393,11 +393,12 @@ LIBRARY = "library"
 def run(main: Callable[..., Any], snakemake: Any) -> Any:
     """Call a rule's script's ``main`` with the rule's names: its inputs (except
     :data:`LIBRARY`), outputs and params by name, ``log`` (its log file) and ``inputs`` (its
-    provenance inputs: every input file but the library's). A rule's input may go unread (a
-    capture's QC report orders the job after the check; a list whose pairing a param gives) and
-    is still a provenance input; an output or param ``main`` does not take, a parameter of
-    ``main`` the rule does not give, or a name given twice (an input and a param alike) stops the
-    job with one line naming the rule and the name, before anything is read."""
+    provenance inputs: every input file but the library's, a folder as its files). A rule's
+    input may go unread (a capture's QC report orders the job after the check; a list whose
+    pairing a param gives) and is still a provenance input; an output or param ``main`` does not
+    take, a parameter of ``main`` the rule does not give, or a name given twice (an input and a
+    param alike) stops the job with one line naming the rule and the name, before anything is
+    read."""
     library = set(snakemake.input.get(LIBRARY) or ())
     named = {
         "an input": [(k, v) for k, v in snakemake.input.items() if k != LIBRARY],
@@ -405,7 +406,7 @@ def run(main: Callable[..., Any], snakemake: Any) -> Any:
         "a param": snakemake.params.items(),
         "a name run gives main itself": [
             ("log", snakemake.log[0] if snakemake.log else None),
-            ("inputs", [p for p in snakemake.input if p not in library]),
+            ("inputs", _files([p for p in snakemake.input if p not in library])),
         ],
     }
     given: dict[str, tuple[str, Any]] = {}
@@ -425,6 +426,16 @@ def run(main: Callable[..., Any], snakemake: Any) -> Any:
     for name in [] if rest else sorted(must - set(takes)):
         _refuse(snakemake, f"{name!r} is {given[name][0]} but no parameter of main")
     return main(**{n: v for n, (_, v) in given.items() if n in takes or (rest and n in must)})
+
+
+def _files(inputs: list[str]) -> list[str]:
+    """Input files, a folder's (a ``directory()`` output of another rule) as the files in it."""
+    files = []
+    for path in inputs:
+        folder = Path(path)
+        inside = sorted(str(f) for f in folder.rglob("*") if f.is_file())
+        files += inside if folder.is_dir() else [path]
+    return files
 
 
 def _refuse(snakemake: Any, why: str) -> None:

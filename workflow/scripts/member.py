@@ -1,5 +1,5 @@
-"""Rule `validation_member`: one validation member in one process (selfsense.envelope.member):
-its rules' jobs run in order, keeping the files the batch reads in the member's folder."""
+"""Rule `member`: one member of the envelope or the validation in one process
+(selfsense.envelope.member): its rules' jobs run in order, keeping what is read of it."""
 
 import json
 from pathlib import Path
@@ -9,8 +9,8 @@ from selfsense.io.provenance import run, script_logging
 
 
 def main(steps, manifest, keep, folder, log=None):
-    """steps: the batch's steps (rule validation_steps); manifest: the member's, whose folder
-    names it; keep: its files the batch reads, under results/<member>/; folder: where they go."""
+    """steps: its group's steps (rule member_steps); manifest: the member's, whose folder names
+    it; keep: its files that are read, under results/<member>/; folder: where they go."""
     logger = script_logging(log)
     member = Path(manifest).parent.name
     planned = [Step.from_record(r) for r in json.loads(Path(steps).read_text())[member]]

@@ -1,12 +1,12 @@
-"""Rule `validation_steps`: a batch's members as steps (selfsense.envelope.member.member_steps),
-the jobs Snakemake would run for each member's results, as JSON for rule `validation_member`."""
+"""Rule `member_steps`: a group's members as steps (selfsense.envelope.member.member_steps), the
+jobs Snakemake would run for each member's results, as JSON for rule `member`."""
 
 from selfsense.envelope.member import member_steps
 from selfsense.io.provenance import run, script_logging, write_json
 
 
 def main(snakefile, results, manifests, run_config, steps, log=None):
-    """results: {member: the files of it the batch reads}; manifests: the members' manifests
+    """results: {member: the files of it that are read}; manifests: the members' manifests
     (made by rule envelope_member, inputs of each member's job); run_config: this run's config."""
     logger = script_logging(log)
     planned = member_steps(snakefile, results, run_config, given=manifests)
