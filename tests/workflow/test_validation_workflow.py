@@ -41,8 +41,19 @@ def test_the_validate_targets_dry_run_builds_the_first_batches_members():
     assert planned["validate"] == 1
     assert planned["validation_batch"] == batches
     assert planned["envelope_member"] == SMOKE["members"]
-    assert planned["scorecard"] == SMOKE["members"]  # the members' only: no nominal run
+    assert planned["member"] == SMOKE["members"]  # each member one job: no nominal run
+    assert planned["member_steps"] == batches
+    assert "scorecard" not in planned
     assert "validation_wave" not in planned  # one wave asked
+
+
+def test_with_in_process_false_the_members_are_their_rules_jobs(tmp_path):
+    args = validation_config(tmp_path, in_process=False)
+    run = run_snakemake(ROOT, "-n", "validate", *args, config=None)
+    assert run.returncode == 0, run.stderr[-3000:]
+    planned = jobs(run)
+    assert planned["scorecard"] == SMOKE["members"]  # the members' only: no nominal run
+    assert "member" not in planned and "member_steps" not in planned
 
 
 def test_the_default_dag_has_no_validation_job():

@@ -23,4 +23,7 @@ The validation's modules:
 - ``coverage``: the method's own test on pseudo-theses with known truth;
 - ``campaign``: the declared waves as workflow members in resumable batches, and their tables;
 - ``judgement``: the verdicts, the next wave's design and the coverage from those tables alone.
+
+Both run their members through ``member``: a member in one job, its rules' own jobs run by their
+scripts in one process.
 """

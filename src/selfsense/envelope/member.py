@@ -22,6 +22,7 @@ from __future__ import annotations
 import importlib.util
 import logging
 import os
+import resource
 import shutil
 import sys
 import tempfile
@@ -299,11 +300,21 @@ def run_member(steps: Sequence[Step], keep: Mapping[str, str | Path], name: str)
     """Run a member's steps in a scratch folder (:func:`run_steps`) and put the files of
     ``keep`` ({path in the workflow: where it goes}) where they go; the scratch is gone
     afterwards, and a member that fails leaves none of them."""
+    began = time.perf_counter()
     with scratch_folder(name.replace("~", "_")) as scratch:
         where = run_steps(steps, scratch, keep)
         for path, destination in keep.items():
             with atomic_path(destination) as tmp:
                 shutil.copyfile(where[path], tmp)
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    LOG.info(
+        "member %s: %d steps in %.1f s; the process's CPU %.1f s, peak memory %.0f MB",
+        name,
+        len(steps),
+        time.perf_counter() - began,
+        usage.ru_utime + usage.ru_stime,
+        usage.ru_maxrss / 1024,
+    )
 
 
 def _sources(inputs: Iterable[str], made: Iterable[str]) -> set[str]:
