@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
                                        [--keep-results DIR]] [--envelope [--members-only]]
-                                       [--validate]
+                                       [--validate] [--members REFERENCE]
                                        [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
@@ -24,6 +24,9 @@ Prints, in three parts that can be skipped one by one:
 - with --validate, the DAG part is the validation, `snakemake validate --cores 2`, in a new clone
   with a new venv (the config's members, from nothing: the members' simulations and analyses,
   the batches' tables and the verdicts), then the verdicts again from the tables alone;
+- with --members REFERENCE, the DAG part is the cost of an envelope member in new clones of HEAD
+  and of REFERENCE in turn: member 01 alone, then four together on 2 cores, a member's share of
+  the wall time and of the CPU;
 - streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
   `thermal_extract` for a capture of --seconds and one 10× longer (each in a fresh process, so
   peaks do not mix).
@@ -414,11 +417,13 @@ def bench_dag(config):
         noop_dry_run(snakemake, repo)
 
 
-def new_clone(folder):
-    """A new clone of the committed HEAD in folder with a new venv and the pinned packages (the
-    README's install): (repo, its python, install seconds)."""
+def new_clone(folder, commit=None):
+    """A new clone of the committed HEAD (or ``commit``) in folder with a new venv and the pinned
+    packages (the README's install): (repo, its python, install seconds)."""
     repo = Path(folder) / "repo"
     subprocess.run(["git", "clone", "--quiet", str(ROOT), str(repo)], check=True)
+    if commit:
+        subprocess.run(["git", "checkout", "--quiet", commit], cwd=repo, check=True)
     python = repo / ".venv" / "bin" / "python"
     t0 = time.perf_counter()
     subprocess.run(
@@ -507,6 +512,38 @@ def bench_envelope(config, keep_results=None, members_only=False):
             shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
 
 
+def bench_members(config, reference, count=4):
+    """The cost of an envelope member of ``config``'s campaign, in a new clone of HEAD and one of
+    ``reference`` in the same run, in turn: member 01 alone (in a new clone: it compiles the
+    twin's kernels), then members 02…``count`` + 1 together on 2 cores; per member, the wall
+    time and the CPU of the whole run divided by the members. HEAD runs each member as one job
+    (rule member, the envelope's steps made first, their time included); ``reference`` runs
+    whatever it runs for ``results/<member>/scorecard.csv``."""
+    from selfsense.io.manifest import load_config
+
+    section = load_config(ROOT / config)["envelope"]
+    dataset, name = section["dataset"], section["name"] or section["dataset"]
+    for label, commit in ((f"reference {reference}", reference), ("HEAD", None)):
+        with tempfile.TemporaryDirectory() as tmp:
+            repo, python, install = new_clone(tmp, commit)
+            in_one_job = (repo / "workflow" / "rules" / "members.smk").exists()
+            members = [f"{dataset}~{n:02d}" for n in range(1, count + 2)]
+            folder = f"results/envelope/{name}/members"
+            targets = [
+                f"{folder}/{m}" if in_one_job else f"results/{m}/scorecard.csv" for m in members
+            ]
+            snakemake = [str(python), "-m", "snakemake", "--cores", "2"]
+            parts = (("member 01 alone", targets[:1]), (f"{count} members", targets[1:]))
+            for part, chosen in parts:
+                wall, peak, cpu = run_sampled([*snakemake, *chosen, "--configfile", config], repo)
+                n = len(chosen)
+                print(
+                    f"{label} ({'one job a member' if in_one_job else 'the rules'}), {config}, "
+                    f"{part}: {wall:.1f} s wall, {cpu:.0f} s CPU in all; a member "
+                    f"{wall / n:.1f} s wall, {cpu / n:.1f} s CPU; peak RSS {peak:.0f} MB"
+                )
+
+
 def bench_validate(config):
     """`snakemake validate --cores 2` in a new clone of HEAD with a new venv, from nothing (the
     install apart), then the verdicts alone again from the batches' tables (rule validate forced:
@@ -574,6 +611,12 @@ def main():
         help="the DAG part is `snakemake validate`, in a new clone of HEAD (from nothing, then "
         "the verdicts again from the tables alone)",
     )
+    cli.add_argument(
+        "--members",
+        metavar="REFERENCE",
+        help="the DAG part is the cost of an envelope member, in new clones of HEAD and of the "
+        "commit REFERENCE in turn (one member alone, then four together)",
+    )
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
     print(
@@ -587,7 +630,9 @@ def main():
             bench_ripple_and_hpo(path)
     if not args.skip_dag:
         for config in args.configs:
-            if args.validate:
+            if args.members:
+                bench_members(config, args.members)
+            elif args.validate:
                 bench_validate(config)
             elif args.envelope:
                 bench_envelope(config, args.keep_results, args.members_only)

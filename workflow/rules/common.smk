@@ -842,10 +842,17 @@ def member_inputs(members):
     ]
 
 
+#: the folders under results/ of the members run as one job (rules member_steps and member), as
+#: their wildcard's pattern
+MEMBER_FOLDERS = "|".join(
+    re.escape(f.removeprefix("results/")) for f in (ENVELOPE_FOLDER, VALIDATION_FOLDER)
+)
+
+
 def group_members(folder, group):
-    """The members whose steps rule member_steps makes together: all the envelope's, or one
-    validation batch's."""
-    if folder == ENVELOPE_FOLDER:
+    """The members whose steps rule member_steps makes together (``folder`` under results/): all
+    the envelope's, or one validation batch's."""
+    if f"results/{folder}" == ENVELOPE_FOLDER:
         return list(ENVELOPE.manifests)
     return VALIDATION.batch(group).members
 

@@ -1,6 +1,6 @@
 # A member of the envelope or the validation in one job (selfsense.envelope.member): its rules'
 # own jobs, from Snakemake's DAG of what is read of it, run by their scripts in one process, its
-# captures in a scratch folder in memory. With envelope.in_process or validation.in_process false,
+# captures in a scratch folder. With envelope.in_process or validation.in_process false,
 # a member's rules run as the jobs of any dataset instead; the numbers are the same.
 
 
@@ -10,13 +10,13 @@ rule member_steps:
     input:
         library=workflow_sources(),
     output:
-        steps=temp("{folder}/steps/{group}.json"),
+        steps=temp("results/{folder}/steps/{group}.json"),
     log:
         "logs/{folder}/steps/{group}.log",
     benchmark:
         "benchmarks/out/{folder}/steps/{group}.tsv"
     wildcard_constraints:
-        folder=f"{re.escape(ENVELOPE_FOLDER)}|{re.escape(VALIDATION_FOLDER)}",
+        folder=MEMBER_FOLDERS,
     localrule: True
     threads: 1
     resources:
@@ -43,13 +43,13 @@ rule member:
         manifest=RAW / "{member}" / "dataset.yaml",
         library=workflow_sources(),
     output:
-        folder=temp(directory("{folder}/members/{member}")),
+        folder=temp(directory("results/{folder}/members/{member}")),
     log:
         "logs/{folder}/members/{member}.log",
     benchmark:
         "benchmarks/out/{folder}/members/{member}.tsv"
     wildcard_constraints:
-        folder=f"{re.escape(ENVELOPE_FOLDER)}|{re.escape(VALIDATION_FOLDER)}",
+        folder=MEMBER_FOLDERS,
         member="|".join(map(re.escape, MEMBERS)) or "^$",
     threads: 1
     resources:

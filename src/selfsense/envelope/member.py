@@ -9,12 +9,13 @@ would, with the same inputs, outputs and params. The numbers are therefore the r
 construction; ``tests/workflow/test_member.py`` holds one member's scorecard from here equal, value
 for value, to its scorecard through the rules.
 
-What a step writes goes under a scratch folder (in memory, /dev/shm, where the machine has one),
-not under raw/ and results/: the member's dataset is not materialised, and a reviewer who audits a
+What a step writes goes under a scratch folder in the temporary directory, not under raw/ and
+results/: the member's dataset is not materialised, and a reviewer who audits a
 member runs the rules on it like on any dataset (``snakemake results/<member>/scorecard.csv``).
 A capture is written as the capture contract holds it (packed int16 with its scale, the same
 CaptureWriter), so what a step reads back is what a reader of the rules' file would get, and is
-deleted after the last step that reads it, which keeps the member's memory to a few captures.
+deleted after the last step that reads it; the steps run in an order that reads each capture
+before the next is simulated (:func:`lean_order`), so the scratch holds a few captures at once.
 """
 
 from __future__ import annotations
@@ -38,8 +39,8 @@ from selfsense.io.capture import scratch_captures
 from selfsense.io.provenance import atomic_path, code_version, commit, one_line_reason, run
 
 LOG = logging.getLogger("selfsense")
-#: where a member's scratch goes when the machine has a memory file system
-MEMORY_FS = Path("/dev/shm")
+#: the start of a member's scratch folder's name, in the temporary directory
+SCRATCH_PREFIX = "selfsense-member"
 
 
 @dataclass(frozen=True)
@@ -226,14 +227,49 @@ def _main(script: str) -> Callable[..., Any]:
 
 @contextmanager
 def scratch_folder(prefix: str) -> Iterator[Path]:
-    """A folder for one member's files, in memory where the machine has a memory file system,
-    removed afterwards whatever happens."""
-    base = MEMORY_FS if MEMORY_FS.is_dir() and os.access(MEMORY_FS, os.W_OK) else None
-    folder = Path(tempfile.mkdtemp(prefix=f"{prefix}.", dir=base))
+    """A folder for one member's files in the temporary directory (``TMPDIR``), removed afterwards
+    whatever happens; the folders of members whose process is gone (killed before they could
+    remove theirs) are removed first."""
+    base = Path(tempfile.gettempdir())
+    for stale in base.glob(f"{SCRATCH_PREFIX}.*"):
+        pid = stale.name.split(".")[1]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(stale, ignore_errors=True)
+    folder = Path(tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}.{os.getpid()}.{prefix}.", dir=base))
     try:
         yield folder
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's: alive
+        return True
+    return True
+
+
+def lean_order(steps: Sequence[Step]) -> list[Step]:
+    """The steps in an order that keeps few captures at once: as soon as a step's inputs are made
+    it runs before any step that reads only sources (a simulation), so each capture is read by its
+    steps and deleted before the next is simulated. Every step still comes after those that make
+    its inputs (Kahn's algorithm, ties in the given order)."""
+    maker = {path: i for i, step in enumerate(steps) for path in step.files("output")}
+    needs = [{maker[p] for p in step.files("input") if p in maker} for step in steps]
+    reads_made = [bool(n) for n in needs]
+    done: set[int] = set()
+    order: list[Step] = []
+    while len(order) < len(steps):
+        ready = [i for i in range(len(steps)) if i not in done and needs[i] <= done]
+        if not ready:
+            raise ValueError("the steps' inputs and outputs form a cycle")
+        i = min(ready, key=lambda k: (not reads_made[k], k))
+        done.add(i)
+        order.append(steps[i])
+    return order
 
 
 def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) -> dict[str, Path]:
@@ -244,6 +280,7 @@ def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) ->
     is. A step that fails stops the member with its rule named; the scratch is the caller's to
     remove."""
     keep = set(map(str, keep))
+    steps = lean_order(steps)
     made = {path for step in steps for path in step.files("output")}
     last_read = {path: i for i, step in enumerate(steps) for path in step.files("input")}
     checkout = Path.cwd()

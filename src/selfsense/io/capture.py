@@ -224,15 +224,19 @@ class _Progress:
 WRITE_BLOCKS = 8
 #: set inside :func:`scratch_captures`: the captures written are a member's scratch
 _SCRATCH: ContextVar[bool] = ContextVar("scratch_captures", default=False)
+#: a scratch capture's codec in place of a blosc one: lossless as every codec of the contract,
+#: cheaper than the twin's level 3, and one that shrinks a chunk of noise (blosc_lz4 does not,
+#: and blosc refuses a chunk it cannot shrink)
+SCRATCH_COMPRESSION = ("blosc_zstd", 1)
 
 
 @contextmanager
 def scratch_captures() -> Iterator[None]:
-    """Captures written inside are one in-process member's scratch, in memory and gone when the
-    member is (:mod:`selfsense.envelope.member`): stored without a codec and not read back. Their
-    codes, scales and attributes are those of the same capture written to raw/ (the codecs are
-    lossless), so a reader gets the same numbers; the read-back checks a storage medium, which a
-    scratch in memory does not have, and a codec saves space it does not need."""
+    """Captures written inside are one in-process member's scratch, gone when the member is
+    (:mod:`selfsense.envelope.member`): written with :data:`SCRATCH_COMPRESSION` in place of a
+    blosc codec, and not read back. Their codes, scales and attributes are those of the same capture written to raw/ (the
+    codecs are lossless), so a reader gets the same numbers; the read-back guards a capture kept
+    on a storage medium, which a scratch capture, read once by the next steps, is not."""
     token = _SCRATCH.set(True)
     try:
         yield
@@ -289,7 +293,8 @@ class CaptureWriter:
         self._rate = {"time": float(attrs["fs"]), "time_slow": fs_slow}
         self._chunk_len = chunk_len
         self._scratch = _SCRATCH.get()
-        self._compression = (None, 0) if self._scratch else (compression, complevel)
+        blosc = self._scratch and compression is not None and compression.startswith("blosc")
+        self._compression = SCRATCH_COMPRESSION if blosc else (compression, complevel)
         self.stats = ChunkStats()
         self._nc: netCDF4.Dataset | None = None
         self._crc: dict[str, int] = {}
