@@ -234,9 +234,10 @@ SCRATCH_COMPRESSION = ("blosc_zstd", 1)
 def scratch_captures() -> Iterator[None]:
     """Captures written inside are one in-process member's scratch, gone when the member is
     (:mod:`selfsense.envelope.member`): written with :data:`SCRATCH_COMPRESSION` in place of a
-    blosc codec, and not read back. Their codes, scales and attributes are those of the same capture written to raw/ (the
-    codecs are lossless), so a reader gets the same numbers; the read-back guards a capture kept
-    on a storage medium, which a scratch capture, read once by the next steps, is not."""
+    blosc codec, and not read back. Their codes, scales and attributes are those of the same
+    capture written to raw/ (the codecs are lossless), so a reader gets the same numbers; the
+    read-back guards a capture kept on a storage medium, which a scratch capture, read once by
+    the next steps, is not."""
     token = _SCRATCH.set(True)
     try:
         yield
