@@ -1,7 +1,8 @@
 """Throughput, time and memory figures of the pipeline, printed for benchmarks/README.md.
 
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
-                                       [--keep-results DIR]] [--envelope [--members-only]]
+                                       [--keep-results DIR] [--against REFERENCE]]
+                                       [--envelope [--members-only]]
                                        [--validate] [--members REFERENCE]
                                        [--skip-hot] [--skip-dag] [--skip-stream]
 
@@ -438,13 +439,15 @@ def new_clone(folder, commit=None):
     return repo, python, time.perf_counter() - t0
 
 
-def bench_fresh_clone(config, keep_results=None, warm=True):
-    """The README's first command as a new user runs it: a new clone of the committed HEAD, a new
-    venv with the pinned packages, `snakemake --cores 2` (no bytecode, no numba cache); then the
-    same clone again from nothing but with its venv and caches (warm). ``keep_results``: a folder
-    that gets the fresh run's results/ (for compare_results.py)."""
+def bench_fresh_clone(config, keep_results=None, warm=True, commit=None):
+    """The README's first command as a new user runs it: a new clone of the committed HEAD (or
+    ``commit``), a new venv with the pinned packages, `snakemake --cores 2` (no bytecode, no numba
+    cache); then the same clone again from nothing but with its venv and caches (warm).
+    ``keep_results``: a folder that gets the fresh run's results/ (for compare_results.py)."""
+    if commit:
+        print(f"the commit {commit}:")
     with tempfile.TemporaryDirectory() as tmp:
-        repo, python, install = new_clone(tmp)
+        repo, python, install = new_clone(tmp, commit)
         snakemake = [str(python), "-m", "snakemake", "--cores", "2", "--configfile", config]
         fresh, peak, cpu = run_sampled(snakemake, repo)
         report_dag("fresh clone", repo, python, config, fresh, peak, cpu)
@@ -612,6 +615,12 @@ def main():
         "the verdicts again from the tables alone)",
     )
     cli.add_argument(
+        "--against",
+        metavar="REFERENCE",
+        help="with --fresh: the commit REFERENCE first, then HEAD, in turn (--keep-results DIR: "
+        "DIR/reference and DIR/head)",
+    )
+    cli.add_argument(
         "--members",
         metavar="REFERENCE",
         help="the DAG part is the cost of an envelope member, in new clones of HEAD and of the "
@@ -636,6 +645,10 @@ def main():
                 bench_validate(config)
             elif args.envelope:
                 bench_envelope(config, args.keep_results, args.members_only)
+            elif args.fresh and args.against:
+                for commit, folder in ((args.against, "reference"), (None, "head")):
+                    keep = args.keep_results and str(Path(args.keep_results) / folder)
+                    bench_fresh_clone(config, keep, not args.no_warm, commit)
             elif args.fresh:
                 bench_fresh_clone(config, args.keep_results, not args.no_warm)
             else:
