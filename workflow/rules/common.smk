@@ -850,8 +850,8 @@ MEMBER_FOLDERS = "|".join(
 
 
 def group_members(folder, group):
-    """The members whose steps rule member_steps makes together (``folder`` under results/): all
-    the envelope's, or one validation batch's."""
+    """The members whose steps one job of member_steps makes, ``folder`` a path under results/;
+    all the envelope's, or one validation batch's."""
     if f"results/{folder}" == ENVELOPE_FOLDER:
         return list(ENVELOPE.manifests)
     return VALIDATION.batch(group).members
