@@ -59,9 +59,16 @@ def slurm_cluster():
 
 
 #: a two-member smoke envelope of Chapter 3 (stages ripple and ch3), its members drawn by a Latin
-#: hypercube: per member its manifest, the captures simulated and checked, their ripple, the
-#: tables its scorecard reads and the scorecard; the plan and the verdicts
-ENVELOPE = {"members": 2, "method": "latin", "seed": 5, "stages": ["ripple", "ch3"]}
+#: hypercube and run as their rules' jobs (in_process false: the jobs SLURM gets are a dataset's):
+#: per member its manifest, the captures simulated and checked, their ripple, the tables its
+#: scorecard reads and the scorecard; the plan and the verdicts
+ENVELOPE = {
+    "members": 2,
+    "method": "latin",
+    "seed": 5,
+    "stages": ["ripple", "ch3"],
+    "in_process": False,
+}
 
 
 def envelope_tree(smoke_run, folder):
