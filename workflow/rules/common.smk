@@ -835,11 +835,11 @@ def member_file(member, name):
 
 def member_inputs(members):
     """The inputs that make members' results: their one jobs' folders, or the files themselves."""
-    return [
-        member_job(m) or f"results/{m}/{r}"
-        for m in members
-        for r in (member_results(m)[:1] if member_job(m) else member_results(m))
-    ]
+    inputs = []
+    for m in members:
+        job = member_job(m)
+        inputs += [job] if job else [f"results/{m}/{r}" for r in member_results(m)]
+    return inputs
 
 
 #: the folders under results/ of the members run as one job (rules member_steps and member), as

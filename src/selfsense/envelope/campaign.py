@@ -36,8 +36,8 @@ import numpy as np
 import pandas as pd
 
 from selfsense.envelope.design import (
-    MAX_NAME,
     MEMBER_MARK,
+    check_names,
     manifest_sha256,
     member_manifest,
     physical,
@@ -45,7 +45,7 @@ from selfsense.envelope.design import (
 from selfsense.envelope.history_matching import maximin_latin_hypercube, streams
 from selfsense.envelope.unknowns import Unknown
 from selfsense.envelope.verdicts import member_values, row_key
-from selfsense.io.manifest import DATASET_NAME, ManifestError, validate_document
+from selfsense.io.manifest import ManifestError, validate_document
 
 #: what a run's targets must name for it to need the validation's members
 VALIDATION_WORD = "validat"
@@ -81,17 +81,7 @@ class Plan:
         """The plan of config.yaml's ``validation:`` section (bounded by the config schema): its
         names whole dataset names of at most :data:`MAX_NAME` characters, else one line naming
         ``source`` and the key."""
-        for key in ("dataset", "name"):
-            value = section.get(key) or ""
-            if (key == "dataset" or value) and not (
-                DATASET_NAME.fullmatch(value) and len(value) <= MAX_NAME
-            ):
-                raise ManifestError(
-                    f"{source}: key validation.{key}: {value[:MAX_NAME]!r}"
-                    f"{'…' if len(value) > MAX_NAME else ''} is not a name of letters, digits, "
-                    f"'_' and '-' of at most {MAX_NAME} characters",
-                    f"validation.{key}",
-                )
+        check_names(section, "validation", source)
         return cls(
             dataset=section["dataset"],
             name=section.get("name") or f"{section['dataset']}_validation",

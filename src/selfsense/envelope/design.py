@@ -47,6 +47,22 @@ ENVELOPE_WORD = "envelope"
 MANIFEST_SHA = "manifest sha256"
 
 
+def check_names(section: Mapping[str, Any], key: str, source: str) -> None:
+    """A config section's ``dataset`` (required) and ``name`` (optional) whole dataset names of
+    at most :data:`MAX_NAME` characters; else one line naming ``source`` and the key."""
+    for name in ("dataset", "name"):
+        value = section.get(name) or ""
+        if (name == "dataset" or value) and not (
+            DATASET_NAME.fullmatch(value) and len(value) <= MAX_NAME
+        ):
+            raise ManifestError(
+                f"{source}: key {key}.{name}: {value[:MAX_NAME]!r}"
+                f"{'…' if len(value) > MAX_NAME else ''} is not a name of letters, digits, "
+                f"'_' and '-' of at most {MAX_NAME} characters",
+                f"{key}.{name}",
+            )
+
+
 @dataclass(frozen=True)
 class Design:
     """An envelope's sampling design (config.yaml's ``envelope:``)."""
@@ -75,17 +91,7 @@ class Design:
         :meth:`record`, and every output keeps that record in its provenance. Its names must be
         whole dataset names of at most :data:`MAX_NAME` characters, and it may draw at most
         :data:`MAX_MEMBERS` members in all; else one line naming ``source`` and the key."""
-        for key in ("dataset", "name"):
-            value = section.get(key) or ""
-            if (key == "dataset" or value) and not (
-                DATASET_NAME.fullmatch(value) and len(value) <= MAX_NAME
-            ):
-                raise ManifestError(
-                    f"{source}: key envelope.{key}: {value[:MAX_NAME]!r}"
-                    f"{'…' if len(value) > MAX_NAME else ''} is not a name of letters, digits, "
-                    f"'_' and '-' of at most {MAX_NAME} characters",
-                    f"envelope.{key}",
-                )
+        check_names(section, "envelope", source)
         spread = int(section.get("spread", 0)) if section["method"] == "morris" else 0
         if int(section["members"]) + spread > MAX_MEMBERS:
             raise ManifestError(

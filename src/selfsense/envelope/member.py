@@ -29,7 +29,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import chdir, contextmanager
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -196,21 +196,14 @@ def _step(job: Any) -> Step:
 
 
 def _pairs(named: Any) -> tuple[tuple[str, Any], ...]:
+    """A Namedlist's items as plain data: its files (str subclasses) and paths as str."""
+
     def plain(value: Any) -> Any:
         if isinstance(value, (list, tuple)):
             return [plain(v) for v in value]
         if isinstance(value, dict):
             return {k: plain(v) for k, v in value.items()}
-        return (
-            str(value)
-            if isinstance(value, os.PathLike)
-            or type(value).__name__
-            in (
-                "_IOFile",
-                "AnnotatedString",
-            )
-            else value
-        )
+        return str(value) if isinstance(value, (str, os.PathLike)) else value
 
     return tuple((name, plain(value)) for name, value in named.items())
 
@@ -283,6 +276,10 @@ def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) ->
     steps = lean_order(steps)
     made = {path for step in steps for path in step.files("output")}
     last_read = {path: i for i, step in enumerate(steps) for path in step.files("input")}
+    done_after: dict[int, list[str]] = {}  # per step, the made files no later step reads
+    for path, last in last_read.items():
+        if path in made and path not in keep:
+            done_after.setdefault(last, []).append(path)
     checkout = Path.cwd()
     for path in sorted(_sources(set(last_read) - made, made)):
         link = scratch / path
@@ -293,7 +290,7 @@ def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) ->
         for path in step.files("output") + list(step.log):
             (scratch / path).parent.mkdir(parents=True, exist_ok=True)
     code_version(), commit()  # of the checkout, before the working directory moves
-    with _working_directory(scratch), scratch_captures():
+    with chdir(scratch), scratch_captures():
         for i, step in enumerate(steps):
             job = _Job(
                 step.rule,
@@ -306,9 +303,8 @@ def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) ->
             with _step_logging(step):
                 run(_main(step.script), job)
             LOG.info("%s: %.2f s", ", ".join(step.files("output")), time.perf_counter() - began)
-            for path, last in last_read.items():
-                if last == i and path in made and path not in keep:
-                    Path(path).unlink(missing_ok=True)
+            for path in done_after.get(i, ()):
+                Path(path).unlink(missing_ok=True)
     return {path: scratch / path for path in keep}
 
 
@@ -363,13 +359,3 @@ def _sources(inputs: Iterable[str], made: Iterable[str]) -> set[str]:
         free = [p for p in path.parents if p != Path(".") and p not in holding]
         linked.add(str(free[-1] if free else path))
     return linked
-
-
-@contextmanager
-def _working_directory(folder: Path) -> Iterator[None]:
-    before = Path.cwd()
-    os.chdir(folder)
-    try:
-        yield
-    finally:
-        os.chdir(before)

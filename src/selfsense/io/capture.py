@@ -39,7 +39,7 @@ import shutil
 import time
 import zlib
 from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from contextvars import ContextVar
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -467,21 +467,17 @@ class CaptureWriter:
             f"{self.path}: HDF5 could not store a chunk ({err}) with compression {compression}"
         )
 
-    def _flush_all(self, nc: netCDF4.Dataset) -> None:
+    def _flush_all(self) -> None:
         """The queued values, written before the file closes; a failure leaves no file."""
-        self._nc = nc
         try:
             for name in list(self._queued):
                 self._flush(name)
         except CaptureError:
-            try:
+            nc, self._nc = self._nc, None
+            with suppress(RuntimeError, OSError):
                 nc.close()
-            except (RuntimeError, OSError):
-                pass
             _remove(self.tmp)
             raise
-        finally:
-            self._nc = None
 
     def write_truth_attrs(self, attrs: Mapping[str, object]) -> None:
         """The twin's true parameters, as attributes of /truth (states go through ``write``)."""
@@ -489,12 +485,13 @@ class CaptureWriter:
         self._nc["truth"].setncatts({k: _attr(v) for k, v in attrs.items()})
 
     def __exit__(self, exc_type, exc, tb) -> None:
+        began = time.perf_counter()
+        if exc_type is None and self._nc is not None:
+            self._flush_all()
         nc, self._nc = self._nc, None
         try:
             if nc is not None:
-                began = time.perf_counter()
                 if exc_type is None:
-                    self._flush_all(nc)
                     nc.clipped_samples = int(sum(self.clipped.values()))
                 nc.close()  # flushes the chunks still cached
                 self._seconds["packing and writing"] += time.perf_counter() - began

@@ -11,6 +11,7 @@ the folder it runs in (or given).
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import math
 import re
@@ -475,7 +476,9 @@ def expand_protocols(
                 _replace(
                     doc, key, value, f"{source or path}: key protocol_overrides.{chapter}:{key}"
                 )
-            held = json.dumps([doc, sorted(by_chapter[chapter].items())], sort_keys=True)
+            held = hashlib.sha256(
+                json.dumps([doc, sorted(by_chapter[chapter].items())], sort_keys=True).encode()
+            ).digest()
             if held not in _HELD:
                 _validate_overridden(doc, chapter, by_chapter[chapter], source or path, path)
                 if len(_HELD) < 4096:
@@ -573,9 +576,9 @@ def _replace(doc: Any, dotted: str, value: float, where: str) -> None:
     node[int(last) if isinstance(node, list) else last] = value
 
 
-#: the overridden protocol documents (as JSON) this process has held to the schema and found
-#: valid: every job of an in-process member expands the member's manifest again (≈ 65 ms a time)
-_HELD: set[str] = set()
+#: the overridden protocol documents this process has held to the schema and found valid (the
+#: sha256 of their JSON): every job of an in-process member expands its manifest again (≈ 65 ms)
+_HELD: set[bytes] = set()
 
 
 #: a list's index in a protocol override's dotted key: digits only (str.isdigit() also takes "²",
