@@ -571,10 +571,17 @@ def ronkanen_runs(dataset, parts):
     return {part: role_run(dataset, role) for part, role in parts.items()}
 
 
-def first_segment_end(dataset, role):
-    """When the first segment of the role's run ends [s]: where its hold starts (Figs 2, 11)."""
+def drive_span(dataset, role):
+    """(start, end) [s] of the first segment of the role's run: its warm-up's end, where its
+    hold starts (Figs 2, 11) or its heating ends (Chapter 7)."""
     protocol = EXPERIMENTS[dataset][role_run(dataset, role)].protocol
-    return float(protocol.get("warmup", 0.0)) + float(protocol["segments"][0]["duration"])
+    start = float(protocol.get("warmup", 0.0))
+    return [start, start + float(protocol["segments"][0]["duration"])]
+
+
+def first_segment_end(dataset, role):
+    """When the first segment of the role's run ends [s] (:func:`drive_span`)."""
+    return drive_span(dataset, role)[1]
 
 
 def identification_runs(dataset):

@@ -102,6 +102,10 @@ rule gamma_t_fit:
         orders=config["thermal"]["gamma_t_orders"],
         gamma_t_order=config["thermal"]["gamma_t_order"],
         candidates=config["thermal"]["gamma_t_candidates"],
+        spans=lambda w: [
+            drive_span(w.dataset, role)
+            for role in ("thermal.gamma_t_fit", "thermal.gamma_t_validation")
+        ],
     script:
         "../scripts/gamma_t_fit.py"
 

@@ -3,7 +3,7 @@
 (selfsense.chapters.ch7.gamma_t_fits).
 """
 
-from selfsense.chapters.ch7 import figure_7_7, gamma_t_fits
+from selfsense.chapters.ch7 import figure_7_7, gamma_t_fits, while_driven
 from selfsense.io.capture import read_series
 from selfsense.io.provenance import (
     provenance,
@@ -24,6 +24,7 @@ def main(
     orders,
     gamma_t_order,
     candidates,
+    spans,
     inputs,
     log,
     pdf,
@@ -31,13 +32,15 @@ def main(
 ):
     logger = script_logging(log)
     s, p, vs, vp = (read_series(f) for f in (samples, power, val_samples, val_power))
-    tables, records = gamma_t_fits(s, p, vs, vp, orders, gamma_t_order, candidates)
+    spans = tuple(tuple(span) for span in spans)
+    tables, records = gamma_t_fits(s, p, vs, vp, spans, orders, gamma_t_order, candidates)
     cfg = {"orders": list(orders), "order": gamma_t_order, "candidates": list(candidates)}
+    cfg |= {"spans": [list(span) for span in spans]}
     for name, table in tables.items():
         write_table(table, out[name], inputs=inputs, config=cfg)
     for name, record in records.items():
         write_json(record | {"provenance": provenance(inputs, cfg)}, out[name])
-    save_figure(figure_7_7(s), figure, inputs=inputs, pdf=pdf)
+    save_figure(figure_7_7(while_driven(s, spans[0])), figure, inputs=inputs, pdf=pdf)
     logger.info("\n%s\n%s", tables["table_7_2"].to_string(), tables["order"].to_string())
 
 

@@ -407,6 +407,18 @@ def prediction_errors(
     return pd.DataFrame(rows)
 
 
+def while_driven(samples: Mapping[str, np.ndarray], span: tuple[float, float]) -> dict:
+    """The samples whose window centre lies in the drive's ``span`` = (start, end) [s].
+
+    Γ_T is fitted on a heating run while it heats, not on its warm-up hold or its cooling at 0 V:
+    Table 7.3's total df 7 999 are 8 000 windows, the 50 Hz run's 400 s drive at one window in
+    200 of the 4 kHz ripple periods.
+    """
+    start, end = span
+    keep = (samples["time"] >= start) & (samples["time"] < end)
+    return {k: v[keep] for k, v in samples.items()}
+
+
 def gamma_t_data(samples: Mapping[str, np.ndarray], T_mid_time, T_mid) -> tuple[np.ndarray, ...]:
     """C_e [F], x [m] and the middle thermometer interpolated to each window [°C] (Eq 7.13's
     data)."""
@@ -461,6 +473,7 @@ def gamma_t_fits(
     thermometers: Mapping[str, np.ndarray],
     validation_samples: Mapping[str, np.ndarray],
     validation_thermometers: Mapping[str, np.ndarray],
+    spans: tuple[tuple[float, float], tuple[float, float]],
     orders=(4, 5, 6),
     order: int = 5,
     candidates=(1, 2, 3, 4, 5, 6),
@@ -468,12 +481,16 @@ def gamma_t_fits(
     """Rule gamma_t_fit's results: :func:`gamma_t` on the 50 Hz heating run's C_e/x ``samples``
     (rule thermal_extract's) with its middle thermometer (``thermometers``: its power series,
     "time" and "T_mid"; Eq 7.13's data, :func:`gamma_t_data`), the order validated on the hotter
-    100 Hz run's. Returns ({table: DataFrame}: Tables 7.2, 7.3 at ``order``, the order's
-    validation; {"gamma_t", "gamma_t_n5": the fit's :class:`GammaPolynomial` record})."""
+    100 Hz run's, each inside its drive's span of ``spans`` (:func:`while_driven`). Returns
+    ({table: DataFrame}: Tables 7.2, 7.3 at ``order``, the order's validation; {"gamma_t",
+    "gamma_t_n5": the fit's :class:`GammaPolynomial` record})."""
+    fit_span, validation_span = spans
     tables, fits = gamma_t(
-        gamma_t_data(samples, thermometers["time"], thermometers["T_mid"]),
+        gamma_t_data(while_driven(samples, fit_span), thermometers["time"], thermometers["T_mid"]),
         gamma_t_data(
-            validation_samples, validation_thermometers["time"], validation_thermometers["T_mid"]
+            while_driven(validation_samples, validation_span),
+            validation_thermometers["time"],
+            validation_thermometers["T_mid"],
         ),
         orders,
         order,
