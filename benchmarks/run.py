@@ -549,8 +549,8 @@ def bench_members(config, reference, count=4):
 
 def bench_validate(config):
     """`snakemake validate --cores 2` in a new clone of HEAD with a new venv, from nothing (the
-    install apart), then the verdicts alone again from the batches' tables (rule validate forced:
-    no member runs)."""
+    install apart), then the verdicts alone again from the batches' tables (rule
+    validation_verdicts forced: no member runs)."""
     from selfsense.io.manifest import load_config
 
     section = load_config(ROOT / config)["validation"]
@@ -565,7 +565,8 @@ def bench_validate(config):
             "from a new clone"
         )
         again, _, _ = run_sampled(
-            [*snakemake, "validate", "--forcerun", "validate", "--configfile", config], repo
+            [*snakemake, "validate", "--forcerun", "validation_verdicts", "--configfile", config],
+            repo,
         )
         print(f"  the verdicts again from the tables alone: {again:.0f} s")
 

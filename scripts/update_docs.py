@@ -11,11 +11,16 @@ Each block sits between the markers of selfsense.scorecard.render (BEGIN, END) o
 - ``envelope_design`` (docs/envelope.md): how many of the dataset's unknowns
   (workflow/unknowns.yaml) the snapshot's Chapters 3–6 design varies, in how many groups, and
   which it holds;
-- ``envelope`` (README.md) and ``envelope_rows`` (docs/envelope.md): the reproduction envelope's
+- ``envelope`` and ``envelope_rows`` (docs/envelope.md): the reproduction envelope's
   counts and every inconsistent number, over the designs under docs/snapshot/envelope/<name>/
   (``--envelope``: the results/envelope/<name>/ folder of a `snakemake envelope` run, copied
   there with its provenance: commit, workflow/unknowns.yaml's sha256, members; a design of its
   own, such as Chapter 7's, judges the rows the others have no envelope for).
+
+- ``validation`` (README.md) and ``validation_rows`` (docs/validation.md): each committed
+  validation's posterior verdicts per chapter (a row and its twins one finding), its
+  pseudo-theses' coverage, its incompatible folds, and every inconsistent finding with its fold,
+  implausibility and drivers, from docs/snapshot/validation/<name>/.
 
 ``--validation``: the results/validation/<name>/ folder of a `snakemake validate` run, copied to
 docs/snapshot/validation/<name>/: every done batch's tables (members × inputs, the plan, members ×
@@ -40,7 +45,15 @@ import yaml
 
 from selfsense.envelope import figures
 from selfsense.envelope.design import Design
-from selfsense.envelope.render import combined_envelope, envelope_markdown, envelope_rows_markdown
+from selfsense.envelope.render import (
+    ValidationSnapshot,
+    combined_envelope,
+    envelope_markdown,
+    envelope_rows_markdown,
+    validation_markdown,
+    validation_rows_markdown,
+)
+from selfsense.envelope.validation import load_validation
 from selfsense.envelope.verdicts import envelope_summary, rejudge
 from selfsense.io.manifest import load_dataset, load_yaml
 from selfsense.io.provenance import code_version, write_table
@@ -54,11 +67,14 @@ PAGES = {
     "deviations": Path("docs/deviations.md"),
     "calibration": Path("docs/twin.md"),
     "recovery": Path("docs/twin.md"),
-    "envelope": Path("README.md"),
+    "envelope": Path("docs/envelope.md"),
     "envelope_design": Path("docs/envelope.md"),
     "envelope_rows": Path("docs/envelope.md"),
+    "validation": Path("README.md"),
+    "validation_rows": Path("docs/validation.md"),
 }
 UNKNOWNS = Path(__file__).resolve().parents[1] / "workflow" / "unknowns.yaml"
+DECLARATION = Path(__file__).resolve().parents[1] / "workflow" / "validation.yaml"
 #: what an envelope's snapshot keeps of results/envelope/<name>/: its verdicts and figures, and
 #: the ensemble's tables (members × inputs, as drawn and in the unit hypercube; members × rows;
 #: members × signatures), from which any later method re-judges without running a member again
@@ -172,7 +188,10 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         (_snapshot_design(f) for f in (snapshot / "envelope").iterdir()),
         key=_dataset_s_own_first,
     )
+    validations = validation_snapshots(snapshot)
     return {
+        "validation": validation_markdown(validations),
+        "validation_rows": validation_rows_markdown(validations),
         "counts": counts_markdown(counts, campaign),
         "deviations": deviations_markdown(cards),
         "calibration": calibration_markdown(cards, campaign),
@@ -181,6 +200,26 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         "envelope_design": envelope_design_markdown(designs[0][2]),
         "envelope_rows": envelope_rows_markdown(combined_envelope([c for c, _, _ in designs])),
     }
+
+
+def validation_snapshots(snapshot: Path) -> list[ValidationSnapshot]:
+    """Every committed validation with its verdicts (docs/snapshot/validation/<name>/), its
+    folds named as the declaration names them."""
+    folds = {f.id: f.name for f in load_validation(DECLARATION).folds}
+    out = []
+    for folder in sorted((snapshot / "validation").glob("*/verdicts.csv")):
+        here = folder.parent
+        out.append(
+            ValidationSnapshot(
+                here.name,
+                pd.read_csv(folder),
+                pd.read_csv(here / "coverage.csv"),
+                pd.read_csv(here / "pit.csv"),
+                json.loads((here / "verdicts.csv.json").read_text()),
+                folds,
+            )
+        )
+    return out
 
 
 def _snapshot_design(folder: Path) -> tuple[pd.DataFrame, Design, dict]:

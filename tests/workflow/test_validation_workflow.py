@@ -38,7 +38,8 @@ def test_the_validate_targets_dry_run_builds_the_first_batches_members():
     assert run.returncode == 0, run.stderr[-3000:]
     planned = jobs(run)
     batches = -(-SMOKE["members"] // SMOKE["batch"])
-    assert planned["validate"] == 1
+    assert planned["validate"] == planned["validation_verdicts"] == 1
+    assert planned["validation_review"] == 1
     assert planned["validation_batch"] == batches
     assert planned["envelope_member"] == SMOKE["members"]
     assert planned["member"] == SMOKE["members"]  # each member one job: no nominal run
@@ -61,7 +62,8 @@ def test_the_default_dag_has_no_validation_job():
     assert run.returncode == 0, run.stderr[-3000:]
     planned = jobs(run)
     assert planned.get("all") == 1
-    assert not {"validate", "validation_batch", "validation_wave", "envelope_member"} & set(planned)
+    validation = {"validate", "validation_verdicts", "validation_review", "validation_batch"}
+    assert not (validation | {"validation_wave", "envelope_member"}) & set(planned)
     assert "_validation~" not in run.stdout + run.stderr
 
 

@@ -220,7 +220,8 @@ DATASETS |= ENVELOPE.manifests
 VALIDATION_DECLARATION = "workflow/validation.yaml"
 VALIDATION_PLAN = validation_campaign.Plan.from_config(config["validation"], CONFIG_SOURCE)
 VALIDATION_FOLDER = f"results/validation/{VALIDATION_PLAN.name}"
-VALIDATION_SNAPSHOT = f"docs/snapshot/validation/{VALIDATION_PLAN.name}"
+SNAPSHOT = "docs/snapshot"
+VALIDATION_SNAPSHOT = f"{SNAPSHOT}/validation/{VALIDATION_PLAN.name}"
 if TARGETS is None or validation_campaign.asked(TARGETS, VALIDATION_PLAN.name):
     if VALIDATION_PLAN.dataset not in DATASETS:
         raise ValueError(
@@ -918,6 +919,19 @@ def validate_inputs(wildcards):
         "rows": validation_tables(["rows"]),
         "targets": validation_tables(["targets"]),
         "designs": designs,
+    }
+
+
+def validation_judges(wildcards):
+    """Rule validation_review's other judges of the validation's rows, as committed under
+    docs/snapshot/: the dataset's nominal scorecard and its envelopes' scorecards, those that
+    exist."""
+    dataset = VALIDATION_PLAN.dataset
+    nominal = Path(SNAPSHOT) / f"scorecard_{dataset}.csv"
+    envelopes = sorted(Path(SNAPSHOT, "envelope").glob(f"{dataset}*/scorecard.csv"))
+    return {
+        "nominal": [str(nominal)] if nominal.exists() else [],
+        "envelopes": [str(p) for p in envelopes],
     }
 
 

@@ -69,7 +69,7 @@ rule validation_wave:
         "../scripts/validation_wave.py"
 
 
-rule validate:
+rule validation_verdicts:
     """The validation's verdicts from the ensemble's tables alone: per emergent row its fold,
     conditioning folds, NROY fraction, posterior-predictive 2.5/50/97.5, the published value's
     implausibility and PIT, and verdict; the emulators' leave-one-out diagnostics; the waves'
@@ -80,7 +80,7 @@ rule validate:
         sources=VALIDATION_SOURCES,
         registry=SCORECARD_REGISTRY,
         unknowns=UNKNOWNS,
-        library=library_sources("validate"),
+        library=library_sources("validation_verdicts"),
     output:
         verdicts=report(
             f"{VALIDATION_FOLDER}/verdicts.csv",
@@ -120,6 +120,7 @@ rule validate:
             category="Validation",
             subcategory="Pseudo-theses",
         ),
+        sobol=f"{VALIDATION_FOLDER}/sobol.csv",
         summary=report(
             f"{VALIDATION_FOLDER}/validation_summary.rst",
             caption="../report/validation_summary.rst",
@@ -127,9 +128,9 @@ rule validate:
             subcategory="Verdicts",
         ),
     log:
-        f"logs/validation/{VALIDATION_PLAN.name}/validate.log",
+        f"logs/validation/{VALIDATION_PLAN.name}/verdicts.log",
     benchmark:
-        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/validate.tsv"
+        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/verdicts.tsv"
     localrule: True
     threads: 1
     resources:
@@ -137,5 +138,50 @@ rule validate:
     params:
         ids=list(VALIDATION.ids),
         pdf=FIGURE_PDF,
+        drivers=config["validation"]["drivers"],
     script:
-        "../scripts/validate.py"
+        "../scripts/validation_verdicts.py"
+
+
+rule validation_review:
+    """The verdicts beside the nominal scorecard and the prior envelopes as committed
+    (docs/snapshot/): one table, and the forest of the envelope's and the posterior's
+    intervals."""
+    input:
+        unpack(validation_judges),
+        verdicts=rules.validation_verdicts.output.verdicts,
+        library=library_sources("validation_review"),
+    output:
+        review=report(
+            f"{VALIDATION_FOLDER}/review.csv",
+            caption="../report/validation_review.rst",
+            category="Validation",
+            subcategory="Verdicts",
+        ),
+        forest=report(
+            f"{VALIDATION_FOLDER}/forest.png",
+            caption="../report/validation_forest.rst",
+            category="Validation",
+            subcategory="Verdicts",
+        ),
+    log:
+        f"logs/validation/{VALIDATION_PLAN.name}/review.log",
+    benchmark:
+        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/review.tsv"
+    localrule: True
+    threads: 1
+    resources:
+        **resources_for("small"),
+    params:
+        title=f"{VALIDATION_PLAN.dataset}: prior envelope and posterior predictive",
+        pdf=FIGURE_PDF,
+    script:
+        "../scripts/validation_review.py"
+
+
+rule validate:
+    """`snakemake validate`: the next batches, the verdicts from every batch done, the review."""
+    input:
+        rules.validation_verdicts.output,
+        rules.validation_review.output,
+    localrule: True

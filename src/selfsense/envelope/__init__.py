@@ -9,8 +9,9 @@ The envelope's modules:
   sampling plan and each member's manifest;
 - ``verdicts``: every emergent number against its envelope over the members: percentiles,
   verdict, the Morris screening of its drivers, the summary;
-- ``figures``: the envelope's forest and tornado figures;
-- ``render``: the envelope's counts and inconsistent numbers as the documentation quotes them.
+- ``figures``: the envelope's forest and tornado figures, and the validation's;
+- ``render``: the envelope's and the validation's counts and inconsistent numbers as the
+  documentation quotes them.
 
 The validation's modules:
 
@@ -22,7 +23,9 @@ The validation's modules:
   fold-compatibility map;
 - ``coverage``: the method's own test on pseudo-theses with known truth;
 - ``campaign``: the declared waves as workflow members in resumable batches, and their tables;
-- ``judgement``: the verdicts, the next wave's design and the coverage from those tables alone.
+- ``judgement``: the verdicts, the next wave's design, the coverage and each row's drivers from
+  those tables alone;
+- ``review``: the verdicts beside the nominal scorecard and the prior envelope, row by row.
 
 Both run their members through ``member``: a member in one job, its rules' own jobs run by their
 scripts in one process.

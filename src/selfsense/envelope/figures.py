@@ -424,6 +424,106 @@ def compatibility_map(folds: list[str], table: Any, title: str):
     return fig
 
 
+#: the posterior's verdicts and the colour of their bar
+POSTERIOR_COLOURS = {
+    "consistent": "#2ca02c",
+    "consistent (uninformative)": "#b7d7a8",
+    "inconsistent": "#d62728",
+    "incompatible": "#9467bd",
+}
+#: the review forest's intervals, each (low, high) column of the review table
+REVIEW_INTERVALS = {
+    "envelope": ("envelope p2.5", "envelope p97.5"),
+    "posterior": ("posterior p2.5", "posterior p97.5"),
+}
+
+
+def review_rows(review: pd.DataFrame, axis: tuple[float, float] = AXIS) -> pd.DataFrame:
+    """The review forest's rows: the review table's rows with a posterior verdict that has a
+    colour (judged and emulable) and a published value not 0, with ``label`` and each interval's
+    ends, the posterior median and the nominal as deviations in % of |published|."""
+    kept = review[
+        review["posterior"].isin(list(POSTERIOR_COLOURS))
+        & (pd.to_numeric(review["published"], errors="coerce") != 0)
+    ]
+    out = pd.DataFrame(
+        {
+            "chapter": kept["chapter"].astype(str),
+            "label": [label(s, q) for s, q in zip(kept["source"], kept["quantity"])],
+            "posterior": kept["posterior"].astype(str),
+        },
+        index=kept.index,
+    )
+    published = kept["published"].astype(float)
+    columns = [c for pair in REVIEW_INTERVALS.values() for c in pair]
+    for c in [*columns, "posterior p50", "nominal"]:
+        values = pd.to_numeric(kept[c], errors="coerce")
+        out[c] = np.clip(deviation(values, published), *axis)
+    return out
+
+
+def review_forest(review: pd.DataFrame, title: str, axis: tuple[float, float] = AXIS):
+    """Every judged emergent row's two intervals on one axis of deviation from the published
+    value [% of |published|]: the prior envelope's 2.5–97.5 % as a thin grey bar, the posterior
+    predictive's as a bar coloured by its verdict with its median as a tick, the nominal twin
+    as a black dot, the published value the line at 0 (values beyond :data:`AXIS` at its edge).
+    One panel per chapter."""
+    rows = review_rows(review, axis)
+    chapters = _chapters(rows["chapter"])
+    if not chapters:
+        fig, ax = plt.subplots(figsize=(10.0, 2.0), constrained_layout=True)
+        ax.axis("off")
+        ax.text(0.5, 0.5, "no judged row with a published value other than 0", ha="center")
+        fig.suptitle(plain(title))
+        return fig
+    sizes = [int((rows["chapter"] == c).sum()) for c in chapters]
+    height = min(MAX_INCH, ROW_INCH * len(rows) + 0.45 * len(chapters) + 1.6)
+    fig, axes = plt.subplots(
+        len(chapters),
+        1,
+        sharex=True,
+        squeeze=False,
+        figsize=(10.0, height),
+        gridspec_kw={"height_ratios": [n + 1 for n in sizes]},
+        constrained_layout=True,
+    )
+    for ax, chapter in zip(axes[:, 0], chapters):
+        panel = rows[rows["chapter"] == chapter]
+        for y, (_, row) in enumerate(panel.iterrows()):
+            lo, hi = REVIEW_INTERVALS["envelope"]
+            if np.isfinite(row[lo]) and np.isfinite(row[hi]):
+                ax.barh(y, row[hi] - row[lo], left=row[lo], height=0.8, color="0.85", zorder=1)
+            lo, hi = REVIEW_INTERVALS["posterior"]
+            colour = POSTERIOR_COLOURS[row["posterior"]]
+            ax.barh(y, row[hi] - row[lo], left=row[lo], height=0.4, color=colour, zorder=2)
+            ax.plot(row["posterior p50"], y, "|", ms=7, mew=1.4, color="0.15", zorder=3)
+            if np.isfinite(row["nominal"]):
+                ax.plot(row["nominal"], y, "o", ms=3.2, color="k", zorder=4)
+        ax.axvline(0.0, color="k", lw=0.8, zorder=2)
+        ax.set_yticks(range(len(panel)), [plain(t) for t in panel["label"]], fontsize=7)
+        ax.set_ylim(len(panel) - 0.5, -0.5)
+        ax.grid(axis="x", alpha=0.3)
+        name = f"Chapter {chapter}" if re.fullmatch(r"\d+", chapter) else chapter
+        counts = panel["posterior"].value_counts()
+        ax.set_title(
+            plain(f"{name}: " + ", ".join(f"{n} {v}" for v, n in counts.items())),
+            fontsize=8,
+            loc="left",
+        )
+    axes[-1, 0].set_xlim(axis[0] - 5.0, axis[1] + 5.0)
+    axes[-1, 0].set_xlabel("deviation from the published value [% of |published|]")
+    fig.suptitle(plain(f"{title}\n{_numbers(len(rows))} judged"), fontsize=9)
+    handles = [Patch(color="0.85", label="prior envelope p2.5–p97.5")] + [
+        Patch(color=c, label=f"posterior p2.5–p97.5: {v}") for v, c in POSTERIOR_COLOURS.items()
+    ]
+    handles += [
+        Line2D([], [], marker="|", ms=7, mew=1.4, color="0.15", ls="none", label="posterior p50"),
+        Line2D([], [], marker="o", ms=3.2, color="k", ls="none", label="nominal twin"),
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncols=3, fontsize=7)
+    return fig
+
+
 def validation_figure(fig, path: str | os.PathLike, *, inputs=(), pdf: bool = True, **extra):
     """Save a validation figure (PNG, with ``pdf`` a PDF beside it) with its provenance
     (``extra``: the declaration's and the unknowns' sha256)."""

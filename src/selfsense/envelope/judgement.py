@@ -19,7 +19,9 @@ reads: changing a table re-judges without a run. In order:
 4. the pseudo-theses: the declared number of runs, each the only run at its point, held out of a
    second set of emulators fitted on the others, their numbers printed as the thesis prints, each
    taken as the published values through the same leave-one-fold-out
-   (:func:`selfsense.envelope.coverage.pseudo_theses`).
+   (:func:`selfsense.envelope.coverage.pseudo_theses`);
+5. what drives each column: every unknown's first-order Sobol' index on the column's emulator as
+   a share of its variance, and the noise's share (:func:`drivers`).
 
 Frames and text out; nothing is read or written.
 """
@@ -43,6 +45,7 @@ from selfsense.envelope.emulator import (
     active_inputs,
     fit,
     leave_one_out,
+    sobol_shares,
 )
 from selfsense.envelope.fold_prediction import (
     INCOMPATIBLE,
@@ -196,6 +199,45 @@ def _emulators(fitted: Sequence[Fitted]) -> list[Emulator | None]:
     return [f.emulator for f in fitted]
 
 
+#: the share of a column's variance the nugget holds, named as a driver beside the unknowns
+NOISE = "noise"
+
+
+def drivers(
+    fitted: Sequence[Fitted], d: int, base: int, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(columns × d shares, columns noise share): each emulable column's Sobol' shares of its
+    variance over the prior (:func:`selfsense.envelope.emulator.sobol_shares`), NaN for a column
+    that is not emulable."""
+    shares = np.full((len(fitted), d), np.nan)
+    noise = np.full(len(fitted), np.nan)
+    for k, f in enumerate(fitted):
+        if f.emulator is not None:
+            shares[k], noise[k] = sobol_shares(f.emulator, d, base, seed)
+    return shares, noise
+
+
+def driver_text(shares: np.ndarray, noise: float, ids: Sequence[str], top: int) -> str:
+    """The ``top`` largest shares of one column, largest first, and the noise's: "a 41 %, b 12 %;
+    noise 30 %" (empty for a column that is not emulable)."""
+    if not np.isfinite(noise):
+        return ""
+    order = [i for i in np.argsort(shares)[::-1][:top] if shares[i] >= 0.005]
+    named = ", ".join(f"{ids[i]} {100 * shares[i]:.0f} %" for i in order)
+    return f"{named}; {NOISE} {100 * noise:.0f} %" if named else f"{NOISE} {100 * noise:.0f} %"
+
+
+def sobol_table(names: Sequence[str], ids: Sequence[str], shares, noise) -> pd.DataFrame:
+    """Long format: per emulable column, every unknown's share and the noise's."""
+    out = []
+    for k, name in enumerate(names):
+        if not np.isfinite(noise[k]):
+            continue
+        out += [{"column": name, "unknown": u, "share": shares[k, i]} for i, u in enumerate(ids)]
+        out.append({"column": name, "unknown": NOISE, "share": noise[k]})
+    return pd.DataFrame(out, columns=["column", "unknown", "share"])
+
+
 @dataclass(frozen=True)
 class WaveCut:
     """The common targets' cut after each wave: runs so far, the share of the prior candidates
@@ -237,7 +279,8 @@ def wave_cuts(
         if mask.any():
             _, var_em = predict_all(emulators, candidates[mask])
             other = nuggets(emulators) + columns.var_obs_md[:k]
-            with np.errstate(invalid="ignore"):
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a target not emulable: all NaN
                 ratio = np.nanmean(var_em, axis=0) / other
             share = float(np.nanmax(ratio)) if np.isfinite(ratio).any() else math.nan
     return WaveCut(runs, fractions, mask, share)
@@ -277,9 +320,10 @@ def next_wave(
 
 @dataclass(frozen=True)
 class Judgement:
-    """What rule `validate` writes: the verdicts (one row per emergent row), the emulators'
-    diagnostics, the waves' cut, the compatibility map, the pseudo-theses' coverage (one row per
-    pseudo-thesis, one per held-out row's PIT), the PIT histogram and the summary."""
+    """What rule `validation_verdicts` writes: the verdicts (one row per emergent row), the
+    emulators' diagnostics, the waves' cut, the compatibility map, the pseudo-theses' coverage
+    (one row per pseudo-thesis, one per held-out row's PIT), the Sobol' shares (long), the PIT
+    histogram and the summary."""
 
     verdicts: pd.DataFrame
     emulators: pd.DataFrame
@@ -287,6 +331,7 @@ class Judgement:
     compatibility: pd.DataFrame
     coverage: pd.DataFrame
     pit: pd.DataFrame
+    sobol: pd.DataFrame
     histogram: np.ndarray
     summary: str
 
@@ -330,8 +375,12 @@ def judge(
     inputs: pd.DataFrame,
     rows: pd.DataFrame,
     targets: pd.DataFrame,
+    sobol_base: int = 1024,
+    top: int = 3,
 ) -> Judgement:
-    """The verdicts of the ensemble's tables under the declaration (module docstring)."""
+    """The verdicts of the ensemble's tables under the declaration (module docstring); each
+    row's drivers its ``top`` largest Sobol' shares on ``sobol_base`` · (k + 2) emulator
+    points."""
     s = declaration.settings
     seed = int(s["waves"]["seed"])
     settings = Settings.from_declaration(s["emulator"], seed)
@@ -363,7 +412,9 @@ def judge(
     ]
     truths = printed(ens.Y[chosen], transforms, digits(declaration, entries))
     cov = pseudo_theses(columns, mean2, var_em2, nuggets(_emulators(fitted2)), truths, **kw)
-    verdicts = verdict_table(declaration, entries, columns, preds, fitted, emulable_of(mean))
+    shares, noise = drivers(fitted, d, sobol_base, seed)
+    texts = [driver_text(shares[k], noise[k], ids, top) for k in range(len(fitted))]
+    verdicts = verdict_table(declaration, entries, columns, preds, fitted, emulable_of(mean), texts)
     return Judgement(
         verdicts=verdicts,
         emulators=emulator_table(ens, fitted, ids, var, df),
@@ -375,6 +426,7 @@ def judge(
         ).reset_index(),
         coverage=coverage_table(ens, chosen, cov),
         pit=pit_table(ens, chosen, cov),
+        sobol=sobol_table(ens.names, ids, shares, noise),
         histogram=cov.histogram,
         summary=summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df),
     )
@@ -391,11 +443,12 @@ def verdict_table(
     preds: Sequence[RowPrediction],
     fitted: Sequence[Fitted],
     emulable: np.ndarray,
+    texts: Sequence[str],
 ) -> pd.DataFrame:
     """One row per emergent row: the fold, the folds it is conditioned on, the share of the
     points its region keeps, the posterior predictive's quantiles in the row's unit, the
-    published value's least implausibility and PIT, the verdict, and the row's emulator's
-    leave-one-out diagnostics (why it is not emulable)."""
+    published value's least implausibility and PIT, the verdict, what drives it (``texts``, per
+    column), and the row's emulator's leave-one-out diagnostics (why it is not emulable)."""
     by_key = {(e.source, e.quantity): e for e in entries}
     k = len(declaration.targets)
     fold_rows = {}
@@ -429,6 +482,7 @@ def verdict_table(
                 "PIT": p.pit,
                 "verdict": p.verdict,
                 "twin of": e.twin if e is not None and e.twin else "",
+                "driven by": texts[p.column],
                 "runs": f.runs,
                 "LOO Q²": loo.q2 if loo else math.nan,
                 "LOO 95 % coverage": loo.coverage95 if loo else math.nan,
@@ -542,6 +596,13 @@ def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df) -> s
         + " ".join(str(int(c)) for c in cov.histogram)
         + ".",
     ]
+    incompatible = verdicts[verdicts["verdict"] == INCOMPATIBLE]["fold"].unique()
+    lines += [
+        "",
+        "Incompatible folds (the others leave no bench): "
+        + (", ".join(incompatible) if len(incompatible) else "none")
+        + ".",
+    ]
     alone = [f for i, f in enumerate(folds) if table[i, i] == 0.0]
     pairs = [
         f"{a}–{b}"
@@ -556,11 +617,15 @@ def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df) -> s
     ]
     out = verdicts[verdicts["verdict"] == INCONSISTENT]
     if len(out):
-        lines += ["", "Inconsistent rows (fold, least implausibility of the published value):", ""]
+        lines += [
+            "",
+            "Inconsistent rows (fold, least implausibility of the published value, drivers):",
+            "",
+        ]
         lines += [
             f"- {r['source']}, {r['quantity']}: published {r['published']:.4g}, predicted "
             f"{r['p2.5']:.4g} … {r['p97.5']:.4g} {r['unit']} ({r['fold']}, I = "
-            f"{r['implausibility']:.3g})"
+            f"{r['implausibility']:.3g}; {r['driven by'] or 'no drivers'})"
             for _, r in out.iterrows()
         ]
     lines += ["", "Not emulable (leave-one-out: Q², 95 % coverage, share beyond 3):", ""]
@@ -575,7 +640,4 @@ def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df) -> s
         )
         for name, f in failed
     ] or ["- none"]
-    incompatible = verdicts[verdicts["verdict"] == INCOMPATIBLE]["fold"].unique()
-    if len(incompatible):
-        lines += ["", "Incompatible folds (the others leave no bench): " + ", ".join(incompatible)]
     return "\n".join(lines) + "\n"

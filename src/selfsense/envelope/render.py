@@ -1,15 +1,20 @@
-"""The envelope's numbers as the documentation quotes them: the README's counts per chapter and
-docs/envelope.md's list of inconsistent numbers, over one or several designs' envelope scorecards
-(scripts/update_docs.py writes them between the markers of :mod:`selfsense.scorecard.render`).
+"""The envelope's and the validation's numbers as the documentation quotes them: the README's
+counts per chapter, docs/envelope.md's list of inconsistent numbers over one or several designs'
+envelope scorecards, and the validation's verdicts, pseudo-theses and incompatible folds with
+docs/validation.md's list of inconsistent rows (scripts/update_docs.py writes them between the
+markers of :mod:`selfsense.scorecard.render`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
+from selfsense.envelope import fold_prediction
 from selfsense.envelope.design import Design
 from selfsense.envelope.verdicts import (
     INCONSISTENT,
@@ -104,3 +109,117 @@ def envelope_rows_markdown(card: pd.DataFrame) -> str:
                 f"driven by {drivers or '–'}"
             )
     return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class ValidationSnapshot:
+    """One validation's committed results (docs/snapshot/validation/<name>/): its verdicts, the
+    pseudo-theses (one row each) and their PIT table, the verdicts' provenance sidecar, and its
+    folds' names."""
+
+    name: str
+    verdicts: pd.DataFrame
+    coverage: pd.DataFrame
+    pit: pd.DataFrame
+    provenance: Mapping[str, Any]
+    folds: Mapping[str, str]
+
+    def incompatible(self) -> list[str]:
+        """The folds the others leave no bench for, each with its name."""
+        v = self.verdicts
+        ids = v.loc[v["verdict"] == fold_prediction.INCOMPATIBLE, "fold"].unique()
+        return [f"{f} ({self.folds.get(f, f)})" for f in ids]
+
+
+def _own(verdicts: pd.DataFrame) -> pd.DataFrame:
+    """The findings: a row with its algebraic twins is one (the twins' ``twin of`` names it)."""
+    return verdicts[verdicts["twin of"].fillna("") == ""]
+
+
+def coverage_sentence(pit: pd.DataFrame, pseudo_theses: int) -> str:
+    """The pseudo-theses' coverage at 95 % and PIT histogram in tenths, as one sentence."""
+    inside = pit["inside 95 %"].astype(bool)
+    if not len(inside):
+        return f"{pseudo_theses} pseudo-theses: no held-out row had an interval."
+    counts, _ = np.histogram(pit["PIT"].astype(float), bins=10, range=(0.0, 1.0))
+    return (
+        f"{pseudo_theses} pseudo-theses (members of the ensemble, each taken as the bench, its "
+        f"numbers printed as the thesis prints them, through the same leave-one-fold-out): "
+        f"{int(inside.sum())} of {len(inside)} held-out rows inside their 95 % interval, "
+        f"**{inside.mean():.1%}** (the method's claim: 90–99 %); PIT histogram in tenths "
+        + " ".join(str(int(c)) for c in counts)
+        + "."
+    )
+
+
+def validation_markdown(snapshots: Sequence[ValidationSnapshot]) -> str:
+    """The README's validation block: per validation, its runs, declaration and code; the
+    findings' posterior verdicts per chapter; the pseudo-theses' coverage; the incompatible
+    folds."""
+    if not snapshots:
+        return "No validation is committed yet (`snakemake validate`, docs/validation.md)."
+    blocks = []
+    columns = list(fold_prediction.VERDICTS)
+    for snap in snapshots:
+        record = snap.provenance
+        code = record["code"]["git_describe"]
+        lines = [
+            f"The validation `{snap.name}` (`docs/snapshot/validation/{snap.name}/`: "
+            f"{record['members']} runs, `workflow/validation.yaml` sha256 "
+            f"{record['validation_sha256'][:12]}, code {code}): every emergent row predicted "
+            "from the other folds on the posterior predictive. Findings (a row and its "
+            "algebraic twins are one):",
+            "",
+            "| chapter | findings | " + " | ".join(columns) + " |",
+            "|---" * (len(columns) + 2) + "|",
+        ]
+        own = _own(snap.verdicts)
+        parts = [(str(c), q) for c, q in own.groupby("chapter", sort=False)] + [("total", own)]
+        for chapter, part in parts:
+            tally = part["verdict"].value_counts()
+            name = "**total**" if chapter == "total" else chapter_label(chapter)
+            cells = [str(len(part)), *(str(int(tally.get(v, 0))) for v in columns)]
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        folds = snap.incompatible()
+        lines += [
+            "",
+            coverage_sentence(snap.pit, len(snap.coverage)),
+            "Incompatible folds (the other folds leave no bench): "
+            + (", ".join(folds) if folds else "none")
+            + ".",
+        ]
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
+
+
+def validation_rows_markdown(snapshots: Sequence[ValidationSnapshot]) -> str:
+    """docs/validation.md's list: per validation, every inconsistent finding with its fold, its
+    posterior-predictive interval, the published value's implausibility and its drivers, and
+    the incompatible folds with their rows' count."""
+    if not snapshots:
+        return "No validation is committed yet."
+    lines: list[str] = []
+    for snap in snapshots:
+        own = _own(snap.verdicts)
+        out = own[own["verdict"] == fold_prediction.INCONSISTENT]
+        lines += [f"`{snap.name}`: {len(out)} findings inconsistent.", ""]
+        for _, row in out.iterrows():
+            unit = f" {row['unit']}" if isinstance(row["unit"], str) and row["unit"] else ""
+            drivers = row["driven by"] if isinstance(row["driven by"], str) else ""
+            lines.append(
+                f"- {row['source']}, {row['quantity']}: published {row['published']:.4g}, "
+                f"predicted {row['p2.5']:.4g} to {row['p97.5']:.4g}{unit} ({row['fold']}, "
+                f"I = {row['implausibility']:.3g}); driven by {drivers or '–'}"
+            )
+        incompatible = own[own["verdict"] == fold_prediction.INCOMPATIBLE]
+        if len(incompatible):
+            lines += [
+                "",
+                "Incompatible folds (the other folds leave no bench), with their findings:",
+            ]
+            lines += [
+                f"- {fold} ({snap.folds.get(fold, fold)}): {len(part)}"
+                for fold, part in incompatible.groupby("fold", sort=True)
+            ]
+        lines.append("")
+    return "\n".join(lines).rstrip()

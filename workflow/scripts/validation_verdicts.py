@@ -1,7 +1,7 @@
-"""Rule `validate`: the validation's verdicts from the ensemble's tables alone
-(selfsense.envelope.judgement.judge): verdicts, emulators, waves, compatibility map, the
-pseudo-theses' coverage and PIT histogram, the summary; every output naming the declaration's
-and the unknowns' sha256 and the commit."""
+"""Rule `validation_verdicts`: the validation's verdicts from the ensemble's tables alone
+(selfsense.envelope.judgement.judge): verdicts with their drivers, emulators, Sobol' shares,
+waves, compatibility map, the pseudo-theses' coverage and PIT histogram, the summary; every
+output naming the declaration's and the unknowns' sha256 and the commit."""
 
 import pandas as pd
 
@@ -14,7 +14,9 @@ from selfsense.io.provenance import atomic_path, run, script_logging, write_tabl
 from selfsense.scorecard.registry import parse_registry
 
 
-def main(ids, pdf, units, rows, targets, declaration, registry, unknowns, inputs, log, **out):
+def main(
+    ids, pdf, drivers, units, rows, targets, declaration, registry, unknowns, inputs, log, **out
+):
     """ids: the unknowns varied, in the tables' order; units, rows, targets: every batch's
     tables; out: the rule's outputs by name."""
     logger = script_logging(log)
@@ -23,9 +25,9 @@ def main(ids, pdf, units, rows, targets, declaration, registry, unknowns, inputs
     tables = [
         pd.concat([pd.read_csv(p) for p in ps], ignore_index=True) for ps in (units, rows, targets)
     ]
-    result = judge(decl, entries, ids, *tables)
+    result = judge(decl, entries, ids, *tables, **drivers)
     extra = stamps(declaration, unknowns) | {"members": len(tables[0])}
-    for key in ("verdicts", "emulators", "waves", "compatibility", "coverage", "pit"):
+    for key in ("verdicts", "emulators", "waves", "compatibility", "coverage", "pit", "sobol"):
         write_table(getattr(result, key), out[key], inputs=inputs, **extra)
     title = f"{decl.dataset}, {len(tables[0])} runs"
     folds = list(result.compatibility["fold"])
