@@ -131,9 +131,17 @@ class ValidationSnapshot:
         return [f"{f} ({self.folds.get(f, f)})" for f in ids]
 
 
+#: a row no run of the ensemble gave a value (its stage was not run): not emulable, said so
+NOT_RUN = "not run"
+
+
 def _own(verdicts: pd.DataFrame) -> pd.DataFrame:
-    """The findings: a row with its algebraic twins is one (the twins' ``twin of`` names it)."""
-    return verdicts[verdicts["twin of"].fillna("") == ""]
+    """The findings: a row with its algebraic twins is one (the twins' ``twin of`` names it),
+    one no run gave a value :data:`NOT_RUN` rather than not emulable."""
+    own = verdicts[verdicts["twin of"].fillna("") == ""].copy()
+    unrun = (own["verdict"] == fold_prediction.NOT_EMULABLE) & (own["runs"] == 0)
+    own.loc[unrun, "verdict"] = NOT_RUN
+    return own
 
 
 def coverage_sentence(pit: pd.DataFrame, pseudo_theses: int) -> str:
@@ -159,7 +167,7 @@ def validation_markdown(snapshots: Sequence[ValidationSnapshot]) -> str:
     if not snapshots:
         return "No validation is committed yet (`snakemake validate`, docs/validation.md)."
     blocks = []
-    columns = list(fold_prediction.VERDICTS)
+    columns = [*fold_prediction.VERDICTS, NOT_RUN]
     for snap in snapshots:
         record = snap.provenance
         code = record["code"]["git_describe"]
