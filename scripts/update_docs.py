@@ -155,24 +155,27 @@ def recovery_markdown(cards: Mapping[str, pd.DataFrame], campaign: str) -> str:
 def envelope_design_markdown(record: Mapping, unknowns: Path = UNKNOWNS) -> str:
     """docs/envelope.md's sentences on a design (an envelope snapshot's provenance): the unknowns
     it varied of those its dataset declared when it ran (its varied and held ones), its groups,
-    the unknowns it held, and those workflow/unknowns.yaml declares since, with their groups."""
+    the unknowns it held, those workflow/unknowns.yaml declares since, with their groups, and
+    those it no longer declares."""
     design = record["design"]
     entries = yaml.safe_load(unknowns.read_text(encoding="utf-8"))["unknowns"]
+    now = {e["id"]: e for e in entries if e["dataset"] == design["dataset"]}
     ran = set(record["varied"]) | set(record["held"])
-    since = [e for e in entries if e["dataset"] == design["dataset"] and e["id"] not in ran]
+    since = [e for i, e in now.items() if i not in ran]
+    gone = sorted(ran - set(now))
     held = ", ".join(f"`{u}`" for u in record["held"])
     text = (
         f"The shipped design varied {len(record['varied'])} of the {len(ran)} unknowns"
         f" {design['dataset']} declared when it ran, in {len(design['groups'])} groups; it held"
         f" {len(record['held'])}: {held}."
     )
-    if not since:
-        return text
-    groups = ", ".join(dict.fromkeys(e["group"] for e in since))
-    return (
-        f"{text} {len(since)} more are declared since, in groups it did not vary ({groups}):"
-        f" {len(ran) + len(since)} in all."
-    )
+    if since:
+        groups = ", ".join(dict.fromkeys(e["group"] for e in since))
+        text += f" {len(since)} more are declared since, in groups it did not vary ({groups})."
+    if gone:
+        named = ", ".join(f"`{u}`" for u in gone)
+        text += f" No longer declared (the sources fix them, CHANGELOG.md): {named}."
+    return f"{text} {len(now)} in all." if since or gone else text
 
 
 def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
