@@ -93,6 +93,22 @@ def test_gamma_t_samples_see_every_phase_of_any_drive(period):
         assert np.unique(np.mod(window[window % every == 0], period)).size == {80: 2, 40: 1}[period]
 
 
+def test_gamma_t_is_fitted_on_the_drive_alone_and_its_count_is_the_drives_length():
+    """Γ_T's samples inside the drive's span only (not the warm-up hold, not the cooling): over a
+    drive of whole groups of windows their count is the span's windows over ``every``, the
+    closed form by which Table 7.3's total df 7 999 fixes the 50 Hz run's 400 s drive
+    (400 s · 4000 periods/s / 200 = 8 000)."""
+    every, rate = 200, 4000.0  # ripple periods a second
+    window = np.arange(int(603 * rate))  # a 3 s warm-up, the 400 s drive, 200 s of cooling
+    kept = window[ch7.kept_windows(window, every)]
+    samples = {"time": (kept + 0.5) / rate, "C_e": np.ones(kept.size), "x_laser": kept * 1.0}
+    driven = ch7.while_driven(samples, (3.0, 403.0))
+    assert driven["time"].size == 400 * rate / every == 8000
+    assert driven["time"].min() >= 3.0 and driven["time"].max() < 403.0
+    inside = (samples["time"] >= 3.0) & (samples["time"] < 403.0)
+    assert np.array_equal(driven["x_laser"], samples["x_laser"][inside])  # every series alike
+
+
 def test_gamma_t_windows_are_the_same_in_any_chunks():
     every = 200
     whole = ch7.kept_windows(np.arange(100_000), every)
