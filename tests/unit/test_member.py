@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -81,3 +82,26 @@ def test_a_scratch_folder_goes_and_so_do_those_of_processes_that_are_gone(tmp_pa
         (folder / "a.nc").write_bytes(b"x")
         assert not stale.exists() and mine.exists()
     assert not folder.exists()
+
+
+FAILING_SCRIPT = """
+def main(y, inputs, log=None):
+    raise ValueError("HPOGains.a0 must be finite and > 0, got -2.2")
+"""
+
+
+def test_a_failed_step_stops_the_member_or_is_noted_in_its_folder(tmp_path):
+    """An envelope member's failed step fails its job in one line naming the rule; a validation
+    member's (``failure`` given) is noted in its folder in that line, and nothing is kept."""
+    script = tmp_path / "bad.py"
+    script.write_text(FAILING_SCRIPT)
+    steps = [Step("charge_sensing", str(script), (), (("y", ["results/m/t.csv"]),), (), ())]
+    kept = {"results/m/t.csv": tmp_path / "t.csv"}
+    with pytest.raises(member.StepFailed, match=r"rule charge_sensing \(results/m/t.csv\): .*a0"):
+        member.run_member(steps, kept, "m~1")
+    note = tmp_path / "failed.txt"
+    reason = member.run_member(steps, kept, "m~1", note)
+    assert reason.startswith("rule charge_sensing (results/m/t.csv): ")
+    assert "HPOGains.a0 must be finite" in reason
+    assert note.read_text().strip() == reason
+    assert not (tmp_path / "t.csv").exists()

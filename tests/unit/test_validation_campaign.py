@@ -97,6 +97,23 @@ def test_a_target_is_located_in_a_members_tables():
     assert np.isnan(campaign.locate_value({**one, "where": {"error": "e_TCL"}}, tables))
 
 
+def test_a_member_whose_analysis_failed_gives_no_value_and_names_the_step():
+    card = pd.DataFrame(
+        {"kind": ["emergent"], "source": ["Table 5.1"], "quantity": ["R²"], "reproduced": [0.99]}
+    )
+    inputs = pd.DataFrame({"member": ["v~001", "v~002"]})
+    locate = {"table": "ch5/t.csv", "column": "df", "where": {"source": "Total"}}
+    tables = {"v~001": {"ch5/t.csv": pd.DataFrame({"source": ["Total"], "df": [14374]})}}
+    failed = {"v~002": "rule charge_sensing (…): ValueError: a0 must be > 0"}
+    rows, targets = campaign.batch_tables(
+        inputs, {"v~001": card}, tables, ["Table 5.1 · R²"], [("df", locate)], failed
+    )
+    assert list(rows["member"]) == ["v~001", "v~002"]
+    assert rows["Table 5.1 · R²"].iloc[0] == 0.99 and np.isnan(rows["Table 5.1 · R²"].iloc[1])
+    assert list(rows[campaign.FAILED_COLUMN]) == ["", failed["v~002"]]
+    assert targets["df"].iloc[0] == 14374 and np.isnan(targets["df"].iloc[1])
+
+
 SECTION = {"dataset": "pi_p885", "name": "", "waves": 1, "members": 0, "batch": 20,
            "batches": 0, "stages": ["ripple"]}  # fmt: skip
 

@@ -835,6 +835,13 @@ def member_job(member):
     return f"{ENVELOPE_FOLDER if envelope else VALIDATION_FOLDER}/members/{member}"
 
 
+def member_failure(member):
+    """The file a validation member's one job notes a failed step in (its bench's analysis
+    failing is a result of the ensemble: the member gives no value), or None: an envelope
+    member's failure fails its job."""
+    return validation_campaign.FAILED if member in VALIDATION.manifests else None
+
+
 def member_file(member, name):
     """Where a member's results/<member>/<name> is read: its one job's folder, or the rules'."""
     folder = member_job(member)
@@ -878,6 +885,13 @@ def member_read(wildcards):
     results."""
     members = VALIDATION.batch(wildcards.batch).members
     return [[m, r, member_file(m, r)] for m in members for r in member_results(m)]
+
+
+def member_failures(wildcards):
+    """Rule validation_batch's {member: where its one job notes a failed step} (none through the
+    rules: there a failed step fails its job)."""
+    members = VALIDATION.batch(wildcards.batch).members
+    return {m: member_file(m, validation_campaign.FAILED) for m in members if member_job(m)}
 
 
 def validation_batch_inputs(wildcards):

@@ -56,5 +56,6 @@ rule member:
         **resources_for("stream_long"),
     params:
         keep=lambda w: member_results(w.member),
+        failure=lambda w: member_failure(w.member),
     script:
         "../scripts/member.py"

@@ -31,6 +31,7 @@ rule validation_batch:
         **resources_for("small"),
     params:
         read=member_read,
+        failures=member_failures,
         runs=lambda w: VALIDATION.inputs[w.batch].to_dict("list"),
         drawn=lambda w: VALIDATION.plans[w.batch].to_dict("list"),
         row_keys=list(VALIDATION.rows),

@@ -2,23 +2,28 @@
 (selfsense.envelope.campaign.batch_tables): members × inputs, the plan, members × rows, members ×
 targets, each with the declaration's and the unknowns' sha256 and the commit."""
 
+from pathlib import Path
+
 import pandas as pd
 
 from selfsense.envelope.campaign import MEMBER, batch_tables, stamps
 from selfsense.io.provenance import run, script_logging, write_table
 
 
-def main(runs, drawn, row_keys, locate, read, declaration, unknowns, inputs, log, **out):
+def main(runs, drawn, row_keys, locate, read, failures, declaration, unknowns, inputs, log, **out):
     """runs: the batch's members × inputs (as drawn when the workflow was parsed); drawn: its
     plan; read: [member, name, file] of each member's scorecard.csv and of its tables the common
-    targets read (named as under results/<member>/); out: unit, plan, rows, targets."""
+    targets read (named as under results/<member>/); failures: {member: where its one job notes
+    a failed step}; out: unit, plan, rows, targets."""
     logger = script_logging(log)
     frame = pd.DataFrame(runs)
+    failed = {m: Path(p).read_text().strip() for m, p in failures.items() if Path(p).is_file()}
     tables: dict[str, dict[str, pd.DataFrame]] = {m: {} for m in frame[MEMBER]}
-    for member, name, path in read:
+    for member, name, path in (r for r in read if r[0] not in failed):
         tables[member][name] = pd.read_csv(path)
-    scorecards = {m: t.pop("scorecard.csv") for m, t in tables.items()}
-    rows, targets = batch_tables(frame, scorecards, tables, row_keys, [tuple(t) for t in locate])
+    cards = {m: t.pop("scorecard.csv") for m, t in tables.items() if m not in failed}
+    located = [tuple(t) for t in locate]
+    rows, targets = batch_tables(frame, cards, tables, row_keys, located, failed)
     extra = stamps(declaration, unknowns)
     for table, path in (
         (frame, out["unit"]),
@@ -27,11 +32,14 @@ def main(runs, drawn, row_keys, locate, read, declaration, unknowns, inputs, log
         (targets, out["targets"]),
     ):
         write_table(table, path, inputs=inputs, **extra)
+    for member, reason in failed.items():
+        logger.warning("%s gave no value: %s", member, reason)
     logger.info(
-        "%d members: %d of %d row values and %d of %d target values given",
+        "%d members (%d failed): %d of %d row values and %d of %d target values given",
         len(frame),
-        rows.drop(columns=MEMBER).notna().to_numpy().sum(),
-        rows.drop(columns=MEMBER).size,
+        len(failed),
+        rows[row_keys].notna().to_numpy().sum(),
+        rows[row_keys].size,
         targets.drop(columns=MEMBER).notna().to_numpy().sum(),
         targets.drop(columns=MEMBER).size,
     )

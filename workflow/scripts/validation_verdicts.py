@@ -43,7 +43,7 @@ def main(
     with atomic_path(out["summary"]) as tmp:
         named = ", ".join(f"{k} {v}" for k, v in stamps(declaration, unknowns).items())
         tmp.write_text(f"{result.summary}\nProvenance: {named}.\n", encoding="utf-8")
-    logger.info("%s", result.summary.splitlines()[4])
+    logger.info("%s", "\n".join(result.summary.splitlines()[:7]))
 
 
 if "snakemake" in globals():

@@ -329,21 +329,36 @@ def locate_value(locate: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]) 
     return value * float(locate.get("scale", 1.0))
 
 
+#: rows.csv's column of why a member gave no value (the step that failed), empty where it ran
+FAILED_COLUMN = "failed"
+#: the file of a member's folder its one job notes a failed step in, in place of its results
+FAILED = "failed.txt"
+
+
 def batch_tables(
     inputs: pd.DataFrame,
     cards: Mapping[str, pd.DataFrame],
     tables: Mapping[str, Mapping[str, pd.DataFrame]],
     row_keys: Sequence[str],
     targets: Sequence[tuple[str, Mapping[str, Any]]],
+    failed: Mapping[str, str] | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(members × rows, members × targets) of a batch: each member's reproduced value of every
     emergent row (``row_keys``, :func:`row_key`) from its scorecard, and of every common target
-    (``targets``: (id, locate)) from its tables (NaN where it gave none)."""
+    (``targets``: (id, locate)) from its tables (NaN where it gave none). A member of ``failed``
+    ({member: the step that failed}) has no scorecard or tables: its values are NaN and rows.csv's
+    :data:`FAILED_COLUMN` names the step."""
+    failed = dict(failed or {})
     members = list(inputs[MEMBER])
-    rows = member_values({m: cards[m] for m in members}, row_keys).reindex(members)
-    values = {tid: [locate_value(loc, tables[m]) for m in members] for tid, loc in targets}
+    ran = {m: cards[m] for m in members if m not in failed}
+    rows = member_values(ran, row_keys).reindex(members)
+    rows[FAILED_COLUMN] = [failed.get(m, "") for m in members]
+    values = {
+        tid: [math.nan if m in failed else locate_value(loc, tables[m]) for m in members]
+        for tid, loc in targets
+    }
     target_frame = pd.DataFrame(values, index=pd.Index(members, name=MEMBER))
-    return rows.reset_index(), target_frame.reset_index()
+    return rows.rename_axis(index=MEMBER).reset_index(), target_frame.reset_index()
 
 
 def stamps(declaration: str | Path, unknowns: str | Path) -> dict[str, str]:

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from selfsense.envelope.campaign import MEMBER, Runs, runs_of_later_wave
+from selfsense.envelope.campaign import FAILED_COLUMN, MEMBER, Runs, runs_of_later_wave
 from selfsense.envelope.coverage import Coverage, binomial_band, printed, pseudo_theses
 from selfsense.envelope.emulator import (
     Emulator,
@@ -428,7 +428,9 @@ def judge(
         pit=pit_table(ens, chosen, cov),
         sobol=sobol_table(ens.names, ids, shares, noise),
         histogram=cov.histogram,
-        summary=summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df),
+        summary=summary(
+            declaration, ens, verdicts, fitted, cut, folds, table, cov, df, failures(rows)
+        ),
     )
 
 
@@ -567,8 +569,17 @@ def counts(verdicts: pd.DataFrame) -> dict[str, int]:
     return {v: int(found.get(v, 0)) for v in VERDICTS} | {"findings": len(own)}
 
 
-def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df) -> str:
-    """The validation's opening (reStructuredText)."""
+def failures(rows: pd.DataFrame) -> dict[str, str]:
+    """{member: the step that failed} of the runs whose analysis failed (rows.csv's
+    :data:`~selfsense.envelope.campaign.FAILED_COLUMN`; a table made before it had none)."""
+    if FAILED_COLUMN not in rows:
+        return {}
+    reasons = rows[FAILED_COLUMN].fillna("").astype(str)
+    return {m: r for m, r in zip(rows[MEMBER], reasons) if r}
+
+
+def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df, failed) -> str:
+    """The validation's opening (reStructuredText); ``failed``: {member: the step that failed}."""
     n = counts(verdicts)
     k = len(declaration.targets)
     emulable = [f.emulator is not None for f in fitted]
@@ -577,10 +588,19 @@ def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df) -> s
         for w, r, f in zip(sorted(set(ens.wave)), cut.runs, cut.fractions)
     )
     low, high = (min(max(b, 0.0), 1.0) for b in binomial_band(max(cov.judged, 1)))
+    steps = sorted({r.split(" (", 1)[0] for r in failed.values()})
     lines = [
         f"Validation of {declaration.dataset} under workflow/validation.yaml version "
         f"{declaration.version} ({declaration.date}): {len(ens.members)} runs "
         f"(noise measured with {int(np.max(df, initial=0))} degrees of freedom); {waves}.",
+        "",
+        f"Runs whose analysis failed: {len(failed)}"
+        + (
+            f" (in {', '.join(steps)}; they give no value, so neither rule out nor condition)"
+            if failed
+            else ""
+        )
+        + ".",
         "",
         f"Emulable: {sum(emulable[:k])} of {k} common targets, {sum(emulable[k:])} of "
         f"{len(emulable) - k} emergent rows.",

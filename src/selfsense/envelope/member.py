@@ -308,6 +308,10 @@ def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) ->
     return {path: scratch / path for path in keep}
 
 
+class StepFailed(RuntimeError):
+    """A member's step raised: the message names its rule, its outputs and the reason."""
+
+
 @contextmanager
 def _step_logging(step: Step) -> Iterator[None]:
     """A step's script logs to its own log file (script_logging); afterwards the member's log
@@ -326,16 +330,32 @@ def _step_logging(step: Step) -> Iterator[None]:
                 LOG.info("rule %s:\n%s", step.rule, Path(path).read_text().rstrip())
     if failed is not None:
         outputs = ", ".join(step.files("output"))
-        raise RuntimeError(f"rule {step.rule} ({outputs}): {one_line_reason(failed)}") from failed
+        raise StepFailed(f"rule {step.rule} ({outputs}): {one_line_reason(failed)}") from failed
 
 
-def run_member(steps: Sequence[Step], keep: Mapping[str, str | Path], name: str) -> None:
+def run_member(
+    steps: Sequence[Step],
+    keep: Mapping[str, str | Path],
+    name: str,
+    failure: str | Path | None = None,
+) -> str:
     """Run a member's steps in a scratch folder (:func:`run_steps`) and put the files of
     ``keep`` ({path in the workflow: where it goes}) where they go; the scratch is gone
-    afterwards, and a member that fails leaves none of them."""
+    afterwards, and a member that fails leaves none of them. A failing step raises
+    :class:`StepFailed`, or, with ``failure`` (a validation member: a bench whose analysis
+    fails is a result of the ensemble, not an error of the run), writes its one line there and
+    returns it ("" when every step ran)."""
     began = time.perf_counter()
     with scratch_folder(name.replace("~", "_")) as scratch:
-        where = run_steps(steps, scratch, keep)
+        try:
+            where = run_steps(steps, scratch, keep)
+        except StepFailed as err:
+            if failure is None:
+                raise
+            LOG.warning("member %s failed: %s", name, err)
+            with atomic_path(failure) as tmp:
+                Path(tmp).write_text(f"{err}\n", encoding="utf-8")
+            return str(err)
         for path, destination in keep.items():
             with atomic_path(destination) as tmp:
                 shutil.copyfile(where[path], tmp)
@@ -348,6 +368,7 @@ def run_member(steps: Sequence[Step], keep: Mapping[str, str | Path], name: str)
         usage.ru_utime + usage.ru_stime,
         usage.ru_maxrss / 1024,
     )
+    return ""
 
 
 def _sources(inputs: Iterable[str], made: Iterable[str]) -> set[str]:
