@@ -410,6 +410,7 @@ rule gamma_truth:
         g=lambda w: CURVES[w.fit]["g"],
         temperatures=lambda w: CURVES[w.fit]["temperatures"],
         n_periods=config["ripple"]["n_periods"],
+        span=lambda w: drive_span(w.dataset, CURVES[w.fit]["role"]),
     script:
         "../scripts/gamma_truth.py"
 

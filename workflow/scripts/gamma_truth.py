@@ -23,17 +23,22 @@ def main(
     g,
     temperatures,
     n_periods,
+    span,
     inputs,
     log=None,
 ):
-    """fit_names: {Γ record file name: its name}; power: [] or [the loss power series] (Γ_T's)."""
+    """fit_names: {Γ record file name: its name}; power: [] or [the loss power series] (Γ_T's);
+    span: the run's drive [s], where Γ_T's samples are fitted."""
     logger = script_logging(log)
     entries = parse_registry(load_yaml(registry), registry)
     thesis, stroke = printed_gamma(entries, source, coefficients, g)
     named = {fit_names[Path(p).name]: p for p in fits}
     power = power[0] if power else None
-    result = truth_refits(capture, series, named, thesis, stroke, n_periods, temperatures, power)
+    result = truth_refits(
+        capture, series, named, thesis, stroke, n_periods, temperatures, power, tuple(span)
+    )
     config = {"source": source, "temperatures": list(temperatures), "n_periods": n_periods}
+    config |= {"span": list(span)}
     write_table(result, table, inputs=inputs, config=config)
     logger.info("\n%s", result.T.to_string())
 

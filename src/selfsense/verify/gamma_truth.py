@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from selfsense.chapters.ch5 import gamma_data
-from selfsense.chapters.ch7 import gamma_t_data
+from selfsense.chapters.ch7 import gamma_t_data, while_driven
 from selfsense.io.capture import open_capture, read_series
 from selfsense.methods.gamma import (
     GammaPolynomial,
@@ -177,10 +177,12 @@ def capture_variants(
     series: Mapping[str, np.ndarray],
     n_periods: int,
     thermometer: Mapping[str, np.ndarray] | None = None,
+    span: tuple[float, float] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """:func:`gamma_variants` of a simulated capture's ripple ``series`` or, given the middle
     thermometer's ``thermometer`` ({"time", "T_mid"}), :func:`gamma_t_variants` of its Γ_T
-    samples."""
+    samples inside the drive's ``span`` [s], those rule gamma_t_fit fits
+    (:func:`selfsense.chapters.ch7.while_driven`; None: all of them)."""
     with open_capture(capture) as cap:
         truth = Truth.from_capture(cap, names=("C_e", "x", "T"))
         fs, block_len, warmup = (
@@ -190,7 +192,8 @@ def capture_variants(
         )
     if thermometer is None:
         return gamma_variants(series, truth, fs, block_len, n_periods, warmup)
-    return gamma_t_variants(series, thermometer["time"], thermometer["T_mid"], truth, fs, block_len)
+    driven = series if span is None else while_driven(series, span)
+    return gamma_t_variants(driven, thermometer["time"], thermometer["T_mid"], truth, fs, block_len)
 
 
 def truth_refits(
@@ -202,18 +205,20 @@ def truth_refits(
     n_periods: int,
     temperatures: Sequence[float] = (0.0,),
     power=None,
+    span: tuple[float, float] | None = None,
 ) -> pd.DataFrame:
     """Rule gamma_truth's table: :func:`curve_rows` of every fit the pipeline made of Γ (Eq 5.4,
     Table 5.2) or, given the thermometers' ``power`` series, of Γ_T (Eq 7.13, Tables 7.2–7.3, with
     the C·T row at the order of the fit named "thesis order"), refitted on :func:`capture_variants`
     of the simulated ``capture`` and its ripple or Γ_T sample ``series``, against the ``printed``
-    curve over its stroke ``x_max_um`` [µm] at ``temperatures`` [°C] (Γ_T's).
+    curve over its stroke ``x_max_um`` [µm] at ``temperatures`` [°C] (Γ_T's, on the samples
+    inside its drive's ``span``).
 
     ``fits``: {name: path of a fit's record (:func:`selfsense.methods.gamma.load_gamma`)}, each
     refitted at its order; every path (the capture, the series, the fits, ``power``) is read
     here."""
     thermometer = read_series(power, ["time", "T_mid"]) if power else None
-    data = capture_variants(capture, read_series(series), n_periods, thermometer)
+    data = capture_variants(capture, read_series(series), n_periods, thermometer, span)
     orders = {name: load_gamma(path).order for name, path in fits.items()}
     interaction = orders["thesis order"] if thermometer is not None else None
     return curve_rows(data, orders, printed, x_max_um, temperatures, interaction)
