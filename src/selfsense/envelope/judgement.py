@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from selfsense.envelope.campaign import FAILED_COLUMN, MEMBER, Runs, runs_of_later_wave
 from selfsense.envelope.coverage import Coverage, binomial_band, printed, pseudo_theses
@@ -380,7 +381,16 @@ def judge(
 ) -> Judgement:
     """The verdicts of the ensemble's tables under the declaration (module docstring); each
     row's drivers its ``top`` largest Sobol' shares on ``sobol_base`` · (k + 2) emulator
-    points."""
+    points.
+
+    With one BLAS thread: the emulators' matrices are a few hundred runs wide, where a second
+    thread costs more than it gives, and a job beside another on two cores (the member jobs'
+    case) makes two threads fight for one core (docs/performance.md)."""
+    with threadpool_limits(limits=1):
+        return _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top)
+
+
+def _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top) -> Judgement:
     s = declaration.settings
     seed = int(s["waves"]["seed"])
     settings = Settings.from_declaration(s["emulator"], seed)
