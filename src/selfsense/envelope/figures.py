@@ -252,17 +252,17 @@ def _legend_handles() -> list:
     ]
 
 
-def forest(card: pd.DataFrame, title: str, axis: tuple[float, float] = AXIS):
-    """The forest plot of :func:`forest_figure`, as a Figure."""
-    rows = deviations(card, axis)
-    zero = len(card) - len(rows)
+def _chapter_panels(rows: pd.DataFrame, title: str, empty: str):
+    """A figure of one panel per chapter of ``rows`` (its ``chapter`` column), stacked on a shared
+    x axis, each as tall as its rows: (figure, [(axes, chapter, its rows)]), or a figure saying
+    ``empty`` and no panel when there is no row."""
     chapters = _chapters(rows["chapter"])
     if not chapters:
         fig, ax = plt.subplots(figsize=(10.0, 2.0), constrained_layout=True)
         ax.axis("off")
-        ax.text(0.5, 0.5, "no published number other than 0: nothing to compare", ha="center")
+        ax.text(0.5, 0.5, empty, ha="center")
         fig.suptitle(plain(title))
-        return fig
+        return fig, []
     sizes = [int((rows["chapter"] == c).sum()) for c in chapters]
     height = min(MAX_INCH, ROW_INCH * len(rows) + 0.45 * len(chapters) + 1.6)
     fig, axes = plt.subplots(
@@ -274,12 +274,24 @@ def forest(card: pd.DataFrame, title: str, axis: tuple[float, float] = AXIS):
         gridspec_kw={"height_ratios": [n + 1 for n in sizes]},  # +1: a 1-row panel stays visible
         constrained_layout=True,
     )
-    for ax, chapter in zip(axes[:, 0], chapters):
-        panel = rows[rows["chapter"] == chapter]
+    return fig, [(ax, c, rows[rows["chapter"] == c]) for ax, c in zip(axes[:, 0], chapters)]
+
+
+def forest(card: pd.DataFrame, title: str, axis: tuple[float, float] = AXIS):
+    """The forest plot of :func:`forest_figure`, as a Figure."""
+    rows = deviations(card, axis)
+    zero = len(card) - len(rows)
+    fig, panels = _chapter_panels(
+        rows, title, "no published number other than 0: nothing to compare"
+    )
+    if not panels:
+        return fig
+    for ax, chapter, panel in panels:
         _forest_panel(ax, panel, axis)
         ax.set_title(_chapter_title(chapter, panel["envelope verdict"]), fontsize=8, loc="left")
-    axes[-1, 0].set_xlim(*_x_range(rows, axis))
-    axes[-1, 0].set_xlabel("deviation from the published value [% of |published|]")
+    last = panels[-1][0]
+    last.set_xlim(*_x_range(rows, axis))
+    last.set_xlabel("deviation from the published value [% of |published|]")
     note = f"; {zero} with published 0 not drawn (no relative deviation)" if zero else ""
     fig.suptitle(plain(f"{title}\n{_numbers(len(rows))} published{note}"), fontsize=9)
     fig.legend(handles=_legend_handles(), loc="outside lower center", ncols=3, fontsize=7)
@@ -469,26 +481,10 @@ def review_forest(review: pd.DataFrame, title: str, axis: tuple[float, float] = 
     as a black dot, the published value the line at 0 (values beyond :data:`AXIS` at its edge).
     One panel per chapter."""
     rows = review_rows(review, axis)
-    chapters = _chapters(rows["chapter"])
-    if not chapters:
-        fig, ax = plt.subplots(figsize=(10.0, 2.0), constrained_layout=True)
-        ax.axis("off")
-        ax.text(0.5, 0.5, "no judged row with a published value other than 0", ha="center")
-        fig.suptitle(plain(title))
+    fig, panels = _chapter_panels(rows, title, "no judged row with a published value other than 0")
+    if not panels:
         return fig
-    sizes = [int((rows["chapter"] == c).sum()) for c in chapters]
-    height = min(MAX_INCH, ROW_INCH * len(rows) + 0.45 * len(chapters) + 1.6)
-    fig, axes = plt.subplots(
-        len(chapters),
-        1,
-        sharex=True,
-        squeeze=False,
-        figsize=(10.0, height),
-        gridspec_kw={"height_ratios": [n + 1 for n in sizes]},
-        constrained_layout=True,
-    )
-    for ax, chapter in zip(axes[:, 0], chapters):
-        panel = rows[rows["chapter"] == chapter]
+    for ax, chapter, panel in panels:
         for y, (_, row) in enumerate(panel.iterrows()):
             lo, hi = REVIEW_INTERVALS["envelope"]
             if np.isfinite(row[lo]) and np.isfinite(row[hi]):
@@ -503,15 +499,10 @@ def review_forest(review: pd.DataFrame, title: str, axis: tuple[float, float] = 
         ax.set_yticks(range(len(panel)), [plain(t) for t in panel["label"]], fontsize=7)
         ax.set_ylim(len(panel) - 0.5, -0.5)
         ax.grid(axis="x", alpha=0.3)
-        name = f"Chapter {chapter}" if re.fullmatch(r"\d+", chapter) else chapter
-        counts = panel["posterior"].value_counts()
-        ax.set_title(
-            plain(f"{name}: " + ", ".join(f"{n} {v}" for v, n in counts.items())),
-            fontsize=8,
-            loc="left",
-        )
-    axes[-1, 0].set_xlim(axis[0] - 5.0, axis[1] + 5.0)
-    axes[-1, 0].set_xlabel("deviation from the published value [% of |published|]")
+        ax.set_title(_chapter_title(chapter, panel["posterior"]), fontsize=8, loc="left")
+    last = panels[-1][0]
+    last.set_xlim(axis[0] - 5.0, axis[1] + 5.0)
+    last.set_xlabel("deviation from the published value [% of |published|]")
     fig.suptitle(plain(f"{title}\n{_numbers(len(rows))} judged"), fontsize=9)
     handles = [Patch(color="0.85", label="prior envelope p2.5–p97.5")] + [
         Patch(color=c, label=f"posterior p2.5–p97.5: {v}") for v, c in POSTERIOR_COLOURS.items()

@@ -572,9 +572,15 @@ def pit_table(ens: Ensemble, chosen: np.ndarray, cov: Coverage) -> pd.DataFrame:
     return pd.DataFrame(out, columns=[MEMBER, "column", "PIT", "inside 95 %"])
 
 
+def findings(verdicts: pd.DataFrame) -> pd.DataFrame:
+    """The verdicts' findings: a row with its algebraic twins (a % of stroke, an adjusted R²,
+    whose ``twin of`` names it) is one."""
+    return verdicts[verdicts["twin of"].fillna("") == ""]
+
+
 def counts(verdicts: pd.DataFrame) -> dict[str, int]:
-    """The verdicts counted as findings: a twin (a % of stroke, an adjusted R²) with its row."""
-    own = verdicts[verdicts["twin of"].fillna("") == ""]
+    """The verdicts counted as findings (:func:`findings`)."""
+    own = findings(verdicts)
     found = own["verdict"].value_counts()
     return {v: int(found.get(v, 0)) for v in VERDICTS} | {"findings": len(own)}
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from selfsense.envelope import fold_prediction
+from selfsense.envelope import fold_prediction, judgement
 from selfsense.envelope.design import Design
 from selfsense.envelope.verdicts import (
     INCONSISTENT,
@@ -99,16 +99,23 @@ def envelope_rows_markdown(card: pd.DataFrame) -> str:
     lines = [f"{len(out)} findings are inconsistent with the envelope{on_edge}.", ""]
     for chapter, part in out.groupby("chapter", sort=False):
         lines.append(f"- {chapter_label(chapter)}:")
-        for _, row in part.iterrows():
-            unit = f" {row['unit']}" if isinstance(row["unit"], str) and row["unit"] else ""
-            drivers = row["driven by"] if isinstance(row["driven by"], str) else ""
-            lines.append(
-                f"  - {row['source']}, {row['quantity']}: published {row['published']:.4g}, "
-                f"envelope {row['p2.5']:.4g} to {row['p97.5']:.4g}{unit} "
-                f"({row['distance [widths]']:.2g} widths{edge_note(row)}); "
-                f"driven by {drivers or '–'}"
-            )
+        lines += [
+            "  "
+            + _row_line(row, "envelope", f"{row['distance [widths]']:.2g} widths{edge_note(row)}")
+            for _, row in part.iterrows()
+        ]
     return "\n".join(lines)
+
+
+def _row_line(row: pd.Series, interval: str, note: str) -> str:
+    """One listed row: its source and quantity, the published value, the ``interval``'s 2.5–97.5 %
+    in its unit with ``note``, and its drivers."""
+    unit = f" {row['unit']}" if isinstance(row["unit"], str) and row["unit"] else ""
+    drivers = row["driven by"] if isinstance(row["driven by"], str) else ""
+    return (
+        f"- {row['source']}, {row['quantity']}: published {row['published']:.4g}, {interval} "
+        f"{row['p2.5']:.4g} to {row['p97.5']:.4g}{unit} ({note}); driven by {drivers or '–'}"
+    )
 
 
 @dataclass(frozen=True)
@@ -136,9 +143,9 @@ NOT_RUN = "not run"
 
 
 def _own(verdicts: pd.DataFrame) -> pd.DataFrame:
-    """The findings: a row with its algebraic twins is one (the twins' ``twin of`` names it),
-    one no run gave a value :data:`NOT_RUN` rather than not emulable."""
-    own = verdicts[verdicts["twin of"].fillna("") == ""].copy()
+    """The findings (:func:`selfsense.envelope.judgement.findings`), one no run gave a value
+    :data:`NOT_RUN` rather than not emulable."""
+    own = judgement.findings(verdicts).copy()
     unrun = (own["verdict"] == fold_prediction.NOT_EMULABLE) & (own["runs"] == 0)
     own.loc[unrun, "verdict"] = NOT_RUN
     return own
@@ -211,14 +218,10 @@ def validation_rows_markdown(snapshots: Sequence[ValidationSnapshot]) -> str:
         own = _own(snap.verdicts)
         out = own[own["verdict"] == fold_prediction.INCONSISTENT]
         lines += [f"`{snap.name}`: {len(out)} findings inconsistent.", ""]
-        for _, row in out.iterrows():
-            unit = f" {row['unit']}" if isinstance(row["unit"], str) and row["unit"] else ""
-            drivers = row["driven by"] if isinstance(row["driven by"], str) else ""
-            lines.append(
-                f"- {row['source']}, {row['quantity']}: published {row['published']:.4g}, "
-                f"predicted {row['p2.5']:.4g} to {row['p97.5']:.4g}{unit} ({row['fold']}, "
-                f"I = {row['implausibility']:.3g}); driven by {drivers or '–'}"
-            )
+        lines += [
+            _row_line(row, "predicted", f"{row['fold']}, I = {row['implausibility']:.3g}")
+            for _, row in out.iterrows()
+        ]
         incompatible = own[own["verdict"] == fold_prediction.INCOMPATIBLE]
         if len(incompatible):
             lines += [

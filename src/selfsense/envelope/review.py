@@ -17,6 +17,9 @@ from collections.abc import Sequence
 
 import pandas as pd
 
+from selfsense.envelope.render import combined_envelope
+from selfsense.envelope.verdicts import NO_ENVELOPE
+
 #: a row's key in every table
 KEY = ["source", "quantity"]
 #: the nominal scorecard's columns kept, as the review names them
@@ -46,8 +49,9 @@ def review_table(
 ) -> pd.DataFrame:
     """One row per row of ``verdicts`` (the validation's, in its order): chapter, source,
     quantity, unit, published; the nominal's value, band and verdict from ``nominal`` (its
-    published rows); the envelope's interval and verdict from the first of ``envelopes`` that
-    judges the row; the posterior's interval, implausibility, verdict, fold, twin and drivers."""
+    published rows); the envelope's interval and verdict from the design of ``envelopes`` that
+    judges the row (:func:`selfsense.envelope.render.combined_envelope`: the first has every
+    row); the posterior's interval, implausibility, verdict, fold, twin and drivers."""
     out = verdicts[["chapter", *KEY, "unit", "published"]].copy()
     out = out.join(verdicts[list(POSTERIOR)].rename(columns=POSTERIOR))
     if nominal is not None and len(nominal):
@@ -56,18 +60,12 @@ def review_table(
         out = out.merge(kept, on=KEY, how="left")
     else:
         out = out.assign(**{c: pd.NA for c in NOMINAL.values()})
-    judged = [
-        card[KEY + list(ENVELOPE)].rename(columns=ENVELOPE)
-        for card in envelopes
-        if len(card) and set(ENVELOPE) <= set(card.columns)
-    ]
-    if judged:
-        stacked = pd.concat(judged, ignore_index=True)
-        # a design of its own (Chapter 7's) judges the rows the others have no envelope for
-        stacked = stacked[stacked["envelope"] != "no envelope"].drop_duplicates(KEY)
-        out = out.merge(stacked, on=KEY, how="left")
+    if envelopes:
+        card = combined_envelope(envelopes)
+        judged = card[card["envelope verdict"] != NO_ENVELOPE]
+        out = out.merge(judged[KEY + list(ENVELOPE)].rename(columns=ENVELOPE), on=KEY, how="left")
     else:
         out = out.assign(**{c: pd.NA for c in ENVELOPE.values()})
-    out["envelope"] = out["envelope"].fillna("no envelope")
+    out["envelope"] = out["envelope"].fillna(NO_ENVELOPE)
     order = ["chapter", *KEY, "unit", "published", *NOMINAL.values(), *ENVELOPE.values()]
     return out[order + [c for c in POSTERIOR.values()]]
