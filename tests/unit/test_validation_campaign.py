@@ -188,3 +188,24 @@ def test_the_prior_holds_the_twins_variants_off_and_draws_every_other_unknown():
     assert seed is not None and seed.paths == ("seed",)
     others = [u for u in declared if "pi_p885" in u.datasets and not u.in_model and not u.variant]
     assert len(prior) == len(others) - 1  # all but the seed, which is noise
+
+
+def test_the_declared_variants_join_the_prior_and_what_they_hold_leaves_it():
+    from pathlib import Path
+
+    from selfsense.envelope.unknowns import load_unknowns
+    from selfsense.envelope.validation import load_validation
+
+    root = Path(__file__).resolve().parents[2]
+    declared = load_unknowns(root / "workflow" / "unknowns.yaml", raw_dir=root / "raw")
+    groups = load_validation(root / "workflow" / "validation.yaml").settings["variants"]["groups"]
+    base, _ = campaign.varied(declared, "pi_p885")
+    prior, _ = campaign.varied(declared, "pi_p885", groups)
+    held = {h for g in groups.values() for h in g.get("holds", ())}
+    keys = {u.id for u in declared if u.variant and u.group in groups}
+    assert held and held <= {u.id for u in base}
+    assert {u.id for u in prior} == ({u.id for u in base} - held) | keys
+    with pytest.raises(ManifestError, match="variants.groups.mechanics: no variant group"):
+        campaign.varied(declared, "pi_p885", {"mechanics": {}})
+    with pytest.raises(ManifestError, match="holds: k_stack is not in the prior"):
+        campaign.varied(declared, "pi_p885", {"amplifier": {"holds": ["k_stack"]}})

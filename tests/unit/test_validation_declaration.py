@@ -240,3 +240,12 @@ def test_refuses_a_date_that_is_no_date(tmp_path, document, registry, manifest):
     doc = copy.deepcopy(document)
     doc["date"] = "2026-02-30"
     assert "key date" in refused(tmp_path, doc, registry, manifest)
+
+
+def test_refuses_a_history_that_does_not_end_at_the_files_version(
+    tmp_path, document, registry, manifest
+):
+    doc = copy.deepcopy(document)
+    doc["version"] = doc["history"][-1]["version"] + 1
+    message = refused(tmp_path, doc, registry, manifest)
+    assert "key history" in message and f"version {doc['version']}" in message

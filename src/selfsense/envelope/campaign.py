@@ -75,6 +75,8 @@ class Plan:
     batch: int  # members per batch
     batches: int  # batches made by one run (0: every batch not yet done)
     stages: Sequence[str] = field(default_factory=tuple)
+    variants: bool = False  # the declared variants' keys join the prior (one wave of its own)
+    joins: Sequence[str] = field(default_factory=tuple)  # ensembles whose runs join the verdicts
 
     @classmethod
     def from_config(cls, section: Mapping[str, Any], source: str = "config.yaml") -> Plan:
@@ -90,11 +92,13 @@ class Plan:
             batch=int(section["batch"]),
             batches=int(section["batches"]),
             stages=tuple(section["stages"]),
+            variants=bool(section.get("variants", False)),
+            joins=tuple(section.get("joins", ())),
         )
 
     def record(self) -> dict[str, Any]:
         """The plan as plain data (a rule's param): ``Plan(**it)`` is the plan again."""
-        return asdict(self) | {"stages": list(self.stages)}
+        return asdict(self) | {"stages": list(self.stages), "joins": list(self.joins)}
 
 
 def asked(targets: Iterable[str], name: str) -> bool:
@@ -108,11 +112,30 @@ def member_name(name: str, number: int) -> str:
     return f"{name}{MEMBER_MARK}{number:03d}"
 
 
-def varied(unknowns: Sequence[Unknown], dataset: str) -> tuple[list[Unknown], Unknown | None]:
+def varied(
+    unknowns: Sequence[Unknown],
+    dataset: str,
+    variants: Mapping[str, Mapping[str, Any]] | None = None,
+) -> tuple[list[Unknown], Unknown | None]:
     """(the declared prior, the noise seed): the dataset's unknowns a file holds, but the one at
     the manifest's ``seed`` (the seed is noise, drawn per run), and that one. The twin's variants
-    are not in the prior: each is a model of its own, held off here and compared as a whole."""
-    own = [u for u in unknowns if dataset in u.datasets and not u.in_model and not u.variant]
+    are not in the prior: each is a model of its own, held off and compared as a whole. With
+    ``variants`` (the declaration's ``variants.groups``) those groups' keys join the prior and
+    the unknowns each ``holds`` leave it (held at their nominal); a group that is no variant of
+    the dataset, or a held unknown not in its prior, is one line naming the key."""
+    variants = variants or {}
+    own = [u for u in unknowns if dataset in u.datasets and not u.in_model]
+    groups = {u.group for u in own if u.variant}
+    held = {h for g in variants.values() for h in g.get("holds", ())}
+    for name, group in variants.items():
+        where = f"workflow/validation.yaml: key variants.groups.{name}"
+        if name not in groups:
+            raise ManifestError(f"{where}: no variant group of {dataset} in unknowns.yaml", where)
+        base = {u.id for u in own if not u.variant}
+        for h in group.get("holds", ()):
+            if h not in base:
+                raise ManifestError(f"{where}.holds: {h} is not in the prior of {dataset}", where)
+    own = [u for u in own if (u.group in variants if u.variant else u.id not in held)]
     seed = next((u for u in own if u.paths == ("seed",)), None)
     return [u for u in own if u is not seed], seed
 
@@ -449,17 +472,25 @@ def draw(
             f"workflow/validation.yaml declares ({declaration.dataset})",
             "validation.dataset",
         )
-    declared = int(declaration.settings["waves"]["stop"]["max_waves"])
+    settings = declaration.settings
+    if plan.variants and not settings["variants"]:
+        raise ManifestError(
+            "config.yaml: key validation.variants: workflow/validation.yaml declares no variants",
+            "validation.variants",
+        )
+    groups = settings["variants"].get("groups", {}) if plan.variants else {}
+    declared = 1 if plan.variants else int(settings["waves"]["stop"]["max_waves"])
     if plan.waves > declared:
         raise ManifestError(
             f"config.yaml: key validation.waves: {plan.waves} is more than the {declared} waves "
             "workflow/validation.yaml declares",
             "validation.waves",
         )
-    prior, seed = varied(unknowns, plan.dataset)
+    prior, seed = varied(unknowns, plan.dataset, groups)
     ids = tuple(u.id for u in prior)
     results, snapshot = Path(results), Path(snapshot)
-    waves = [first_wave(declaration.settings["waves"], len(ids)).head(plan.members)]
+    wave_one = settings["variants"] if plan.variants else settings["waves"]
+    waves = [first_wave(wave_one, len(ids)).head(plan.members)]
     designs: dict[int, str] = {}
     design_wave = None
     all_batches: list[Batch] = []

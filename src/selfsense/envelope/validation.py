@@ -209,9 +209,10 @@ def load_validation(
         )
         for f in folds
     )
+    _check_history(doc, path)
     settings = {
         k: doc[k] for k in ("waves", "emulator", "prediction", "pseudo_theses", "description")
-    }
+    } | {"variants": doc.get("variants", {})}
     return Declaration(
         version=doc["version"],
         date=doc["date"],
@@ -248,6 +249,17 @@ def _check_date(date: str, path: Path) -> None:
         datetime.date.fromisoformat(date)
     except ValueError:
         raise ManifestError(f"{path}: key date: {date!r} is not a calendar date", "date") from None
+
+
+def _check_history(doc: Mapping[str, Any], path: Path) -> None:
+    """A history, where given, ends with this file's version and date."""
+    history = doc.get("history")
+    if history and (history[-1]["version"], history[-1]["date"]) != (doc["version"], doc["date"]):
+        raise ManifestError(
+            f"{path}: key history: its last entry is version {history[-1]['version']} of "
+            f"{history[-1]['date']}, not the file's version {doc['version']} of {doc['date']}",
+            "history",
+        )
 
 
 def _signatures(path: Path) -> dict[str, Mapping[str, Any]]:
