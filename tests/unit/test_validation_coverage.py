@@ -2,12 +2,23 @@
 noise, 24 pseudo-theses (members drawn from the prior, taken as the bench, printed to two
 decimals) go through the same emulators and leave-one-fold-out; their held-out rows' coverage at
 the nominal 95 % lands in 90–99 %, and the PIT histogram is not far from flat. A method whose
-predictive leaves out the seed's variance fails the same test."""
+predictive leaves out the seed's variance fails the same test. With a declared discrepancy
+larger than the noise, benches that are the twin itself are covered more often than 99 %, and
+only benches that carry a discrepancy drawn as declared are covered at the nominal rate."""
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from selfsense.envelope.coverage import binomial_band, printed, pseudo_theses
+from selfsense.envelope.coverage import (
+    DISCREPANT,
+    EXACT,
+    benches,
+    binomial_band,
+    printed,
+    pseudo_theses,
+)
 from selfsense.envelope.emulator import Settings
 from selfsense.envelope.fold_prediction import COMMON, Columns
 from selfsense.envelope.history_matching import (
@@ -102,6 +113,38 @@ def test_a_predictive_without_the_seeds_variance_fails_the_same_test(setting):
         columns, mean, var_em, np.zeros_like(var_ens), truths, cutoff=3.0, second_maximum_from=10
     )
     assert result.coverage < 0.90
+
+
+def test_only_a_bench_that_carries_the_declared_discrepancy_is_covered_at_the_nominal(setting):
+    columns, mean, var_em, var_ens, _ = setting
+    md = 0.15  # three times the noise: the predictive is mostly discrepancy
+    k = len(FOLDS)
+    wide = replace(columns, var_obs_md=np.full(k, DIGIT**2 / 12 + md**2))
+    values = simulate(prior_candidates(24, 3, seed=3), np.random.default_rng(7))
+    coverage = {
+        test: pseudo_theses(
+            wide,
+            mean,
+            var_em,
+            var_ens,
+            printed(bench, ["identity"] * k, np.full(k, DIGIT)),
+            cutoff=3.0,
+            second_maximum_from=10,
+        ).coverage
+        for test, bench in benches(values, np.full(k, md), {"seed": 5}).items()
+    }
+    assert coverage[EXACT] > 0.99
+    assert 0.90 <= coverage[DISCREPANT] <= 0.99
+
+
+def test_a_bench_with_no_discrepancy_declared_is_the_twin_alone():
+    values = np.arange(6.0).reshape(2, 3)
+    assert list(benches(values, np.ones(3), None)) == [EXACT]
+    drawn = benches(values, np.array([0.0, 1.0, 2.0]), {"seed": 1})
+    assert drawn[DISCREPANT][:, 0] == pytest.approx(values[:, 0])  # sd 0: no draw
+    assert np.all(drawn[DISCREPANT][:, 1:] != values[:, 1:])
+    again = benches(values, np.array([0.0, 1.0, 2.0]), {"seed": 1})[DISCREPANT]
+    np.testing.assert_array_equal(again, drawn[DISCREPANT])
 
 
 def test_printing_rounds_on_the_quantitys_own_scale():

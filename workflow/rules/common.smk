@@ -923,15 +923,21 @@ def validation_tables(kinds, waves=None):
 
 
 def validate_inputs(wildcards):
-    """Rule validate's inputs: every batch's tables (done, or made by this run), the later
-    waves' designs, and the next wave's when this run makes it."""
+    """Rule validate's inputs: every batch's tables (done, or made by this run; the joined
+    validations' committed ones first), the later waves' designs, and the next wave's when
+    this run makes it."""
     designs = list(VALIDATION.designs.values())
     if VALIDATION.design_wave is not None:
         designs.append(f"{VALIDATION_FOLDER}/wave{VALIDATION.design_wave}/design.csv")
+
+    def tables(kind):
+        name = validation_campaign.TABLES[kind]
+        return [f"{b}/{name}" for b in VALIDATION.joined] + validation_tables([kind])
+
     return {
-        "units": validation_tables(["inputs"]),
-        "rows": validation_tables(["rows"]),
-        "targets": validation_tables(["targets"]),
+        "units": tables("inputs"),
+        "rows": tables("rows"),
+        "targets": tables("targets"),
         "designs": designs,
     }
 

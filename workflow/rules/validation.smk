@@ -137,11 +137,54 @@ rule validation_verdicts:
     resources:
         **resources_for("large"),
     params:
-        ids=list(VALIDATION.ids),
+        model=VALIDATION.model(),
         pdf=FIGURE_PDF,
         drivers=config["validation"]["drivers"],
     script:
         "../scripts/validation_verdicts.py"
+
+
+rule validation_variants:
+    """The twin's variants chosen by the data they are not judged on: today's twin, each
+    variant alone and all of them, every fold predicted from the others on one set of
+    emulators of the joined tables; each fold's state per model, the folds a variant reconciles
+    and breaks, the compatibility maps, the declared rows side by side."""
+    input:
+        unpack(validate_inputs),
+        declaration=VALIDATION_DECLARATION,
+        sources=VALIDATION_SOURCES,
+        registry=SCORECARD_REGISTRY,
+        unknowns=UNKNOWNS,
+        library=library_sources("validation_variants"),
+    output:
+        verdicts=f"{VALIDATION_FOLDER}/variants/verdicts.csv",
+        compatibility=f"{VALIDATION_FOLDER}/variants/compatibility.csv",
+        folds=report(
+            f"{VALIDATION_FOLDER}/variants/folds.csv",
+            caption="../report/validation_variants.rst",
+            category="Validation",
+            subcategory="Variants",
+        ),
+        rows=report(
+            f"{VALIDATION_FOLDER}/variants/rows.csv",
+            caption="../report/validation_variant_rows.rst",
+            category="Validation",
+            subcategory="Variants",
+        ),
+        summary=f"{VALIDATION_FOLDER}/variants/variants_summary.rst",
+    log:
+        f"logs/validation/{VALIDATION_PLAN.name}/variants.log",
+    benchmark:
+        f"benchmarks/out/validation/{VALIDATION_PLAN.name}/variants.tsv"
+    localrule: True
+    threads: 1
+    resources:
+        **resources_for("large"),
+    params:
+        model=VALIDATION.model(),
+        models=VALIDATION.models(),
+    script:
+        "../scripts/validation_variants.py"
 
 
 rule validation_review:
@@ -185,4 +228,5 @@ rule validate:
     input:
         rules.validation_verdicts.output,
         rules.validation_review.output,
+        rules.validation_variants.output if VALIDATION_PLAN.variants else [],
     localrule: True

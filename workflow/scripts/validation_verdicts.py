@@ -6,7 +6,7 @@ output naming the declaration's and the unknowns' sha256 and the commit."""
 import pandas as pd
 
 from selfsense.envelope import figures
-from selfsense.envelope.campaign import stamps
+from selfsense.envelope.campaign import ensemble_tables, stamps
 from selfsense.envelope.judgement import judge
 from selfsense.envelope.validation import load_validation
 from selfsense.io.manifest import load_yaml
@@ -15,24 +15,25 @@ from selfsense.scorecard.registry import parse_registry
 
 
 def main(
-    ids, pdf, drivers, units, rows, targets, declaration, registry, unknowns, inputs, log, **out
+    model, pdf, drivers, units, rows, targets, declaration, registry, unknowns, inputs, log, **out
 ):
-    """ids: the unknowns varied, in the tables' order; units, rows, targets: every batch's
-    tables; out: the rule's outputs by name."""
+    """model: the unknowns judged over (ids), each one's nominal as a unit value (nominal: for
+    the runs of a joined validation that held it), those the model judged holds (fixed); units,
+    rows, targets: every batch's tables, this validation's and the joined ones'; out: the
+    rule's outputs by name."""
     logger = script_logging(log)
     decl = load_validation(declaration)
     entries = parse_registry(load_yaml(registry), registry)
-    tables = [
-        pd.concat([pd.read_csv(p) for p in ps], ignore_index=True) for ps in (units, rows, targets)
-    ]
-    result = judge(decl, entries, ids, *tables, **drivers)
+    read = ([pd.read_csv(p) for p in ps] for ps in (units, rows, targets))
+    tables = ensemble_tables(*read, ids=model["ids"], nominal=model["nominal"])
+    result = judge(decl, entries, model["ids"], *tables, **drivers, fixed=model["fixed"])
     extra = stamps(declaration, unknowns) | {"members": len(tables[0])}
     for key in ("verdicts", "emulators", "waves", "compatibility", "coverage", "pit", "sobol"):
         write_table(getattr(result, key), out[key], inputs=inputs, **extra)
     title = f"{decl.dataset}, {len(tables[0])} runs"
     folds = list(result.compatibility["fold"])
     share = result.compatibility[folds].to_numpy() if folds else []
-    pit = result.pit["inside 95 %"]
+    pit = result.headline_pit["inside 95 %"]
     coverage = float(pit.mean()) if len(pit) else float("nan")
     drawn = (
         (figures.pit_histogram(result.histogram, coverage, len(pit), title), out["pit_histogram"]),

@@ -41,6 +41,7 @@ from selfsense.envelope.design import (
     manifest_sha256,
     member_manifest,
     physical,
+    quantile,
 )
 from selfsense.envelope.history_matching import maximin_latin_hypercube, streams
 from selfsense.envelope.unknowns import Unknown
@@ -99,6 +100,37 @@ class Plan:
     def record(self) -> dict[str, Any]:
         """The plan as plain data (a rule's param): ``Plan(**it)`` is the plan again."""
         return asdict(self) | {"stages": list(self.stages), "joins": list(self.joins)}
+
+
+#: the model with every variant off, and the one with every variant's keys free
+TODAY = "today's twin"
+ALL = "all variants"
+
+
+@dataclass(frozen=True)
+class Model:
+    """A model of the bench: its name and the inputs it holds ({unknown: unit value})."""
+
+    name: str
+    fixed: Mapping[str, float]
+
+
+def variant_models(
+    prior: Sequence[Unknown], groups: Mapping[str, Mapping[str, Any]], held: Sequence[Unknown]
+) -> list[Model]:
+    """Today's twin, each variant group of ``groups`` (the declaration's ``variants.groups``)
+    alone, and all of them, over ``prior`` (the variant validation's unknowns) and ``held`` (the
+    unknowns the groups hold, which the base validation varies)."""
+    keys = {g: [u.id for u in prior if u.variant and u.group == g] for g in groups}
+    by_id = {u.id: u for u in [*prior, *held]}
+    off = {k: quantile(by_id[k].nominal, by_id[k]) for ks in keys.values() for k in ks}
+    at_nominal = {h.id: quantile(h.nominal, h) for h in held}
+    out = [Model(TODAY, off)]
+    for g, spec in groups.items():
+        others = {k: v for k, v in off.items() if k not in keys[g]}
+        out.append(Model(g, others | {h: at_nominal[h] for h in spec.get("holds", ())}))
+    out.append(Model(ALL, at_nominal))
+    return out
 
 
 def asked(targets: Iterable[str], name: str) -> bool:
@@ -384,6 +416,31 @@ def batch_tables(
     return rows.rename_axis(index=MEMBER).reset_index(), target_frame.reset_index()
 
 
+def ensemble_tables(
+    *kinds: Sequence[pd.DataFrame], ids: Sequence[str], nominal: Mapping[str, float]
+) -> list[pd.DataFrame]:
+    """Every batch's tables of each kind (members × inputs, × rows, × targets; this
+    validation's and those it joins) as one table a kind, the inputs over ``ids``
+    (:func:`over_inputs`); a row or target column a batch lacks is empty."""
+    inputs, *others = [pd.concat(list(frames), ignore_index=True) for frames in kinds]
+    return [over_inputs(inputs, ids, nominal), *others]
+
+
+def over_inputs(inputs: pd.DataFrame, ids: Sequence[str], nominal: Mapping[str, float]):
+    """members × inputs over the unknowns ``ids``: the run columns, then each unknown, empty
+    where a run's validation did not vary it, there at its ``nominal`` unit value (the value
+    its manifest held)."""
+    table = inputs.reindex(columns=[*RUN_COLUMNS, *ids])
+    table = table.fillna({name: float(value) for name, value in nominal.items() if name in ids})
+    empty = [name for name in ids if table[name].isna().any()]
+    if empty:
+        raise ManifestError(
+            f"validation tables: some runs hold no value of {empty[0]} and it has no nominal",
+            "validation.joins",
+        )
+    return table
+
+
 def stamps(declaration: str | Path, unknowns: str | Path) -> dict[str, str]:
     """What every output of the validation's provenance names: the declaration's and the
     unknowns' sha256 and the commit."""
@@ -426,6 +483,34 @@ class Validation:
     targets: tuple[tuple[str, Mapping[str, Any]], ...] = ()
     rows: tuple[str, ...] = ()
     first: int = 0  # the number of runs of the waves before the design this run makes
+    prior: tuple[Unknown, ...] = ()  # the unknowns varied (``ids``'s)
+    held: tuple[Unknown, ...] = ()  # unknowns a variant holds that the joined runs vary
+    joined: tuple[str, ...] = ()  # the done batches' folders of the validations joined
+    groups: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # variants varied
+
+    @property
+    def judged(self) -> tuple[str, ...]:
+        """The inputs the verdicts are made over: the unknowns varied, then those held."""
+        return (*self.ids, *(u.id for u in self.held))
+
+    def models(self) -> list[dict[str, Any]]:
+        """The models a variant validation judges (:func:`variant_models`) as plain data (a
+        rule's param: ``Model(**it)`` is the model again); none for a validation of today's
+        twin."""
+        if not self.groups:
+            return []
+        return [asdict(m) for m in variant_models(self.prior, self.groups, self.held)]
+
+    def model(self) -> dict[str, Any]:
+        """What the verdicts read of the model judged (rule validation_verdicts' param): the
+        inputs, each one's nominal as a unit value, and those held there (every variant's
+        keys free: a variant validation's verdicts are all the variants')."""
+        every = (*self.prior, *self.held)
+        return {
+            "ids": list(self.judged),
+            "nominal": {u.id: quantile(u.nominal, u) for u in every},
+            "fixed": {u.id: quantile(u.nominal, u) for u in self.held},
+        }
 
     @property
     def tables(self) -> list[str]:
@@ -488,7 +573,10 @@ def draw(
         )
     prior, seed = varied(unknowns, plan.dataset, groups)
     ids = tuple(u.id for u in prior)
+    holds = {h for g in groups.values() for h in g.get("holds", ())}
+    held = tuple(u for u in varied(unknowns, plan.dataset)[0] if u.id in holds)
     results, snapshot = Path(results), Path(snapshot)
+    joined = tuple(b for name in plan.joins for b in joined_batches(snapshot.parent, name))
     wave_one = settings["variants"] if plan.variants else settings["waves"]
     waves = [first_wave(wave_one, len(ids)).head(plan.members)]
     designs: dict[int, str] = {}
@@ -543,4 +631,22 @@ def draw(
         targets=tuple((t.id, dict(t.locate)) for t in declaration.targets),
         rows=tuple(row_keys(declaration)),
         first=sum(len(r) for r in waves),
+        prior=tuple(prior),
+        held=held,
+        joined=joined,
+        groups=groups,
     )
+
+
+def joined_batches(validations: Path, name: str) -> list[str]:
+    """The done batches' folders of the committed validation ``name`` (under ``validations``,
+    docs/snapshot/validation/), in run order; none is one line naming the key."""
+    found = sorted(p.parent for p in (validations / name).glob("wave*/batch*/inputs.csv"))
+    done = [str(f) for f in found if _has_tables(f)]
+    if not done:
+        raise ManifestError(
+            f"config.yaml: key validation.joins: {name} has no committed batch under "
+            f"{validations / name}",
+            "validation.joins",
+        )
+    return done

@@ -269,6 +269,24 @@ def physical(u: np.ndarray, unknown: Unknown) -> np.ndarray:
     raise ManifestError(f"workflow/unknowns.yaml: {unknown.id}: no draw for kind {unknown.kind}")
 
 
+def quantile(value: float, unknown: Unknown) -> float:
+    """The unit value :func:`physical` takes to ``value`` (an integer's: the middle of its
+    cell), its inverse."""
+    low, high = unknown.low, unknown.high
+    if unknown.kind == "uniform":
+        return float((value - low) / (high - low))
+    if unknown.kind == "loguniform":
+        return float(math.log(value / low) / math.log(high / low))
+    if unknown.kind == "integer":
+        return float((value - low + 0.5) / (high - low + 1))
+    if unknown.kind == "normal":
+        from scipy import stats
+
+        a, b = (low - unknown.mean) / unknown.sd, (high - unknown.mean) / unknown.sd
+        return float(stats.truncnorm.cdf(value, a, b, loc=unknown.mean, scale=unknown.sd))
+    raise ManifestError(f"workflow/unknowns.yaml: {unknown.id}: no draw for kind {unknown.kind}")
+
+
 def sampling_plan(varied: Sequence[Unknown], design: Design) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(plan, unit): the members' values of every varied unknown, and the same draws in the unit
     hypercube (what Morris's analysis reads), indexed by member name."""

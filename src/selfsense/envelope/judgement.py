@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,7 +38,8 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from selfsense.envelope.campaign import FAILED_COLUMN, MEMBER, Runs, runs_of_later_wave
-from selfsense.envelope.coverage import Coverage, binomial_band, printed, pseudo_theses
+from selfsense.envelope.coverage import Coverage, benches, binomial_band, printed, pseudo_theses
+from selfsense.envelope.design import MEMBER_MARK
 from selfsense.envelope.emulator import (
     Emulator,
     LeaveOneOut,
@@ -112,12 +113,15 @@ def ensemble(
         raw = rows[key] if key in rows and r.judged else pd.Series(np.nan, index=members)
         columns.append(_scaled(r.transform, raw))
     Y = np.column_stack(columns) if columns else np.zeros((len(members), 0))
+    # a design point is one of its own validation's: runs of joined validations never replicate
+    own = [str(m).split(MEMBER_MARK, 1)[0] for m in members]
+    keys = list(zip(own, inputs["wave"].astype(int), inputs["point"].astype(int)))
     return Ensemble(
         members,
         inputs[list(ids)].to_numpy(dtype=float),
         Y,
         inputs["wave"].to_numpy(dtype=int),
-        inputs["point"].to_numpy(dtype=int),
+        pd.factorize(pd.Series(keys, dtype=object))[0].astype(int),
         column_names(declaration),
     )
 
@@ -196,7 +200,7 @@ def emulate(
     return out
 
 
-def _emulators(fitted: Sequence[Fitted]) -> list[Emulator | None]:
+def emulators_of(fitted: Sequence[Fitted]) -> list[Emulator | None]:
     return [f.emulator for f in fitted]
 
 
@@ -265,7 +269,7 @@ def wave_cuts(
         Y = ens.Y[seen, :k]
         var, df = replicate_variance(Y, ens.wave[seen], ens.point[seen])
         fitted = emulate(ens.X[seen], Y, settings, var, df, judged[:k])
-        emulators = _emulators(fitted)
+        emulators = emulators_of(fitted)
         mask = mask & screen(
             emulators,
             candidates,
@@ -336,13 +340,31 @@ class Judgement:
     histogram: np.ndarray
     summary: str
 
+    @property
+    def headline_pit(self) -> pd.DataFrame:
+        """The PIT rows of the declaration's latest test (the one its histogram draws)."""
+        return headline(self.pit)
 
-def pseudo_benches(ens: Ensemble, count: int, seed: int) -> np.ndarray:
+
+def headline(pit: pd.DataFrame) -> pd.DataFrame:
+    """A PIT table's rows of its last test (all of a table made before tests were named)."""
+    if "test" not in pit or not len(pit):
+        return pit
+    return pit[pit["test"] == pit["test"].iloc[-1]]
+
+
+def pseudo_benches(
+    ens: Ensemble, count: int, seed: int, fixed: Mapping[int, float] | None = None
+) -> np.ndarray:
     """The runs taken as pseudo-theses: ``count`` (at most a quarter of them) of the runs that
     are the only run at their design point, chosen with ``seed`` (their points' noise is not in
-    any other run the emulators train on)."""
+    any other run the emulators train on), and benches of the model judged: at every input of
+    ``fixed`` ({column: unit value}) its value."""
     keys = ens.wave * 10**6 + ens.point
-    alone = np.flatnonzero(np.array([np.sum(keys == k) == 1 for k in keys]))
+    model = np.ones(len(keys), dtype=bool)
+    for j, value in (fixed or {}).items():
+        model &= np.isclose(ens.X[:, j], value, rtol=0.0, atol=1e-9)
+    alone = np.flatnonzero(np.array([np.sum(keys == k) == 1 for k in keys]) & model)
     n = min(count, len(alone) // 4)
     if n <= 0:
         return np.zeros(0, dtype=int)
@@ -378,50 +400,76 @@ def judge(
     targets: pd.DataFrame,
     sobol_base: int = 1024,
     top: int = 3,
+    fixed: Mapping[str, float] | None = None,
 ) -> Judgement:
     """The verdicts of the ensemble's tables under the declaration (module docstring); each
     row's drivers its ``top`` largest Sobol' shares on ``sobol_base`` · (k + 2) emulator
-    points.
+    points. ``fixed`` ({unknown: unit value}) holds inputs of the model judged where the prior
+    candidates and the pseudo-theses put them (a variant validation's held unknowns).
 
     With one BLAS thread: the emulators' matrices are a few hundred runs wide, where a second
     thread costs more than it gives, and a job beside another on two cores (the member jobs'
     case) makes two threads fight for one core (docs/performance.md)."""
     with threadpool_limits(limits=1):
-        return _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top)
+        return _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top, fixed)
 
 
-def _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top) -> Judgement:
+def held_points(points: np.ndarray, ids: Sequence[str], fixed: Mapping[str, float]) -> np.ndarray:
+    """The candidates with every input of ``fixed`` at its unit value."""
+    out = np.array(points, dtype=float, copy=True)
+    for name, value in fixed.items():
+        out[:, list(ids).index(name)] = value
+    return out
+
+
+def _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top, fixed) -> Judgement:
     s = declaration.settings
     seed = int(s["waves"]["seed"])
     settings = Settings.from_declaration(s["emulator"], seed)
     ens = ensemble(declaration, ids, inputs, rows, targets)
     columns = declared_columns(declaration)
     d = len(ids)
+    fixed = dict(fixed or {})
     points = prior_candidates(int(s["prediction"]["samples"]), d, streams(seed).candidates)
+    points = held_points(points, ids, fixed)
     var, df = replicate_variance(ens.Y, ens.wave, ens.point)
     fitted = emulate(ens.X, ens.Y, settings, var, df, columns.judged)
     cut = wave_cuts(ens, declaration, settings, points, columns.judged)
-    mean, var_em = predict_all(_emulators(fitted), points)
-    var_ens = nuggets(_emulators(fitted))
+    mean, var_em = predict_all(emulators_of(fitted), points)
+    var_ens = nuggets(emulators_of(fitted))
     kw = {"cutoff": declaration.cutoff, "second_maximum_from": declaration.second_maximum_from}
     preds = predict_folds(
         columns, mean, var_em, var_ens, quantiles=s["prediction"]["quantiles"], **kw
     )
     folds, table = compatibility(columns, mean, var_em, var_ens, **kw)
     # the pseudo-theses: held out of a second set of emulators, judged by it
-    chosen = pseudo_benches(ens, int(s["pseudo_theses"]["count"]), int(s["pseudo_theses"]["seed"]))
+    pt = s["pseudo_theses"]
+    at = {list(ids).index(k): v for k, v in fixed.items()}
+    chosen = pseudo_benches(ens, int(pt["count"]), int(pt["seed"]), at)
     if len(chosen):
         keep = np.setdiff1d(np.arange(len(ens.members)), chosen)
         var2, df2 = replicate_variance(ens.Y[keep], ens.wave[keep], ens.point[keep])
         fitted2 = emulate(ens.X[keep], ens.Y[keep], settings, var2, df2, columns.judged)
     else:  # no run to hold out: nothing is judged, no second set is fitted
         fitted2 = [Fitted(None, 0, None, "") for _ in fitted]
-    mean2, var_em2 = predict_all(_emulators(fitted2), points)
+    mean2, var_em2 = predict_all(emulators_of(fitted2), points)
     transforms = [t.transform for t in declaration.targets] + [
         r.transform for r in declaration.rows
     ]
-    truths = printed(ens.Y[chosen], transforms, digits(declaration, entries))
-    cov = pseudo_theses(columns, mean2, var_em2, nuggets(_emulators(fitted2)), truths, **kw)
+    md_sd = [t.md_sd for t in declaration.targets] + [r.md_sd for r in declaration.rows]
+    last = digits(declaration, entries)
+    covs = {
+        test: pseudo_theses(
+            columns,
+            mean2,
+            var_em2,
+            nuggets(emulators_of(fitted2)),
+            printed(values, transforms, last),
+            **kw,
+        )
+        for test, values in benches(ens.Y[chosen], md_sd, pt.get("discrepancy")).items()
+    }
+    cov = list(covs.values())[-1]  # the declaration's latest test: the headline
     shares, noise = drivers(fitted, d, sobol_base, seed)
     texts = [driver_text(shares[k], noise[k], ids, top) for k in range(len(fitted))]
     verdicts = verdict_table(declaration, entries, columns, preds, fitted, emulable_of(mean), texts)
@@ -434,12 +482,12 @@ def _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top) ->
         compatibility=pd.DataFrame(
             table, index=pd.Index(folds, name="fold"), columns=folds
         ).reset_index(),
-        coverage=coverage_table(ens, chosen, cov),
-        pit=pit_table(ens, chosen, cov),
+        coverage=pd.concat([coverage_table(ens, chosen, c, k) for k, c in covs.items()]),
+        pit=pd.concat([pit_table(ens, chosen, c, k) for k, c in covs.items()]),
         sobol=sobol_table(ens.names, ids, shares, noise),
         histogram=cov.histogram,
         summary=summary(
-            declaration, ens, verdicts, fitted, cut, folds, table, cov, df, failures(rows)
+            declaration, ens, verdicts, fitted, cut, folds, table, covs, df, failures(rows)
         ),
     )
 
@@ -542,12 +590,13 @@ def emulator_table(
     return pd.DataFrame(out)
 
 
-def coverage_table(ens: Ensemble, chosen: np.ndarray, cov: Coverage) -> pd.DataFrame:
-    """One row per pseudo-thesis: its member, the held-out rows with an interval, the share
-    inside the 95 % one."""
+def coverage_table(ens: Ensemble, chosen: np.ndarray, cov: Coverage, test: str) -> pd.DataFrame:
+    """One row per pseudo-thesis under ``test`` (its bench, :func:`benches`): its member, the
+    held-out rows with an interval, the share inside the 95 % one."""
     counted = ~np.isnan(cov.inside)
     return pd.DataFrame(
         {
+            "test": test,
             MEMBER: [ens.members[i] for i in chosen],
             "held-out rows": counted.sum(axis=1) if len(chosen) else [],
             "inside 95 %": np.nansum(cov.inside, axis=1) if len(chosen) else [],
@@ -555,21 +604,22 @@ def coverage_table(ens: Ensemble, chosen: np.ndarray, cov: Coverage) -> pd.DataF
     )
 
 
-def pit_table(ens: Ensemble, chosen: np.ndarray, cov: Coverage) -> pd.DataFrame:
-    """Every held-out row of every pseudo-thesis with an interval: its PIT and whether its
-    printed value lies inside its 95 % interval."""
+def pit_table(ens: Ensemble, chosen: np.ndarray, cov: Coverage, test: str) -> pd.DataFrame:
+    """Every held-out row of every pseudo-thesis with an interval under ``test``: its PIT and
+    whether its printed value lies inside its 95 % interval."""
     out = []
     for j, i in enumerate(chosen):
         for c in np.flatnonzero(~np.isnan(cov.inside[j])):
             out.append(
                 {
+                    "test": test,
                     MEMBER: ens.members[i],
                     "column": ens.names[c],
                     "PIT": cov.pit[j, c],
                     "inside 95 %": bool(cov.inside[j, c]),
                 }
             )
-    return pd.DataFrame(out, columns=[MEMBER, "column", "PIT", "inside 95 %"])
+    return pd.DataFrame(out, columns=["test", MEMBER, "column", "PIT", "inside 95 %"])
 
 
 def findings(verdicts: pd.DataFrame) -> pd.DataFrame:
@@ -594,8 +644,9 @@ def failures(rows: pd.DataFrame) -> dict[str, str]:
     return {m: r for m, r in zip(rows[MEMBER], reasons) if r}
 
 
-def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df, failed) -> str:
-    """The validation's opening (reStructuredText); ``failed``: {member: the step that failed}."""
+def summary(declaration, ens, verdicts, fitted, cut, folds, table, covs, df, failed) -> str:
+    """The validation's opening (reStructuredText); ``covs``: {test: the pseudo-theses'
+    coverage}, the headline last; ``failed``: {member: the step that failed}."""
     n = counts(verdicts)
     k = len(declaration.targets)
     emulable = [f.emulator is not None for f in fitted]
@@ -603,7 +654,6 @@ def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df, fail
         f"wave {w}: {r} runs, {100 * f:.3g} % of the prior left"
         for w, r, f in zip(sorted(set(ens.wave)), cut.runs, cut.fractions)
     )
-    low, high = (min(max(b, 0.0), 1.0) for b in binomial_band(max(cov.judged, 1)))
     steps = sorted({r.split(" (", 1)[0] for r in failed.values()})
     lines = [
         f"Validation of {declaration.dataset} under workflow/validation.yaml version "
@@ -624,14 +674,23 @@ def summary(declaration, ens, verdicts, fitted, cut, folds, table, cov, df, fail
         f"Findings: {n['findings']} (a twin counted with its row): "
         + "; ".join(f"{v}: {n[v]}" for v in VERDICTS)
         + ".",
-        "",
-        f"Pseudo-theses: {len(cov.inside)}, {cov.judged} held-out rows with an interval, "
-        f"coverage at the nominal {declaration.settings['pseudo_theses']['nominal']:.0%}: "
-        + (f"{cov.coverage:.1%} (± 3 binomial sd: {low:.1%}–{high:.1%})" if cov.judged else "none")
-        + f"; {cov.incompatible} left some fold no region. PIT histogram (tenths): "
-        + " ".join(str(int(c)) for c in cov.histogram)
-        + ".",
     ]
+    for test, cov in reversed(covs.items()):
+        low, high = (min(max(b, 0.0), 1.0) for b in binomial_band(max(cov.judged, 1)))
+        lines += [
+            "",
+            f"Pseudo-theses, {test}: {len(cov.inside)}, {cov.judged} held-out rows with an "
+            f"interval, coverage at the nominal "
+            f"{declaration.settings['pseudo_theses']['nominal']:.0%}: "
+            + (
+                f"{cov.coverage:.1%} (± 3 binomial sd: {low:.1%}–{high:.1%})"
+                if cov.judged
+                else "none"
+            )
+            + f"; {cov.incompatible} left some fold no region. PIT histogram (tenths): "
+            + " ".join(str(int(c)) for c in cov.histogram)
+            + ".",
+        ]
     incompatible = verdicts[verdicts["verdict"] == INCOMPATIBLE]["fold"].unique()
     lines += [
         "",

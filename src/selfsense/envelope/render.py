@@ -152,18 +152,25 @@ def _own(verdicts: pd.DataFrame) -> pd.DataFrame:
 
 
 def coverage_sentence(pit: pd.DataFrame, pseudo_theses: int) -> str:
-    """The pseudo-theses' coverage at 95 % and PIT histogram in tenths, as one sentence."""
-    inside = pit["inside 95 %"].astype(bool)
+    """The pseudo-theses' coverage at 95 % and PIT histogram in tenths under the declaration's
+    latest test, as one sentence, the earlier tests' coverage after it."""
+    top = judgement.headline(pit)
+    inside = top["inside 95 %"].astype(bool)
     if not len(inside):
         return f"{pseudo_theses} pseudo-theses: no held-out row had an interval."
-    counts, _ = np.histogram(pit["PIT"].astype(float), bins=10, range=(0.0, 1.0))
+    counts, _ = np.histogram(top["PIT"].astype(float), bins=10, range=(0.0, 1.0))
+    named = "test" in pit
+    bench = (f"{top['test'].iloc[0]}: " if named else "") + "members of the ensemble as the bench"
+    tests = pit.groupby("test", sort=False)["inside 95 %"] if named else []
+    earlier = [f"{k}: {v.astype(bool).mean():.1%}" for k, v in tests if k != top["test"].iloc[0]]
     return (
-        f"{pseudo_theses} pseudo-theses (members of the ensemble, each taken as the bench, its "
-        f"numbers printed as the thesis prints them, through the same leave-one-fold-out): "
-        f"{int(inside.sum())} of {len(inside)} held-out rows inside their 95 % interval, "
-        f"**{inside.mean():.1%}** (the method's claim: 90–99 %); PIT histogram in tenths "
+        f"{pseudo_theses} pseudo-theses ({bench}, its numbers printed as the thesis prints "
+        f"them, through the same leave-one-fold-out): {int(inside.sum())} of {len(inside)} "
+        f"held-out rows inside their 95 % interval, **{inside.mean():.1%}** (the method's claim: "
+        "90–99 %); PIT histogram in tenths "
         + " ".join(str(int(c)) for c in counts)
         + "."
+        + (f" The earlier test, {'; '.join(earlier)}." if earlier else "")
     )
 
 
@@ -198,7 +205,7 @@ def validation_markdown(snapshots: Sequence[ValidationSnapshot]) -> str:
         folds = snap.incompatible()
         lines += [
             "",
-            coverage_sentence(snap.pit, len(snap.coverage)),
+            coverage_sentence(snap.pit, snap.coverage["member"].nunique()),
             "Incompatible folds (the other folds leave no bench): "
             + (", ".join(folds) if folds else "none")
             + ".",

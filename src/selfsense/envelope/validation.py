@@ -210,6 +210,7 @@ def load_validation(
         for f in folds
     )
     _check_history(doc, path)
+    _check_variant_rows(doc.get("variants", {}), folds, path)
     settings = {
         k: doc[k] for k in ("waves", "emulator", "prediction", "pseudo_theses", "description")
     } | {"variants": doc.get("variants", {})}
@@ -260,6 +261,18 @@ def _check_history(doc: Mapping[str, Any], path: Path) -> None:
             f"{history[-1]['date']}, not the file's version {doc['version']} of {doc['date']}",
             "history",
         )
+
+
+def _check_variant_rows(variants: Mapping[str, Any], folds: Sequence[Fold], path: Path) -> None:
+    """Every row the variants' report selects is a row of some fold."""
+    known = {(r.source, r.quantity) for f in folds for r in f.rows}
+    for i, sel in enumerate(variants.get("rows", {}).get("select", ())):
+        if (sel["source"], sel["quantity"]) not in known:
+            raise ManifestError(
+                f"{path}: key variants.rows.select.{i}: {sel['source']} · {sel['quantity']} is "
+                "no row of the folds",
+                "variants.rows",
+            )
 
 
 def _signatures(path: Path) -> dict[str, Mapping[str, Any]]:
