@@ -47,11 +47,14 @@ from selfsense.envelope import figures
 from selfsense.envelope.design import Design
 from selfsense.envelope.render import (
     ValidationSnapshot,
+    VariantSnapshot,
     combined_envelope,
     envelope_markdown,
     envelope_rows_markdown,
     validation_markdown,
     validation_rows_markdown,
+    variant_rows_markdown,
+    variants_markdown,
 )
 from selfsense.envelope.validation import load_validation
 from selfsense.envelope.verdicts import envelope_summary, rejudge
@@ -72,6 +75,8 @@ PAGES = {
     "envelope_rows": Path("docs/envelope.md"),
     "validation": Path("README.md"),
     "validation_rows": Path("docs/validation.md"),
+    "variants": Path("docs/validation.md"),
+    "variant_rows": Path("docs/deviations.md"),
 }
 UNKNOWNS = Path(__file__).resolve().parents[1] / "workflow" / "unknowns.yaml"
 DECLARATION = Path(__file__).resolve().parents[1] / "workflow" / "validation.yaml"
@@ -192,9 +197,15 @@ def render(snapshot: Path = SNAPSHOT) -> dict[str, str]:
         key=_dataset_s_own_first,
     )
     validations = validation_snapshots(snapshot)
+    variants = variant_snapshots(snapshot)
+    # the README leads with today's twin's validations; a variant validation's verdicts are
+    # all the variants' (docs/validation.md)
+    todays = [v for v in validations if v.name not in {s.name for s in variants}]
     return {
-        "validation": validation_markdown(validations),
+        "validation": validation_markdown(todays),
         "validation_rows": validation_rows_markdown(validations),
+        "variants": variants_markdown(variants),
+        "variant_rows": variant_rows_markdown(variants),
         "counts": counts_markdown(counts, campaign),
         "deviations": deviations_markdown(cards),
         "calibration": calibration_markdown(cards, campaign),
@@ -223,6 +234,19 @@ def validation_snapshots(snapshot: Path) -> list[ValidationSnapshot]:
             )
         )
     return out
+
+
+def variant_snapshots(snapshot: Path) -> list[VariantSnapshot]:
+    """Every committed variant validation's choice (docs/snapshot/validation/<name>/variants/)."""
+    return [
+        VariantSnapshot(
+            folder.parent.parent.name,
+            pd.read_csv(folder),
+            pd.read_csv(folder.parent / "rows.csv"),
+            json.loads((folder.parent / "folds.csv.json").read_text()),
+        )
+        for folder in sorted((snapshot / "validation").glob("*/variants/folds.csv"))
+    ]
 
 
 def _snapshot_design(folder: Path) -> tuple[pd.DataFrame, Design, dict]:

@@ -6,9 +6,12 @@ import pandas as pd
 
 from selfsense.envelope.render import (
     ValidationSnapshot,
+    VariantSnapshot,
     coverage_sentence,
     validation_markdown,
     validation_rows_markdown,
+    variant_rows_markdown,
+    variants_markdown,
 )
 
 VERDICTS = pd.DataFrame(
@@ -63,3 +66,53 @@ def test_every_inconsistent_finding_is_listed_with_its_fold_and_drivers():
     assert "1 findings inconsistent" in text
     assert "Table 6.1, mean ε: published 0.5, predicted 0.9 to 2 µm (F10, I = 3.4)" in text
     assert "driven by b 30 %; noise 40 %" in text
+
+
+def test_the_headline_is_the_latest_test_and_the_earlier_one_is_given_beside():
+    both = pd.concat([PIT.assign(test="the twin exact"), PIT.assign(test="with it")])
+    both.loc[both["test"] == "with it", "inside 95 %"] = [True, False, False, True, False]
+    sentence = coverage_sentence(both, 2)
+    assert "with it: members" in sentence and "2 of 5 held-out rows" in sentence
+    assert "The earlier test, the twin exact: 80.0%." in sentence
+
+
+FOLDS = pd.DataFrame(
+    {
+        "fold": ["A", "B", "C"],
+        "today's twin": ["fails", "fails", "holds"],
+        "the term v": ["holds", "holds", "holds"],
+        "the term w": ["fails", "holds", "fails"],
+    }
+)
+ROWS = pd.DataFrame(
+    {
+        "model": ["today's twin", "the term v", "the term w"],
+        "fold": ["B"] * 3,
+        "source": ["Table 4.2"] * 3,
+        "quantity": ["k"] * 3,
+        "unit": ["N/µm"] * 3,
+        "published": [11.2] * 3,
+        "p2.5": [24.0, 9.0, float("nan")],
+        "p50": [24.5, 12.0, float("nan")],
+        "p97.5": [25.0, 15.0, float("nan")],
+        "implausibility": [9.0, 0.1, float("nan")],
+        "verdict": ["inconsistent", "consistent", "incompatible"],
+    }
+)
+RECORD = {"code": {"git_describe": "abc1234"}, "members": 40, "validation_sha256": "e" * 64}
+
+
+def test_a_variant_is_supported_when_it_reconciles_a_fold_and_breaks_none():
+    text = variants_markdown([VariantSnapshot("v", FOLDS, ROWS, RECORD)])
+    lines = {line.split(" | ")[0]: line for line in text.splitlines() if line.startswith("| ")}
+    assert lines["| the term v"].endswith("| 3 | 0 | 0 | A, B | – | yes |")
+    assert lines["| the term w"].endswith("| 1 | 2 | 0 | B | C | no |")
+    assert "Supported: the term v." in text and "40 runs" in text
+
+
+def test_the_declared_rows_are_set_side_by_side_under_every_model():
+    text = variant_rows_markdown([VariantSnapshot("v", FOLDS, ROWS, RECORD)])
+    row = next(line for line in text.splitlines() if line.startswith("| Table 4.2"))
+    assert row == (
+        "| Table 4.2, k | 11.2 N/µm | inconsistent [24, 25] | consistent [9, 15] | incompatible |"
+    )

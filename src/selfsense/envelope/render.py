@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from selfsense.envelope import fold_prediction, judgement
+from selfsense.envelope import fold_prediction, judgement, variant_choice
+from selfsense.envelope.campaign import TODAY
 from selfsense.envelope.design import Design
 from selfsense.envelope.verdicts import (
     INCONSISTENT,
@@ -241,3 +242,88 @@ def validation_rows_markdown(snapshots: Sequence[ValidationSnapshot]) -> str:
             ]
         lines.append("")
     return "\n".join(lines).rstrip()
+
+
+@dataclass(frozen=True)
+class VariantSnapshot:
+    """One variant validation's committed choice (docs/snapshot/validation/<name>/variants/):
+    each fold's state per model, the declared rows under every model, the provenance."""
+
+    name: str
+    folds: pd.DataFrame  # fold, then one column per model
+    rows: pd.DataFrame
+    provenance: Mapping[str, Any]
+
+
+def variants_markdown(snapshots: Sequence[VariantSnapshot]) -> str:
+    """docs/validation.md's table of the variants: per model the folds it holds, fails and
+    cannot judge, those it reconciles and breaks against today's twin, and whether it is
+    supported."""
+    if not snapshots:
+        return "No variant validation is committed yet (`validation.variants`, above)."
+    blocks = []
+    for snap in snapshots:
+        states = snap.folds.set_index("fold")
+        chosen = variant_choice.supported(states)
+        lines = [
+            f"`{snap.name}` ({snap.provenance['members']} runs, `workflow/validation.yaml` sha256 "
+            f"{snap.provenance['validation_sha256'][:12]}, code "
+            f"{snap.provenance['code']['git_describe']}): each fold predicted from the others "
+            "under every model.",
+            "",
+            "| model | holds | fails | not judged | reconciles | breaks | supported |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for model in states.columns:
+            state = states[model]
+            won, lost = variant_choice.reconciled(states, model) if model != TODAY else ([], [])
+            cells = [
+                str(int((state == s).sum()))
+                for s in (variant_choice.HOLDS, variant_choice.FAILS, variant_choice.NOT_JUDGED)
+            ]
+            verdict = "" if model == TODAY else ("yes" if model in chosen else "no")
+            lines.append(
+                f"| {model} | "
+                + " | ".join(cells)
+                + f" | {', '.join(won) or '–'} | {', '.join(lost) or '–'} | {verdict} |"
+            )
+        lines += ["", "Supported: " + (", ".join(chosen) or "none") + "."]
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
+
+
+def variant_rows_markdown(snapshots: Sequence[VariantSnapshot]) -> str:
+    """docs/deviations.md's table: the rows every setting of today's twin misses, their verdict
+    and posterior-predictive 95 % interval under every model."""
+    if not snapshots:
+        return (
+            'No variant validation is committed yet (docs/validation.md, "The twin\'s variants").'
+        )
+    blocks = []
+    for snap in snapshots:
+        rows = snap.rows
+        models = list(dict.fromkeys(rows["model"]))
+        lines = [
+            f"`{snap.name}`: each row predicted from the other folds under today's twin, each "
+            "variant alone and all of them (verdict, 95 % interval):",
+            "",
+            "| row | published | " + " | ".join(models) + " |",
+            "|---" * (len(models) + 2) + "|",
+        ]
+        for (source, quantity), part in rows.groupby(["source", "quantity"], sort=False):
+            by = part.set_index("model")
+            first = part.iloc[0]
+            cells = [_variant_cell(by.loc[m]) for m in models]
+            lines.append(
+                f"| {source}, {quantity} | {first['published']:.4g} {first['unit']} | "
+                + " | ".join(cells)
+                + " |"
+            )
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
+
+
+def _variant_cell(row: pd.Series) -> str:
+    if not np.isfinite(row["p2.5"]):
+        return str(row["verdict"])
+    return f"{row['verdict']} [{row['p2.5']:.3g}, {row['p97.5']:.3g}]"
