@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
                                        [--keep-results DIR] [--against REFERENCE]]
                                        [--envelope [--members-only]]
-                                       [--validate] [--members REFERENCE]
+                                       [--validate] [--members REFERENCE [--member-count N]]
                                        [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
@@ -26,8 +26,8 @@ Prints, in three parts that can be skipped one by one:
   with a new venv (the config's members, from nothing: the members' simulations and analyses,
   the batches' tables and the verdicts), then the verdicts again from the tables alone;
 - with --members REFERENCE, the DAG part is the cost of an envelope member in new clones of HEAD
-  and of REFERENCE in turn: member 01 alone, then four together on 2 cores, a member's share of
-  the wall time and of the CPU;
+  and of REFERENCE in turn: member 01 alone, then --member-count (four) together on 2 cores, a
+  member's share of the wall time and of the CPU;
 - streaming: the peak memory of `simulate` and of the streaming rules `extract_ripple` and
   `thermal_extract` for a capture of --seconds and one 10× longer (each in a fresh process, so
   peaks do not mix).
@@ -625,7 +625,15 @@ def main():
         "--members",
         metavar="REFERENCE",
         help="the DAG part is the cost of an envelope member, in new clones of HEAD and of the "
-        "commit REFERENCE in turn (one member alone, then four together)",
+        "commit REFERENCE in turn (one member alone, then --member-count together)",
+    )
+    cli.add_argument(
+        "--member-count",
+        type=int,
+        default=4,
+        metavar="N",
+        help="with --members: how many members run together after the first (default 4; the "
+        "run's parse and the members' steps are shared by them)",
     )
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
@@ -641,7 +649,7 @@ def main():
     if not args.skip_dag:
         for config in args.configs:
             if args.members:
-                bench_members(config, args.members)
+                bench_members(config, args.members, args.member_count)
             elif args.validate:
                 bench_validate(config)
             elif args.envelope:

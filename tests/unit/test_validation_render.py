@@ -72,8 +72,8 @@ def test_the_headline_is_the_latest_test_and_the_earlier_one_is_given_beside():
     both = pd.concat([PIT.assign(test="the twin exact"), PIT.assign(test="with it")])
     both.loc[both["test"] == "with it", "inside 95 %"] = [True, False, False, True, False]
     sentence = coverage_sentence(both, 2)
-    assert "with it: members" in sentence and "2 of 5 held-out rows" in sentence
-    assert "The earlier test, the twin exact: 80.0%." in sentence
+    assert "test “with it”: 2 of 5 held-out rows" in sentence
+    assert "The earlier test, “the twin exact”: 80.0%." in sentence
 
 
 FOLDS = pd.DataFrame(

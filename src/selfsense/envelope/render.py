@@ -161,14 +161,14 @@ def coverage_sentence(pit: pd.DataFrame, pseudo_theses: int) -> str:
         return f"{pseudo_theses} pseudo-theses: no held-out row had an interval."
     counts, _ = np.histogram(top["PIT"].astype(float), bins=10, range=(0.0, 1.0))
     named = "test" in pit
-    bench = (f"{top['test'].iloc[0]}: " if named else "") + "members of the ensemble as the bench"
+    test = f", test “{top['test'].iloc[0]}”" if named else ""
     tests = pit.groupby("test", sort=False)["inside 95 %"] if named else []
-    earlier = [f"{k}: {v.astype(bool).mean():.1%}" for k, v in tests if k != top["test"].iloc[0]]
+    earlier = [f"“{k}”: {v.astype(bool).mean():.1%}" for k, v in tests if k != top["test"].iloc[0]]
     return (
-        f"{pseudo_theses} pseudo-theses ({bench}, its numbers printed as the thesis prints "
-        f"them, through the same leave-one-fold-out): {int(inside.sum())} of {len(inside)} "
-        f"held-out rows inside their 95 % interval, **{inside.mean():.1%}** (the method's claim: "
-        "90–99 %); PIT histogram in tenths "
+        f"{pseudo_theses} pseudo-theses (members of the ensemble as the bench, their numbers "
+        f"printed as the thesis prints them, through the same leave-one-fold-out){test}: "
+        f"{int(inside.sum())} of {len(inside)} held-out rows inside their 95 % interval, "
+        f"**{inside.mean():.1%}** (the method's claim: 90–99 %); PIT histogram in tenths "
         + " ".join(str(int(c)) for c in counts)
         + "."
         + (f" The earlier test, {'; '.join(earlier)}." if earlier else "")
