@@ -209,3 +209,21 @@ def test_the_declared_variants_join_the_prior_and_what_they_hold_leaves_it():
         campaign.varied(declared, "pi_p885", {"mechanics": {}})
     with pytest.raises(ManifestError, match="holds: k_stack is not in the prior"):
         campaign.varied(declared, "pi_p885", {"amplifier": {"holds": ["k_stack"]}})
+
+
+def test_a_variant_validations_bad_plan_is_refused_in_one_line(tmp_path):
+    from pathlib import Path
+
+    from selfsense.envelope.validation import load_validation
+
+    root = Path(__file__).resolve().parents[2]
+    decl = load_validation(root / "workflow" / "validation.yaml")
+    plan = campaign.Plan("pi_p885", "v", 2, 0, 20, 1, (), variants=True)
+    with pytest.raises(ManifestError, match="validation.waves: 2 is more than the 1 waves"):
+        campaign.draw(plan, decl, {}, [], "smoke", tmp_path, tmp_path / "snap" / "v")
+    with pytest.raises(ManifestError, match="validation.joins: nothing has no committed batch"):
+        campaign.joined_batches(tmp_path, "nothing")
+    (tmp_path / "half" / "wave1" / "batch01").mkdir(parents=True)
+    (tmp_path / "half" / "wave1" / "batch01" / "inputs.csv").write_text("member\n")
+    with pytest.raises(ManifestError, match="half has no committed batch"):  # not all four
+        campaign.joined_batches(tmp_path, "half")

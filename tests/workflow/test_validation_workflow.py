@@ -159,17 +159,3 @@ def test_a_variant_validation_joins_the_committed_runs_and_judges_every_model(tm
     joined = "docs/snapshot/validation/pi_p885_ch3_6/wave1/batch10/rows.csv"
     assert joined in text  # the base validation's runs, read as tables, never run again
     assert "pi_p885_ch3_6~" not in text.replace("pi_p885_ch3_6/", "")
-
-
-@pytest.mark.parametrize(
-    ("extra", "message"),
-    [
-        ({"joins": ["no_such_validation"]}, "key validation.joins: no_such_validation has no"),
-        ({"waves": 2}, "key validation.waves: 2 is more than the 1 waves"),
-    ],
-)
-def test_a_variant_validations_bad_plan_is_refused_in_one_line(tmp_path, extra, message):
-    args = validation_config(tmp_path, variants=True, **extra)
-    run = run_snakemake(ROOT, "-n", "validate", *args, config=None)
-    assert run.returncode != 0
-    assert len(error_line(run, message)) < 400

@@ -625,7 +625,7 @@ def pit_table(ens: Ensemble, chosen: np.ndarray, cov: Coverage, test: str) -> pd
 def findings(verdicts: pd.DataFrame) -> pd.DataFrame:
     """The verdicts' findings: a row with its algebraic twins (a % of stroke, an adjusted R²,
     whose ``twin of`` names it) is one."""
-    return verdicts[verdicts["twin of"].fillna("") == ""]
+    return verdicts[verdicts["twin of"].astype(object).fillna("") == ""]
 
 
 def counts(verdicts: pd.DataFrame) -> dict[str, int]:
@@ -640,7 +640,7 @@ def failures(rows: pd.DataFrame) -> dict[str, str]:
     :data:`~selfsense.envelope.campaign.FAILED_COLUMN`; a table made before it had none)."""
     if FAILED_COLUMN not in rows:
         return {}
-    reasons = rows[FAILED_COLUMN].fillna("").astype(str)
+    reasons = rows[FAILED_COLUMN].astype(object).fillna("").astype(str)
     return {m: r for m, r in zip(rows[MEMBER], reasons) if r}
 
 
