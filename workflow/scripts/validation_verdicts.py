@@ -17,10 +17,9 @@ from selfsense.scorecard.registry import parse_registry
 def main(
     model, pdf, drivers, units, rows, targets, declaration, registry, unknowns, inputs, log, **out
 ):
-    """model: the unknowns judged over (ids), each one's nominal as a unit value (nominal: for
-    the runs of a joined validation that held it), those the model judged holds (fixed); units,
-    rows, targets: every batch's tables, this validation's and the joined ones'; out: the
-    rule's outputs by name."""
+    """model: the inputs (ids), each one's nominal as a unit value (for runs that held it) and
+    those the model holds (fixed); units, rows, targets: every batch's tables, the joined
+    validations' first; out: the rule's outputs by name."""
     logger = script_logging(log)
     decl = load_validation(declaration)
     entries = parse_registry(load_yaml(registry), registry)

@@ -25,7 +25,9 @@ The validation's modules:
 - ``campaign``: the declared waves as workflow members in resumable batches, and their tables;
 - ``judgement``: the verdicts, the next wave's design, the coverage and each row's drivers from
   those tables alone;
-- ``review``: the verdicts beside the nominal scorecard and the prior envelope, row by row.
+- ``review``: the verdicts beside the nominal scorecard and the prior envelope, row by row;
+- ``variant_choice``: the twin's variants as models of their own, each fold predicted from the
+  others under each, what each reconciles and breaks.
 
 Both run their members through ``member``: a member in one job, its rules' own jobs run by their
 scripts in one process.

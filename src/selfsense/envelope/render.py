@@ -296,9 +296,7 @@ def variant_rows_markdown(snapshots: Sequence[VariantSnapshot]) -> str:
     """docs/deviations.md's table: the rows every setting of today's twin misses, their verdict
     and posterior-predictive 95 % interval under every model."""
     if not snapshots:
-        return (
-            'No variant validation is committed yet (docs/validation.md, "The twin\'s variants").'
-        )
+        return "No variant validation is committed yet (docs/validation.md, variants)."
     blocks = []
     for snap in snapshots:
         rows = snap.rows
