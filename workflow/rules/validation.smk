@@ -165,7 +165,7 @@ rule validation_variants:
             category="Validation",
             subcategory="Variants",
         ),
-        rows=report(
+        side_by_side=report(
             f"{VALIDATION_FOLDER}/variants/rows.csv",
             caption="../report/validation_variant_rows.rst",
             category="Validation",

@@ -25,8 +25,9 @@ def main(model, models, units, rows, targets, declaration, registry, unknowns, i
     chosen = [Model(**m) for m in models]
     result = choose(decl, entries, model["ids"], *tables, chosen)
     extra = stamps(declaration, unknowns) | {"members": len(tables[0])}
-    for key in ("verdicts", "compatibility", "rows"):
+    for key in ("verdicts", "compatibility"):
         write_table(getattr(result, key), out[key], inputs=inputs, **extra)
+    write_table(result.rows, out["side_by_side"], inputs=inputs, **extra)
     write_table(result.folds.reset_index(), out["folds"], inputs=inputs, **extra)
     with atomic_path(out["summary"]) as tmp:
         named = ", ".join(f"{k} {v}" for k, v in stamps(declaration, unknowns).items())
