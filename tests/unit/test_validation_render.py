@@ -116,3 +116,7 @@ def test_the_declared_rows_are_set_side_by_side_under_every_model():
     assert row == (
         "| Table 4.2, k | 11.2 N/µm | inconsistent [24, 25] | consistent [9, 15] | incompatible |"
     )
+
+    assert "Folds today's twin fails: A, B." in text
+    assert "- the term v: reconciles A, B, breaks no fold: supported" in text
+    assert "- the term w: reconciles B, breaks C: not supported" in text

@@ -294,7 +294,8 @@ def variants_markdown(snapshots: Sequence[VariantSnapshot]) -> str:
 
 def variant_rows_markdown(snapshots: Sequence[VariantSnapshot]) -> str:
     """docs/deviations.md's table: the rows every setting of today's twin misses, their verdict
-    and posterior-predictive 95 % interval under every model."""
+    and posterior-predictive 95 % interval under every model; then each variant's effect on the
+    folds it is not judged on (those it reconciles and breaks) and whether it is supported."""
     if not snapshots:
         return "No variant validation is committed yet (docs/validation.md, variants)."
     blocks = []
@@ -316,6 +317,16 @@ def variant_rows_markdown(snapshots: Sequence[VariantSnapshot]) -> str:
                 f"| {source}, {quantity} | {first['published']:.4g} {first['unit']} | "
                 + " | ".join(cells)
                 + " |"
+            )
+        states = snap.folds.set_index("fold")
+        failing = states.index[states[TODAY] == variant_choice.FAILS]
+        lines += ["", f"Folds today's twin fails: {', '.join(failing) or 'none'}. Each variant:"]
+        for model in [m for m in states.columns if m != TODAY]:
+            won, lost = variant_choice.reconciled(states, model)
+            chosen = "supported" if model in variant_choice.supported(states) else "not supported"
+            lines.append(
+                f"- {model}: reconciles {', '.join(won) or 'no fold'}, breaks "
+                f"{', '.join(lost) or 'no fold'}: {chosen}"
             )
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
