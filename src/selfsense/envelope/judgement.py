@@ -28,6 +28,7 @@ Frames and text out; nothing is read or written.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Mapping, Sequence
@@ -391,6 +392,28 @@ def _text(value: float) -> str:
     return text if "e" not in text else repr(float(text))
 
 
+def held_points(points: np.ndarray, ids: Sequence[str], fixed: Mapping[str, float]) -> np.ndarray:
+    """The candidates with every input of ``fixed`` at its unit value."""
+    out = np.array(points, dtype=float, copy=True)
+    for name, value in fixed.items():
+        out[:, list(ids).index(name)] = value
+    return out
+
+
+def one_blas_thread(fn):
+    """``fn`` with one BLAS thread: the emulators' matrices are a few hundred runs wide, where a
+    second thread costs more than it gives, and a job beside another on two cores (the member
+    jobs' case) makes two threads fight for one core (docs/performance.md)."""
+
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        with threadpool_limits(limits=1):
+            return fn(*args, **kwargs)
+
+    return run
+
+
+@one_blas_thread
 def judge(
     declaration,
     entries: Sequence[Entry],
@@ -405,24 +428,8 @@ def judge(
     """The verdicts of the ensemble's tables under the declaration (module docstring); each
     row's drivers its ``top`` largest Sobol' shares on ``sobol_base`` · (k + 2) emulator
     points. ``fixed`` ({unknown: unit value}) holds inputs of the model judged where the prior
-    candidates and the pseudo-theses put them (a variant validation's held unknowns).
-
-    With one BLAS thread: the emulators' matrices are a few hundred runs wide, where a second
-    thread costs more than it gives, and a job beside another on two cores (the member jobs'
-    case) makes two threads fight for one core (docs/performance.md)."""
-    with threadpool_limits(limits=1):
-        return _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top, fixed)
-
-
-def held_points(points: np.ndarray, ids: Sequence[str], fixed: Mapping[str, float]) -> np.ndarray:
-    """The candidates with every input of ``fixed`` at its unit value."""
-    out = np.array(points, dtype=float, copy=True)
-    for name, value in fixed.items():
-        out[:, list(ids).index(name)] = value
-    return out
-
-
-def _judge(declaration, entries, ids, inputs, rows, targets, sobol_base, top, fixed) -> Judgement:
+    candidates and the pseudo-theses put them (a variant validation's held unknowns). With one BLAS
+    thread (:func:`one_blas_thread`)."""
     s = declaration.settings
     seed = int(s["waves"]["seed"])
     settings = Settings.from_declaration(s["emulator"], seed)

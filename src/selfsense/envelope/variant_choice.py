@@ -28,7 +28,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import pandas as pd
-from threadpoolctl import threadpool_limits
 
 from selfsense.envelope.campaign import TODAY, Model
 from selfsense.envelope.emulator import Settings
@@ -48,6 +47,7 @@ from selfsense.envelope.judgement import (
     ensemble,
     findings,
     held_points,
+    one_blas_thread,
     replicate_variance,
     verdict_table,
 )
@@ -72,6 +72,7 @@ class Choice:
     summary: str
 
 
+@one_blas_thread
 def choose(
     declaration,
     entries: Sequence[Entry],
@@ -82,12 +83,7 @@ def choose(
     chosen: Sequence[Model],
 ) -> Choice:
     """Every model of ``chosen`` judged on one set of emulators of the joined tables (module
-    docstring); one BLAS thread, as :func:`selfsense.envelope.judgement.judge`."""
-    with threadpool_limits(limits=1):
-        return _choose(declaration, entries, ids, inputs, rows, targets, chosen)
-
-
-def _choose(declaration, entries, ids, inputs, rows, targets, chosen) -> Choice:
+    docstring), with one BLAS thread."""
     s = declaration.settings
     seed = int(s["waves"]["seed"])
     ens = ensemble(declaration, ids, inputs, rows, targets)
