@@ -3,7 +3,8 @@
     .venv/bin/python benchmarks/run.py [--seconds 20] [--configs CONFIG ...] [--fresh [--no-warm]
                                        [--keep-results DIR] [--against REFERENCE]]
                                        [--envelope [--members-only]]
-                                       [--validate] [--members REFERENCE [--member-count N]]
+                                       [--validate] [--members REFERENCE [--member-count N]
+                                       [--member-design FILE]]
                                        [--skip-hot] [--skip-dag] [--skip-stream]
 
 Prints, in three parts that can be skipped one by one:
@@ -515,16 +516,21 @@ def bench_envelope(config, keep_results=None, members_only=False):
             shutil.copytree(repo / "results", Path(keep_results) / "results", dirs_exist_ok=True)
 
 
-def bench_members(config, reference, count=4):
+def bench_members(config, reference, count=4, design=None):
     """The cost of an envelope member of ``config``'s campaign, in a new clone of HEAD and one of
     ``reference`` in the same run, in turn: member 01 alone (in a new clone: it compiles the
     twin's kernels), then members 02…``count`` + 1 together on 2 cores; per member, the wall
     time and the CPU of the whole run divided by the members. HEAD runs each member as one job
     (rule member, the envelope's steps made first, their time included); ``reference`` runs
-    whatever it runs for ``results/<member>/scorecard.csv``."""
-    from selfsense.io.manifest import load_config
+    whatever it runs for ``results/<member>/scorecard.csv``. ``design``: a configfile given after
+    ``config`` whose ``envelope`` section is the design (Chapter 7's, docs/envelope.md)."""
+    from selfsense.io.manifest import load_config, load_yaml
 
     section = load_config(ROOT / config)["envelope"]
+    configfiles = [config]
+    if design:
+        section |= load_yaml(design)["envelope"]
+        configfiles.append(str(Path(design).resolve()))
     dataset, name = section["dataset"], section["name"] or section["dataset"]
     for label, commit in ((f"reference {reference}", reference), ("HEAD", None)):
         with tempfile.TemporaryDirectory() as tmp:
@@ -538,7 +544,9 @@ def bench_members(config, reference, count=4):
             snakemake = [str(python), "-m", "snakemake", "--cores", "2"]
             parts = (("member 01 alone", targets[:1]), (f"{count} members", targets[1:]))
             for part, chosen in parts:
-                wall, peak, cpu = run_sampled([*snakemake, *chosen, "--configfile", config], repo)
+                wall, peak, cpu = run_sampled(
+                    [*snakemake, *chosen, "--configfile", *configfiles], repo
+                )
                 n = len(chosen)
                 print(
                     f"{label} ({'one job a member' if in_one_job else 'the rules'}), {config}, "
@@ -635,6 +643,12 @@ def main():
         help="with --members: how many members run together after the first (default 4; the "
         "run's parse and the members' steps are shared by them)",
     )
+    cli.add_argument(
+        "--member-design",
+        metavar="FILE",
+        help="with --members: a configfile after CONFIG whose envelope section is the members' "
+        "design (Chapter 7's: docs/envelope.md)",
+    )
     args = cli.parse_args()
     mem = psutil.virtual_memory().total / 2**30
     print(
@@ -649,7 +663,7 @@ def main():
     if not args.skip_dag:
         for config in args.configs:
             if args.members:
-                bench_members(config, args.members, args.member_count)
+                bench_members(config, args.members, args.member_count, args.member_design)
             elif args.validate:
                 bench_validate(config)
             elif args.envelope:

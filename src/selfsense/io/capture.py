@@ -299,7 +299,8 @@ class CaptureWriter:
         self.stats = ChunkStats()
         self._nc: netCDF4.Dataset | None = None
         self._crc: dict[str, int] = {}
-        self._queued: dict[str, list] = {}  # per variable: [first index, arrays not yet written]
+        # per variable: [first index, arrays not yet written, how many values they hold]
+        self._queued: dict[str, list] = {}
         self._progress = _Progress(f"{self.path} written", self.n_samples)
         self._seconds = {
             "packing and writing": 0.0,
@@ -427,14 +428,15 @@ class CaptureWriter:
         """Queue one variable's next values (the writer appends sequentially); they reach HDF5
         :data:`WRITE_BLOCKS` chunks at a time, since each call into netCDF4 costs about 0.1 ms
         whatever its size (a tenth of a simulated capture's writing at one chunk a call)."""
-        queued = self._queued.setdefault(name, [start, []])
+        queued = self._queued.setdefault(name, [start, [], 0])
         queued[1].append(values)
-        if sum(len(v) for v in queued[1]) >= WRITE_BLOCKS * self._chunk_len:
+        queued[2] += len(values)
+        if queued[2] >= WRITE_BLOCKS * self._chunk_len:
             self._flush(name)
 
     def _flush(self, name: str) -> None:
         """Write a variable's queued values and fold them into its CRC-32 for the read-back."""
-        start, pending = self._queued.pop(name, (0, []))
+        start, pending, _ = self._queued.pop(name, (0, [], 0))
         if not pending:
             return
         values = pending[0] if len(pending) == 1 else np.concatenate(pending)
