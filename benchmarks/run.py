@@ -531,12 +531,12 @@ def bench_members(config, reference, count=4, design=None):
     if design:
         section |= load_yaml(design)["envelope"]
         configfiles.append(str(Path(design).resolve()))
-    dataset, name = section["dataset"], section["name"] or section["dataset"]
+    name = section["name"] or section["dataset"]
     for label, commit in ((f"reference {reference}", reference), ("HEAD", None)):
         with tempfile.TemporaryDirectory() as tmp:
             repo, python, install = new_clone(tmp, commit)
             in_one_job = (repo / "workflow" / "rules" / "members.smk").exists()
-            members = [f"{dataset}~{n:02d}" for n in range(1, count + 2)]
+            members = [f"{name}~{n:02d}" for n in range(1, count + 2)]
             folder = f"results/envelope/{name}/members"
             targets = [
                 f"{folder}/{m}" if in_one_job else f"results/{m}/scorecard.csv" for m in members

@@ -29,6 +29,20 @@ def test_each_capture_is_read_before_the_next_is_simulated():
     assert [s.rule for s in lean_order(steps)] == ["sim_a", "ex_a", "sim_b", "ex_b", "card"]
 
 
+def test_a_capture_whose_reader_waits_on_another_is_simulated_after_it():
+    # the Chapter 7 capture's reader needs the identification of the Chapter 4 capture: simulated
+    # first, the long capture would wait in the scratch while the other is simulated and read
+    steps = [
+        step("sim_long", ["manifest"], ["long.nc"]),
+        step("sim_id", ["manifest"], ["id.nc"]),
+        step("identify", ["id.nc"], ["model.json"]),
+        step("ex_long", ["long.nc", "model.json"], ["long.csv"]),
+        step("card", ["long.csv"], ["card.csv"]),
+    ]
+    order = [s.rule for s in lean_order(steps)]
+    assert order == ["sim_id", "identify", "sim_long", "ex_long", "card"]
+
+
 @st.composite
 def dags(draw):
     """Steps in a topological order, each reading some earlier steps' outputs and sources."""

@@ -248,21 +248,40 @@ def _alive(pid: int) -> bool:
 def lean_order(steps: Sequence[Step]) -> list[Step]:
     """The steps in an order that keeps few captures at once: as soon as a step's inputs are made
     it runs before any step that reads only sources (a simulation), so each capture is read by its
-    steps and deleted before the next is simulated. Every step still comes after those that make
-    its inputs (Kahn's algorithm, ties in the given order)."""
+    steps and deleted before the next is simulated; of the simulations ready, the one more steps
+    wait on runs first (Chapter 4's captures, whose identification every Chapter 7 capture's
+    reader needs, before a Chapter 7 capture that would wait for it). Every step still comes after
+    those that make its inputs (Kahn's algorithm, ties in the given order)."""
     maker = {path: i for i, step in enumerate(steps) for path in step.files("output")}
     needs = [{maker[p] for p in step.files("input") if p in maker} for step in steps]
     reads_made = [bool(n) for n in needs]
+    readers: list[set[int]] = [set() for _ in steps]
+    for i, made_by in enumerate(needs):
+        for j in made_by:
+            readers[j].add(i)
+    waiting = [len(_downstream(i, readers)) for i in range(len(steps))]
     done: set[int] = set()
     order: list[Step] = []
     while len(order) < len(steps):
         ready = [i for i in range(len(steps)) if i not in done and needs[i] <= done]
         if not ready:
             raise ValueError("the steps' inputs and outputs form a cycle")
-        i = min(ready, key=lambda k: (not reads_made[k], k))
+        i = min(ready, key=lambda k: (not reads_made[k], 0 if reads_made[k] else -waiting[k], k))
         done.add(i)
         order.append(steps[i])
     return order
+
+
+def _downstream(start: int, readers: Sequence[set[int]]) -> set[int]:
+    """The steps that read ``start``'s outputs, and those that read theirs, on."""
+    seen: set[int] = set()
+    todo = list(readers[start])
+    while todo:
+        i = todo.pop()
+        if i not in seen:
+            seen.add(i)
+            todo.extend(readers[i])
+    return seen
 
 
 def run_steps(steps: Sequence[Step], scratch: Path, keep: Iterable[str] = ()) -> dict[str, Path]:
