@@ -17,13 +17,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from scipy.io import savemat
 
-from selfsense.io.capture import CHANNEL_UNITS, open_capture
+from selfsense.io.capture import CHANNEL_UNITS, channel_spec, open_capture
 from selfsense.io.dataset_lock import dataset_lock
-from selfsense.io.importer import MAX_NAME, PLAUSIBLE, Request, run_import
+from selfsense.io.importer import (
+    MAX_NAME,
+    MIN_CODES,
+    PLAUSIBLE,
+    Request,
+    derived_range,
+    run_import,
+)
 from selfsense.io.manifest import load_dataset
 from selfsense.io.sources import ImportProblem, parse_column
 
@@ -487,12 +494,14 @@ def recordings(draw):
 
 
 def _plausible(channel, lo, hi):
-    """Whether a first import takes a channel spanning [lo, hi] (contract unit): it varies, and
-    within PLAUSIBLE's limits."""
+    """Whether a first import takes a channel spanning [lo, hi] (contract unit): it varies,
+    within PLAUSIBLE's limits, over at least MIN_CODES int16 codes of the range derived from it
+    (a span far below the derived range's floor, 1e-160 V, would pack into one code)."""
     rule = PLAUSIBLE[CHANNEL_UNITS[channel][0]]
-    return (
-        lo < hi and max(abs(lo), abs(hi)) <= rule.peak and rule.span[0] <= hi - lo <= rule.span[1]
-    )
+    if not (lo < hi and max(abs(lo), abs(hi)) <= rule.peak):
+        return False
+    codes = (hi - lo) / channel_spec(channel, *derived_range(lo, hi)).scale_factor
+    return rule.span[0] <= hi - lo <= rule.span[1] and codes >= MIN_CODES
 
 
 def _text(value):
@@ -501,6 +510,16 @@ def _text(value):
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(rec=recordings())
+# a voltage spanning 2.7e-160 V: below the derived range's floor, one line saying so
+@example(
+    rec={
+        "columns": [[0.0, 2.7337076360044518e-160]],
+        "sep": ",",
+        "header": False,
+        "trailing": False,
+        "time": False,
+    }
+)
 def test_any_numeric_columns_give_a_correct_capture_or_one_line_naming_the_file(rec):
     columns, sep, n = rec["columns"], rec["sep"], len(rec["columns"][0])
     fs = 1000.0
