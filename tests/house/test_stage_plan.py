@@ -165,6 +165,7 @@ STAGE_RULES = {
     "thermal": {
         "thermal_extract",
         "thermal_identify",
+        "thermal_checks",
         "gamma_t_fit",
         "frequency_effect",
         "estimator_diagram",

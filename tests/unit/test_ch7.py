@@ -33,6 +33,40 @@ def test_identify_recovers_tau_and_gamma_and_reports_unidentifiable_runs():
     assert list(fits) == ["long"]
 
 
+def test_the_thermal_model_from_the_heating_runs_alone_predicts_a_run_it_did_not_see():
+    runs = {
+        f"r{f}": heating_run(P=P) | {"U_max": 100.0, "x_max": 3.5e-5}
+        for f, P in ((50, 0.5), (100, 0.7))
+    }
+    tables, record, built = ch7.thermal_identification(runs, {"r50": 50, "r100": 100}, PROPS, 3e6)
+    assert record["tau"] == pytest.approx(105.0, rel=0.02)
+    assert record["gamma"] == pytest.approx(52.0, rel=0.02)
+    assert set(built) == set(ch7.THERMAL_FIGURES)
+    t = np.arange(0, 1600, 0.1)
+    P = np.concatenate([np.full(4000, 1e-4 * v * v) for v in (25, 50, 75, 100)])
+    volt = {"time": t, "P_PS": P}
+    # powers it was not identified at, one figure each
+    unseen = {"check": heating_run(P=0.9, seconds=900), "mixed": heating_run(P=0.3)}
+    checks, figs = ch7.thermal_checks(
+        volt, [{"duration": 400, "hi": v} for v in (25, 50, 75, 100)], unseen, record
+    )
+    # the thermometer's noise alone: its largest of 9000 draws of σ 0.05 K is about 4σ, where a γ
+    # 1 % off would add 0.46 K over the check's 46 K rise
+    assert (checks["prediction"]["max |T_SH(PS) − T| [K]"] < 6 * 0.05).all()
+    assert checks["volt_trend"]["fit R²"].iloc[0] == pytest.approx(1.0)
+    assert set(figs) == set(ch7.CHECK_FIGURES)
+
+
+def test_checks_without_a_thermal_model_say_why_in_each_table_and_figure():
+    short = {"r50": heating_run(seconds=2)}
+    tables, record, _ = ch7.thermal_identification(short, {"r50": 50}, PROPS, 3e6)
+    assert not record["identified"]
+    checks, figs = ch7.thermal_checks({}, [], {"check": heating_run()}, record)
+    for table in (tables["table_7_1"], checks["volt_trend"], checks["prediction"]):
+        assert table["note"].iloc[0] == f"not computed: {record['reason']}"
+    assert set(figs) == set(ch7.CHECK_FIGURES)
+
+
 def test_voltage_trend_is_quadratic_for_a_quadratic_loss():
     t = np.arange(0, 1600, 0.1)
     volts = [25, 50, 75, 100]

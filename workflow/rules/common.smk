@@ -165,6 +165,20 @@ def report_figure(name, subcategory):
     )
 
 
+def report_tables(folder, tables, subcategory):
+    """Outputs results/<dataset>/<folder>/<t>.csv, one for each of ``tables``, filed in the report
+    under their dataset with the captions workflow/report/<t>.rst."""
+    return {
+        t: report(
+            f"results/{{dataset}}/{folder}/{t}.csv",
+            caption=f"../report/{t}.rst",
+            category="{dataset}",
+            subcategory=subcategory,
+        )
+        for t in tables
+    }
+
+
 def resources_for(size):
     """A rule's resources (mem_mb [MB], runtime [min]): the named job size of config.yaml's
     resources: section (docs/configuration.md). Every rule takes its resources from here, so a
@@ -461,8 +475,11 @@ CH5_FIGURES, FREQUENCY_RESPONSE_FIGURE = figure_names.CH5, figure_names.CH5_SWEE
 OBSERVER_STUDY_FIGURE, ERROR_BUDGET_FIGURE = figure_names.CH5_STUDY, figure_names.CH5_BUDGET
 CH6_TABLES = ["table_6_1", "p1_summary", "table_6_2", "p3", "tracking"]
 CH6_FIGURES = figure_names.CH6
-THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend", "volt_trend", "prediction"]
+THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend"]
 THERMAL_FIGURES = figure_names.CH7_THERMAL
+THERMAL_CHECK_TABLES = ["volt_trend", "prediction"]
+THERMAL_CHECK_FIGURES = figure_names.CH7_CHECKS
+
 GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (
     figure_names.CH7_GAMMA_T,
     figure_names.CH7_FREQUENCY,

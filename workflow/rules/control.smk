@@ -73,15 +73,7 @@ rule ch6_results:
         model="results/{dataset}/ch4/model.json",
         library=library_sources("ch6_results"),
     output:
-        **{
-            t: report(
-                f"results/{{dataset}}/ch6/{t}.csv",
-                caption=f"../report/{t}.rst",
-                category="{dataset}",
-                subcategory="Chapter 6",
-            )
-            for t in CH6_TABLES
-        },
+        **report_tables("ch6", CH6_TABLES, "Chapter 6"),
     log:
         "logs/{dataset}/ch6_results.log",
     benchmark:

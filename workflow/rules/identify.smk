@@ -41,15 +41,7 @@ rule identify:
         manifest=RAW / "{dataset}" / "dataset.yaml",
         library=library_sources("identify"),
     output:
-        **{
-            t: report(
-                f"results/{{dataset}}/ch4/{t}.csv",
-                caption=f"../report/{t}.rst",
-                category="{dataset}",
-                subcategory="Chapter 4",
-            )
-            for t in CH4_TABLES
-        },
+        **report_tables("ch4", CH4_TABLES, "Chapter 4"),
         model="results/{dataset}/ch4/model.json",
     log:
         "logs/{dataset}/identify.log",

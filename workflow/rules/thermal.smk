@@ -28,24 +28,15 @@ rule thermal_extract:
 
 
 rule thermal_identify:
-    """τ, γ, k_T per heating run and Table 7.1; trends with frequency and V²; prediction errors."""
+    """τ, γ, k_T per heating run and Table 7.1, the trend with frequency: the thermal model, from
+    the heating runs alone."""
     input:
         freq_series=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.heating"),
-        volt_series=role_path("results/{dataset}/thermal/{run}.nc", "thermal.voltage"),
-        checks=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.check"),
         manifest=RAW / "{dataset}" / "dataset.yaml",
         model="results/{dataset}/ch4/model.json",
         library=library_sources("thermal_identify"),
     output:
-        **{
-            t: report(
-                f"results/{{dataset}}/ch7/{t}.csv",
-                caption=f"../report/{t}.rst",
-                category="{dataset}",
-                subcategory="Chapter 7",
-            )
-            for t in THERMAL_TABLES
-        },
+        **report_tables("ch7", THERMAL_TABLES, "Chapter 7"),
         **{name: report_figure(name, "Chapter 7") for name in THERMAL_FIGURES},
         thermal_model="results/{dataset}/ch7/thermal_model.json",
     log:
@@ -58,11 +49,35 @@ rule thermal_identify:
     params:
         pdf=FIGURE_PDF,
         freqs=lambda w: {e: f for f, e in by_frequency(w.dataset, "thermal.heating").items()},
+    script:
+        "../scripts/thermal_identify.py"
+
+
+rule thermal_checks:
+    """The thermal model against the runs it was not identified on: the trend with V², the check
+    runs' predicted temperatures (a member that reads neither skips their records)."""
+    input:
+        volt_series=role_path("results/{dataset}/thermal/{run}.nc", "thermal.voltage"),
+        checks=role_paths("results/{dataset}/thermal/{run}.nc", "thermal.check"),
+        thermal_model="results/{dataset}/ch7/thermal_model.json",
+        library=library_sources("thermal_checks"),
+    output:
+        **report_tables("ch7", THERMAL_CHECK_TABLES, "Chapter 7"),
+        **{name: report_figure(name, "Chapter 7") for name in THERMAL_CHECK_FIGURES},
+    log:
+        "logs/{dataset}/thermal_checks.log",
+    benchmark:
+        "benchmarks/out/{dataset}/thermal_checks.tsv"
+    threads: 1
+    resources:
+        **resources_for("large"),
+    params:
+        pdf=FIGURE_PDF,
         volt_segments=lambda w: EXPERIMENTS[w.dataset][
             role_run(w.dataset, "thermal.voltage")
         ].protocol["segments"],
     script:
-        "../scripts/thermal_identify.py"
+        "../scripts/thermal_checks.py"
 
 
 rule gamma_t_fit:
@@ -234,6 +249,7 @@ rule ch7_summary:
 THERMAL_OUTPUTS = expand(
     [
         *rules.thermal_identify.output,
+        *rules.thermal_checks.output,
         *rules.gamma_t_fit.output,
         *rules.frequency_effect.output,
         *rules.estimator_diagram.output,

@@ -1,4 +1,4 @@
-"""Rule `thermal_identify`: τ, γ, k_T from the heating runs (Table 7.1); Figures 7.1–7.3, 7.5–7.6
+"""Rule `thermal_identify`: τ, γ, k_T from the heating runs (Table 7.1); Figures 7.1–7.2
 (selfsense.chapters.ch7.thermal_identification)."""
 
 from pathlib import Path
@@ -18,18 +18,13 @@ from selfsense.methods.electromech import load_k_over_alpha
 from selfsense.methods.thermal import ThermalProperties
 
 
-def main(
-    freq_series, freqs, volt_series, checks, manifest, model, volt_segments, inputs, log, pdf, **out
-):
-    """freqs: {experiment: frequency [Hz]} of freq_series; checks: Figs 7.5–7.6's runs."""
+def main(freq_series, freqs, manifest, model, inputs, log, pdf, **out):
+    """freqs: {experiment: frequency [Hz]} of freq_series."""
     logger = script_logging(log)
     th = load_manifest(manifest)["actuator"]["thermal"]
     tables, record, built = ch7.thermal_identification(
         {Path(p).stem: read_series(p) | series_scalars(p) for p in freq_series},
         {Path(p).stem: float(freqs[Path(p).stem]) for p in freq_series},
-        read_series(volt_series),
-        volt_segments,
-        {Path(p).stem: read_series(p) for p in checks},
         ThermalProperties(th["rho"], th["c"], th["volume_m3"], th["area_m2"]),
         load_k_over_alpha(model),
     )

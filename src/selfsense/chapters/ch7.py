@@ -55,7 +55,7 @@ THESIS_COUPLED_MIXED = {
     "max |T_SH_HPO − T| [K]": 1.45,
     "max |T_SH_PS − T| [K]": 1.45,
 }
-THERMAL_FIGURES = figure_names.CH7_THERMAL
+THERMAL_FIGURES, CHECK_FIGURES = figure_names.CH7_THERMAL, figure_names.CH7_CHECKS
 GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (
     figure_names.CH7_GAMMA_T,
     figure_names.CH7_FREQUENCY,
@@ -215,19 +215,16 @@ def heating_power(P: np.ndarray) -> float:
 def thermal_identification(
     runs: Mapping[str, Mapping[str, np.ndarray]],
     freq_of: Mapping[str, float],
-    volt: Mapping[str, np.ndarray],
-    volt_segments,
-    checks: Mapping[str, Mapping[str, np.ndarray]],
     props: ThermalProperties,
     k_over_alpha: float,
 ):
-    """τ, γ, k_T from the heating runs (Table 7.1), the trends against frequency and voltage
-    (Figs 7.2, 7.3) and the predictions of the check runs (Figs 7.5, 7.6).
+    """τ, γ, k_T from the heating runs (Table 7.1) and the steady rise against frequency (Figs
+    7.1, 7.2), from those runs alone.
 
-    ``runs``: {run: loss-power series} at 100 V and the frequencies ``freq_of`` [Hz]; ``volt``:
-    the 150 Hz voltage steps; ``checks``: the runs predicted with the identified model. When no
-    run is long enough to identify τ (e.g. the smoke campaign) the later tables and figures say
-    why. Returns ({table: DataFrame} incl. "per_run", the thermal model record, {figure: Figure}).
+    ``runs``: {run: loss-power series} at 100 V and the frequencies ``freq_of`` [Hz]. When no run
+    is long enough to identify τ (e.g. the smoke campaign) the later tables and figures say why.
+    Returns ({table: DataFrame} incl. "per_run", the thermal model record, {figure: Figure}); the
+    record is what :func:`thermal_checks` predicts with.
     """
     from selfsense.chapters import (
         figures,  # here: the streaming jobs that import this module need no matplotlib
@@ -243,33 +240,17 @@ def thermal_identification(
         "Self-heating at 100 V, 20–200 Hz",
         labels=list(runs),
     )
-    later = ("table_7_1", "freq_trend", "volt_trend", "prediction")
     if identified.empty:
         reason = "no heating run long enough to identify τ and γ (see per_run.csv)"
-        tables = {key: pd.DataFrame([{"note": f"not computed: {reason}"}]) for key in later}
-        missing = [figures.placeholder(_title(name), reason) for name in THERMAL_FIGURES[1:]]
-        return (
-            {"per_run": per_run} | tables,
-            {"identified": False, "reason": reason},
-            dict(zip(THERMAL_FIGURES, (heating, *missing))),
-        )
-    model = ThermalModel(
-        float(identified["tau [s]"].mean()), float(identified["gamma [K/W]"].mean())
-    )
-    T_amb = float(identified["T_amb [°C]"].mean())
+        record = {"identified": False, "reason": reason}
+        tables, missing = _not_computed(("table_7_1", "freq_trend"), THERMAL_FIGURES[1:], reason)
+        return {"per_run": per_run} | tables, record, {THERMAL_FIGURES[0]: heating} | missing
     trend = steady_rise_trends(identified, freq_of)
-    vtrend = voltage_trend(volt, volt_segments, model)
-    tables = dict(
-        zip(
-            later,
-            (
-                table_7_1(identified, k_over_alpha, THESIS_TABLE_7_1["T_ref [°C]"]),
-                trend,
-                vtrend,
-                prediction_errors(checks, model, T_amb),
-            ),
-        )
-    )
+    tables = {
+        "per_run": per_run,
+        "table_7_1": table_7_1(identified, k_over_alpha, THESIS_TABLE_7_1["T_ref [°C]"]),
+        "freq_trend": trend,
+    }
     frequency_rise = figures.loop(
         [trend["frequency [Hz]"]] * 2,
         [
@@ -281,6 +262,36 @@ def thermal_identification(
         f"Steady rise against frequency (linear fit R² = {trend['fit R²'].iloc[0]:.4f})",
         labels=["identified γ·P", "linear fit"],
     )
+    record = {
+        "identified": True,
+        "tau": float(identified["tau [s]"].mean()),
+        "gamma": float(identified["gamma [K/W]"].mean()),
+        "T_amb": float(identified["T_amb [°C]"].mean()),
+    }
+    return tables, record, dict(zip(THERMAL_FIGURES, (heating, frequency_rise)))
+
+
+def thermal_checks(
+    volt: Mapping[str, np.ndarray],
+    volt_segments,
+    checks: Mapping[str, Mapping[str, np.ndarray]],
+    record: Mapping[str, object],
+):
+    """The identified thermal model against the runs it was not identified on: the steady rise
+    against V² at 150 Hz (Fig 7.3) and the predicted temperature of the check runs (Figs 7.5,
+    7.6).
+
+    ``volt``: the 150 Hz voltage steps' loss-power series, their ``volt_segments``; ``checks``:
+    {run: loss-power series} predicted; ``record``: :func:`thermal_identification`'s thermal
+    model record (its reason is repeated when it identified none). Returns ({"volt_trend",
+    "prediction": DataFrame}, {figure: Figure}).
+    """
+    from selfsense.chapters import figures
+
+    if not record["identified"]:
+        return _not_computed(("volt_trend", "prediction"), CHECK_FIGURES, record["reason"])
+    model, T_amb = ThermalModel(record["tau"], record["gamma"]), record["T_amb"]
+    vtrend = voltage_trend(volt, volt_segments, model)
     voltage_rise = figures.loop(
         [vtrend["voltage [V]"] ** 2],
         [vtrend["steady rise [K]"]],
@@ -302,12 +313,16 @@ def thermal_identification(
                 f"{name}: measured against predicted temperature",
             )
         )
-    record = {"identified": True, "tau": model.tau, "gamma": model.gamma, "T_amb": T_amb}
-    return (
-        {"per_run": per_run} | tables,
-        record,
-        dict(zip(THERMAL_FIGURES, (heating, frequency_rise, voltage_rise, *predicted))),
-    )
+    tables = {"volt_trend": vtrend, "prediction": prediction_errors(checks, model, T_amb)}
+    return tables, dict(zip(CHECK_FIGURES, (voltage_rise, *predicted)))
+
+
+def _not_computed(tables, names, reason: str):
+    """A one-row note for each of ``tables`` and a placeholder for each figure of ``names``."""
+    from selfsense.chapters import figures
+
+    note = {key: pd.DataFrame([{"note": f"not computed: {reason}"}]) for key in tables}
+    return note, {name: figures.placeholder(_title(name), reason) for name in names}
 
 
 def _title(name: str) -> str:

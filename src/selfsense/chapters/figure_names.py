@@ -43,8 +43,8 @@ CH5_STUDY = "fig_5_observer_study"
 CH5_BUDGET = "fig_5_error_budget"
 #: Figures 6.2–6.8 of ``ch6.figures_ch6``
 CH6 = ("fig_6_2", "fig_6_3", "fig_6_4", "fig_6_5", "fig_6_6", "fig_6_7", "fig_6_8")
-#: the figures ``ch7.thermal_identification`` builds, in its order
-CH7_THERMAL = ("fig_7_1", "fig_7_2", "fig_7_3", "fig_7_5", "fig_7_6")
+#: the figures ``ch7.thermal_identification`` builds, and those of ``ch7.thermal_checks``, in order
+CH7_THERMAL, CH7_CHECKS = ("fig_7_1", "fig_7_2"), ("fig_7_3", "fig_7_5", "fig_7_6")
 #: ``ch7.figure_7_7``, ``ch7.figure_7_8`` and ``ch7.figure_7_9``
 CH7_GAMMA_T, CH7_FREQUENCY, CH7_DIAGRAM = "fig_7_7", "fig_7_8", "fig_7_9"
 #: ``ch7.figure_coupled``'s Figs 7.10–7.12 (each shows the run of role thermal.coupled_<name>;
