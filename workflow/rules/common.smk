@@ -479,7 +479,6 @@ THERMAL_TABLES = ["per_run", "table_7_1", "freq_trend"]
 THERMAL_FIGURES = figure_names.CH7_THERMAL
 THERMAL_CHECK_TABLES = ["volt_trend", "prediction"]
 THERMAL_CHECK_FIGURES = figure_names.CH7_CHECKS
-
 GAMMA_T_FIGURE, FREQUENCY_FIGURE, DIAGRAM_FIGURE = (
     figure_names.CH7_GAMMA_T,
     figure_names.CH7_FREQUENCY,
